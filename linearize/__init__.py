@@ -1,0 +1,6 @@
+"""Linearize: the configuration-dependent flexible robot, kinematics, statics, modes and tool-tip FRFs."""
+
+from .model import (VARIANTS, Element, FlexibleRobot, Gravity, GravityCompensation, MotionSprings, Payload,
+                    VirtualJoints, build_model, element_forces, element_tangents, rigid_q, tcp_jacobian, tcp_pose)
+from .linear import (FRF, Equilibrium, LinearModel, Modes, SingularConfigurationError, equilibrium, frf_direct,
+                     frf_modal, linearize, modal_analysis, state_space)

@@ -1,0 +1,167 @@
+"""``robolobes modes`` and ``robolobes frf``; the pose selectors shared by every robot subcommand."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from cases import DEFAULT_CASE, load_case
+from cases.io import to_jsonable
+from .model import VARIANTS, FlexibleRobot, build_model
+
+__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "modes_summary"]
+
+
+def add_pose_arguments(p: argparse.ArgumentParser) -> None:
+    """Add ``--case``, ``--variant`` and the mutually exclusive pose selectors to a parser."""
+    p.add_argument("--case", default=DEFAULT_CASE,
+                   help=f"built-in case name or path of a case TOML (default {DEFAULT_CASE})")
+    p.add_argument("--variant", default="basic", choices=VARIANTS, help="model variant (default basic)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--pose", default=None, help="a named pose of the robot file (default: the pass start, tab7)")
+    g.add_argument("--path-s", type=float, default=None, metavar="S",
+                   help="pose at S metres along the case's pass (0 = start)")
+    g.add_argument("--q-deg", default=None, metavar="Q1,...,Q6", help="motor angles in degrees, comma separated")
+
+
+def _parse_q_deg(text: str, n: int) -> np.ndarray:
+    try:
+        vals = [float(t) for t in text.split(",")]
+    except ValueError:
+        raise ValueError(f"--q-deg must be {n} comma-separated numbers in degrees, got {text!r}") from None
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"--q-deg must be {n} finite comma-separated numbers in degrees, got {text!r}")
+    return np.radians(vals)
+
+
+def resolve_pose(args: argparse.Namespace):
+    """Case, robot model and motor angles selected by :func:`add_pose_arguments` options.
+
+    Returns
+    -------
+    case : cases.MillingCase
+    robot : FlexibleRobot
+    theta : array (n_joints,), rad
+    label : str
+        Human-readable description of the pose.
+    """
+    from .kinematics import check_limits
+
+    case = load_case(args.case)
+    robot = build_model(case.robot, args.variant, damping_scale=getattr(args, "damping_scale", 1.0) or 1.0)
+    if args.q_deg is not None:
+        theta, label = _parse_q_deg(args.q_deg, case.robot.n_joints), "q = " + args.q_deg + " deg"
+        check_limits(case.robot, theta)
+    elif args.path_s is not None:
+        from .path import Pass
+        pas = Pass.from_case(case)
+        theta, label = pas.theta_at_s(args.path_s), f"pass s = {args.path_s:g} m"
+    elif args.pose is not None:
+        theta, label = case.robot.pose(args.pose), f"pose {args.pose}"
+        check_limits(case.robot, theta)
+    else:
+        theta, label = case.path.start_q_rad, "pass start"
+        names = [k for k, v in case.robot.poses_rad.items() if np.array_equal(v, theta)]
+        if names:
+            label = f"pose {names[0]}"
+        check_limits(case.robot, theta)
+    return case, robot, np.asarray(theta, dtype=float), label
+
+
+def modes_summary(robot: FlexibleRobot, theta: np.ndarray, case=None) -> dict:
+    """The numbers ``robolobes modes --json`` prints (and the study reuses): SI units, base frame."""
+    from .linear import equilibrium, linearize
+
+    lin = linearize(robot, theta)
+    modes = lin.modes()
+    eq = equilibrium(robot, theta) if robot.has_gravity else None
+    out = {
+        "case": getattr(case, "name", None),
+        "variant": robot.variant,
+        "n_dof": robot.nv,
+        "q_deg": np.degrees(lin.theta),
+        "q_equilibrium_deg": np.degrees(lin.q),
+        "tcp_position_m": lin.p_tcp,
+        "tool_axis": lin.tool_axis,
+        "tcp_gravity_deflection_m": eq.tcp_deflection if eq is not None else np.zeros(3),
+        "freq_hz": modes.freq_hz,
+        "damped_freq_hz": modes.damped_freq_hz,
+        "damping_ratio": modes.damping_ratio,
+        "modal_stiffness_n_per_m": modes.modal_stiffness_n_per_m,
+        "tcp_static_stiffness_n_per_m": lin.stiffness("base"),
+        "tcp_static_compliance_m_per_n": lin.compliance("base"),
+        "frame": "base",
+        "notes": list(lin.notes),
+    }
+    return out
+
+
+def run_modes(args) -> int:
+    case, robot, theta, label = resolve_pose(args)
+    s = modes_summary(robot, theta, case)
+    if args.json:
+        import json
+        print(json.dumps(to_jsonable(s), indent=2))
+        return 0
+    print(f"{robot.describe()}")
+    print(f"case {case.name}, {label}: motor angles (deg) " + ", ".join(f"{v:.3f}" for v in s["q_deg"]))
+    p = s["tcp_position_m"]
+    print(f"TCP (m, base frame): {p[0]:.4f} {p[1]:.4f} {p[2]:.4f}; tool axis " +
+          " ".join(f"{v:+.6f}" for v in s["tool_axis"]))
+    for n in s["notes"]:
+        print(f"note: {n}")
+    print(f"{'mode':>4} {'f_n (Hz)':>10} {'f_d (Hz)':>10} {'zeta (%)':>9}  modal stiffness at TCP (N/um)  x / y / z")
+    k = np.asarray(s["modal_stiffness_n_per_m"]) / 1e6
+    for r, (fn, fd, z) in enumerate(zip(s["freq_hz"], s["damped_freq_hz"], s["damping_ratio"])):
+        ks = " ".join(f"{v:9.3g}" if np.isfinite(v) else f"{'-':>9}" for v in k[:, r])
+        print(f"{r + 1:4d} {fn:10.2f} {fd:10.2f} {100 * z:9.3f}  {ks}")
+    S = np.asarray(s["tcp_static_stiffness_n_per_m"]) / 1e6
+    print("static TCP stiffness (N/um, base frame):")
+    for row in S:
+        print("   " + " ".join(f"{v:9.3f}" for v in row))
+    return 0
+
+
+def run_frf(args) -> int:
+    from .frf_io import plot_bode, write_frf
+    from .linear import linearize
+
+    if not (0 <= args.fmin_hz < args.fmax_hz) or args.n < 2:
+        raise ValueError(f"need 0 <= --fmin-hz < --fmax-hz and --n >= 2, got {args.fmin_hz}, {args.fmax_hz}, {args.n}")
+    out = Path(args.out)
+    if out.suffix.lower() not in (".csv", ".uff", ".unv"):
+        raise ValueError(f"--out {out} must end in .csv, .uff or .unv")
+    case, robot, theta, label = resolve_pose(args)
+    lin = linearize(robot, theta)
+    w = 2 * math.pi * np.linspace(args.fmin_hz, args.fmax_hz, args.n)
+    frf = lin.frf(w, frame=args.frame, feed_direction=case.cut.feed_direction)
+    write_frf(frf, out)
+    png = out.with_suffix(".png")
+    plot_bode(frf, png, title=f"{case.name} [{robot.variant}], {label}: tool-tip receptance ({args.frame} frame)")
+    print(f"wrote {out} and {png}")
+    return 0
+
+
+def register(sub) -> None:
+    p = sub.add_parser("modes", help="modes and TCP stiffness at a pose",
+                       description="Complex modes (natural/damped frequency, damping, TCP modal stiffness) "
+                                   "and static TCP stiffness of the linearized flexible robot.")
+    add_pose_arguments(p)
+    p.add_argument("--json", action="store_true", help="print a JSON object (SI units, base frame)")
+    p.set_defaults(run=run_modes)
+
+    p = sub.add_parser("frf", help="tool-tip FRF at a pose (CSV or UFF58 + Bode PNG)",
+                       description="Tool-tip receptance matrix (m/N) by direct solve; written as CSV or UFF58 "
+                                   "(by extension) with a Bode plot PNG beside it.")
+    add_pose_arguments(p)
+    p.add_argument("--fmin-hz", type=float, default=1.0)
+    p.add_argument("--fmax-hz", type=float, default=300.0)
+    p.add_argument("--n", type=int, default=600, help="number of frequencies (linear grid)")
+    p.add_argument("--frame", choices=("base", "cut"), default="base",
+                   help="axes of the FRF: robot base, or the cut frame (feed, normal, axial)")
+    p.add_argument("--out", required=True, help="output file: .csv, .uff or .unv")
+    p.set_defaults(run=run_frf)

@@ -1,0 +1,62 @@
+"""The ``robolobes`` command line: one entry point, one subcommand per job.
+
+Each package owns its subcommands (``register(subparsers)`` and ``run(args)`` in its ``cli``
+module); this module only dispatches, importing a package when its subcommand runs.
+
+    robolobes study     the main job: aluminium vs steel on the TX200, report + numbers
+    robolobes modes     modes and TCP stiffness at a pose
+    robolobes frf       tool-tip FRF at a pose (CSV or UFF58, and a Bode plot)
+    robolobes lobes     stability lobe diagram
+    robolobes simulate  time-domain simulation of a pass
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# subcommand -> module that registers it (imported lazily, in data-flow order)
+_COMMANDS = {
+    "study": "identify.cli",
+    "modes": "linearize.cli",
+    "frf": "linearize.cli",
+    "lobes": "lobes.cli",
+    "simulate": "timedomain.cli",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="robolobes", description="Dynamics of robotic milling.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    seen = set()
+    for module in dict.fromkeys(_COMMANDS.values()):
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as e:  # a package without a CLI yet
+            if e.name != module:
+                raise
+            continue
+        mod.register(sub)
+        seen.add(module)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except KeyboardInterrupt:
+        print("robolobes: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, KeyError, FileNotFoundError) as e:
+        # bad input: one clear line, no traceback
+        msg = e.args[0] if isinstance(e, KeyError) and e.args else e
+        print(f"robolobes {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
