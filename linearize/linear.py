@@ -42,6 +42,8 @@ __all__ = [
     "FrameName",
     "SingularConfigurationError",
     "state_space",
+    "LinearBatch",
+    "linearize_many",
 ]
 
 FrameName = Literal["base", "cut"]
@@ -272,10 +274,24 @@ def frf_direct(M, C, K, J, omega_rad_s: np.ndarray) -> np.ndarray:
 
 
 def frf_modal(modes: Modes, omega_rad_s: np.ndarray) -> np.ndarray:
-    """Receptance by modal superposition over all 2n poles, shape (..., 3, 3, F), m/N."""
+    """Receptance by modal superposition over all 2n poles, shape (..., 3, 3, F), m/N.
+
+    ``H(w) = sum_r R_r / (i w - lambda_r)``; evaluated in chunks of poses so the (poses x poles x
+    frequencies) denominator stays in cache.
+    """
     w = np.asarray(omega_rad_s, dtype=float)
-    den = 1.0 / (1j * w[..., None, :] - modes.poles[..., :, None])  # (..., 2n, F)
-    return np.einsum("...rij,...rf->...ijf", modes.residues, den)
+    poles = np.asarray(modes.poles)
+    batch, n2 = poles.shape[:-1], poles.shape[-1]
+    n_out, n_in = modes.residues.shape[-2:]
+    P = int(np.prod(batch, dtype=int))
+    lam = poles.reshape(P, n2)
+    R = np.asarray(modes.residues).reshape(P, n2, n_out * n_in).transpose(0, 2, 1)
+    out = np.empty((P, n_out * n_in, len(w)), dtype=complex)
+    chunk = max(1, (1 << 18) // max(1, n2 * len(w)))
+    for c in range(0, P, chunk):
+        den = 1.0 / (1j * w[None, None, :] - lam[c:c + chunk, :, None])
+        out[c:c + chunk] = R[c:c + chunk] @ den
+    return out.reshape(batch + (n_out, n_in, len(w)))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -431,6 +447,65 @@ def state_space(M, C, K, J):
     B = np.vstack([np.zeros((n, J.shape[0])), Minv @ J.T])
     Cm = np.hstack([J, np.zeros((J.shape[0], n))])
     return A, B, Cm, np.zeros((J.shape[0], J.shape[0]))
+
+
+@dataclass(frozen=True)
+class LinearBatch:
+    """Linear models at P poses of one robot, stacked (for pose maps and benchmarks).
+
+    Attributes
+    ----------
+    theta : array (P, n_joints), rad
+    q : array (P, n)
+    M, C, K : array (P, n, n)
+    J : array (P, 3, n), m/rad, base-frame axes
+    p_tcp : array (P, 3), m;  R_tcp : array (P, 3, 3)
+    """
+
+    robot: FlexibleRobot
+    theta: np.ndarray
+    q: np.ndarray
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    J: np.ndarray
+    p_tcp: np.ndarray
+    R_tcp: np.ndarray
+
+    def __len__(self):
+        return self.M.shape[0]
+
+    def modes(self) -> Modes:
+        """Complex modes at every pose (base frame), leading axis P."""
+        return modal_analysis(self.M, self.C, self.K, self.J)
+
+    def compliance(self) -> np.ndarray:
+        """Static TCP compliance (P, 3, 3), m/N, base frame."""
+        return self.J @ np.linalg.solve(self.K, np.swapaxes(self.J, -1, -2))
+
+    def frf(self, omega_rad_s: np.ndarray, modes: Modes | None = None) -> np.ndarray:
+        """Tool-tip receptance (P, 3, 3, F), m/N, base frame, by modal superposition."""
+        return frf_modal(self.modes() if modes is None else modes, omega_rad_s)
+
+
+def linearize_many(robot: FlexibleRobot, thetas: np.ndarray, progress=None) -> LinearBatch:
+    """Linearize at many poses. ``thetas``: (P, n_joints) motor angles in rad.
+
+    ``progress``: optional callable ``progress(done, total)``.
+    """
+    thetas = np.asarray(thetas, dtype=float)
+    if thetas.ndim != 2 or thetas.shape[1] != robot.spec.n_joints:
+        raise ValueError(f"thetas must have shape (P, {robot.spec.n_joints}), got {thetas.shape}")
+    P, n = len(thetas), robot.nv
+    out = {k: np.empty((P,) + sh) for k, sh in
+           (("q", (n,)), ("M", (n, n)), ("C", (n, n)), ("K", (n, n)), ("J", (3, n)), ("p_tcp", (3,)), ("R_tcp", (3, 3)))}
+    for i, th in enumerate(thetas):
+        lin = linearize(robot, th)
+        for k in out:
+            out[k][i] = getattr(lin, k)
+        if progress is not None:
+            progress(i + 1, P)
+    return LinearBatch(robot=robot, theta=_ro(thetas), **{k: _ro(v) for k, v in out.items()})
 
 
 def linearize(robot: FlexibleRobot, theta: np.ndarray, *, q: np.ndarray | None = None,

@@ -267,3 +267,29 @@ def test_control_interop():
     # state-space model evaluated at s = i w equals the direct FRF
     resp = np.stack([sys(1j * wi) for wi in w], axis=-1)
     assert_allclose(resp, lin.frf(w).H, rtol=1e-8)
+
+
+def test_pass_map_matches_single_pose_linearization():
+    # The batched map at s = 0 is the single-pose linearization at the pass start (same code path,
+    # stacked): equal to round-off.
+    from linearize.maps import pass_map
+    case = cases.load_case("tx200-aluminium")
+    robot = L.build_model(case.robot, "basic")
+    with pytest.warns(L.JointLimitWarning, match=r"A3 .*= -212.14 deg, wrapped to \+147.86 deg"):
+        pas = L.Pass.from_case(case)
+    m = pass_map(robot, pas, n=3)
+    lin = L.linearize(robot, case.path.start_q_rad)
+    assert_allclose(m.freq_hz[0], lin.modes().freq_hz, rtol=1e-10)
+    assert_allclose(m.tcp_stiffness_n_per_m[0], lin.stiffness(), rtol=1e-8)
+    assert_allclose(m.path_s_m, [0, pas.travel_m / 2, pas.travel_m])
+
+
+def test_grid_map_reports_unreachable_targets():
+    from linearize.maps import grid_map
+    case = cases.load_case("tx200-aluminium")
+    robot = L.build_model(case.robot, "basic")
+    p0, R0 = L.fk(case.robot, case.path.start_q_rad)
+    pts = np.array([p0, p0 + [3.0, 0, 0]])
+    g = grid_map(robot, pts, R0, case.path.start_q_rad)
+    assert np.isfinite(g.freq_hz[0]).all() and np.isnan(g.freq_hz[1]).all()
+    assert g.failures[0][0] == 1 and "unreachable" in g.failures[0][1]

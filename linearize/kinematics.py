@@ -1,0 +1,901 @@
+"""Rigid-robot kinematics from a :class:`~cases.spec.RobotSpec`: forward, Jacobian, closed-form inverse.
+
+Everything is pure numpy, SI units (m, rad); degrees appear only in messages and in names ending
+in ``_deg``. Nothing here knows the TX200: the geometry is read from the spec.
+
+Conventions
+-----------
+* Each link frame sits at its entry joint; all link frames are parallel to the base frame at
+  ``q = 0`` (zero-encoder pose). Joint ``i`` (0-based) joins ``links[i]`` to ``links[i + 1]`` and
+  sits at ``o_i = links[i].com_m + links[i].next_joint_m`` in ``links[i]`` axes; it rotates about
+  ``joints[i].axis`` of that frame by ``q[i]``, used as it is (no offsets).
+* The flange face is at ``o_6 = links[-1].com_m + links[-1].next_joint_m`` from joint 6, the TCP at
+  ``payload.tcp_m`` from the flange face (flange axes); the TCP orientation is
+  ``R_flange @ payload.tcp_rotation``. Its z axis is the tool axis (out of the spindle).
+
+Inverse kinematics (Paul's method)
+----------------------------------
+The closed form needs an anthropomorphic arm with a spherical wrist: axes z, y, y, z, y, z, the
+offsets ``o_4`` (joint 4 -> 5) and ``o_5`` (joint 5 -> 6) along z so that axes 4, 5, 6 meet at
+the wrist centre (joint 5). :func:`arm_geometry` checks this and raises
+:class:`RobotStructureError` otherwise. The y offsets from joint 1 to the wrist centre may sum
+to a non-zero ``y_offset`` (a shoulder offset): it is handled exactly. The wrist centre is
+``C = p - R_flange (o_5 + o_6 + tcp_m)``; q1 puts C in the arm plane, q2, q3 solve the planar
+two-link problem (arm ``a2``, forearm ``a3``), q4, q5, q6 are the z-y-z Euler angles of
+``(Rz(q1) Ry(q2 + q3))^T R_flange``.
+
+Branches (index ``b = 4 * shoulder + 2 * elbow + wrist``, 8 in all):
+
+* shoulder ``front`` (0) / ``back`` (1): the wrist centre is in front of (``x > 0``) or behind
+  (``x < 0``) axis 1, in the frame of link 1 (the shoulder). The back branch reaches over the
+  head of the robot.
+* elbow ``up`` (0) / ``down`` (1): with the elbow angle ``psi = q3 + alpha3 - alpha2`` (0 when the
+  arm is stretched, ``alpha2, alpha3`` the directions of the arm and forearm in the arm plane),
+  ``up`` is ``sin(psi) > 0`` on the front branch and ``sin(psi) < 0`` on the back branch (the
+  mirror image): the elbow above the line from joint 2 to the wrist centre whenever the wrist
+  centre is farther from axis 1 than joint 2 is. For the TX200 ``psi = q3``.
+* wrist ``noflip`` (0) / ``flip`` (1): ``sin(q5) > 0`` / ``< 0`` (Staubli's ``wpositive`` /
+  ``wnegative``). The flip is ``(q4 + pi, -q5, q6 + pi)``.
+
+Each branch has one solution modulo 2 pi per joint; :func:`ik` picks the representation
+``q + 2 pi k`` inside the joint range (A4, A6 of the TX200 have +-270 deg: two choices) closest
+to ``q_ref`` (or to 0 without ``q_ref``).
+
+Tolerances (module constants, documented where used)
+-----------------------------------------------------
+``LIMIT_TOLERANCE_DEG = 5``: a joint up to 5 deg past its datasheet limit is accepted with a
+:class:`JointLimitWarning` (the paper's own Tab. 7 pose has A3 2.86 deg past +145 deg), beyond it
+:class:`JointLimitError`. ``SHOULDER_TOL_M = ELBOW_TOL = WRIST_TOL = 1e-3``: closer to a
+singularity than this (1 mm from axis 1; ``|sin psi|`` or ``|sin q5|`` below 1e-3, i.e. 0.057
+deg), the joint rates for a unit TCP speed exceed ~1000 times their nominal value and a pose is
+not usable for machining, so :class:`SingularityError` is raised.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from cases.spec import RobotSpec
+
+__all__ = [
+    "KinematicsError",
+    "RobotStructureError",
+    "TargetError",
+    "UnreachableError",
+    "SingularityError",
+    "ShoulderSingularityError",
+    "ElbowSingularityError",
+    "WristSingularityError",
+    "JointLimitError",
+    "JointLimitWarning",
+    "LIMIT_TOLERANCE_DEG",
+    "SHOULDER_TOL_M",
+    "ELBOW_TOL",
+    "WRIST_TOL",
+    "ORTHONORMAL_TOL",
+    "STRUCTURE_TOL_M",
+    "REACH_EPS_M",
+    "BRANCHES",
+    "ArmGeometry",
+    "IKSolution",
+    "arm_geometry",
+    "rot",
+    "fk",
+    "fk_frames",
+    "wrist_centre",
+    "jacobian",
+    "ik",
+    "ik_all",
+    "ik_batch",
+    "branch_of",
+    "branch_name",
+    "branch_index",
+    "singularity_measures",
+    "check_limits",
+]
+
+LIMIT_TOLERANCE_DEG = 5.0
+SHOULDER_TOL_M = 1e-3
+ELBOW_TOL = 1e-3
+WRIST_TOL = 1e-3
+ORTHONORMAL_TOL = 1e-6
+STRUCTURE_TOL_M = 1e-9
+#: A wrist centre at most this far beyond the stretched / folded reach counts as on the boundary
+#: (an elbow singularity), not as unreachable: the round-off of an exactly stretched pose.
+REACH_EPS_M = 1e-9
+
+#: Branch names by index ``4 * shoulder + 2 * elbow + wrist``.
+BRANCHES: tuple[str, ...] = tuple(
+    f"{s}-{e}-{w}" for s in ("front", "back") for e in ("up", "down") for w in ("noflip", "flip")
+)
+
+
+# --------------------------------------------------------------------------------------- errors
+class KinematicsError(ValueError):
+    """Base class of every kinematics error (a ``ValueError``)."""
+
+
+class RobotStructureError(KinematicsError):
+    """The robot spec does not have the structure the closed-form IK needs."""
+
+
+class TargetError(KinematicsError):
+    """A malformed target: wrong shape, NaN, non-orthonormal rotation, unknown branch."""
+
+
+class UnreachableError(KinematicsError):
+    """The wrist centre is out of reach (too far, or closer than the arm can fold)."""
+
+
+class SingularityError(KinematicsError):
+    """The target is at (or within tolerance of) a singularity; ``kind`` names which."""
+
+    kind = "singularity"
+
+
+class ShoulderSingularityError(SingularityError):
+    """Wrist centre on the axis of joint 1: q1 undetermined."""
+
+    kind = "shoulder"
+
+
+class ElbowSingularityError(SingularityError):
+    """Arm stretched or folded: ``sin`` of the elbow angle ~ 0."""
+
+    kind = "elbow"
+
+
+class WristSingularityError(SingularityError):
+    """``q5 ~ 0``: axes 4 and 6 aligned, only ``q4 + q6`` determined."""
+
+    kind = "wrist"
+
+
+class JointLimitError(KinematicsError):
+    """A joint angle out of its range by more than the tolerance."""
+
+
+class JointLimitWarning(UserWarning):
+    """A joint angle out of its range, but within the tolerance (accepted)."""
+
+
+# ------------------------------------------------------------------------------------- rotations
+def rot(axis: str, angle) -> np.ndarray:
+    """Elementary rotation matrix about a frame axis.
+
+    Parameters
+    ----------
+    axis : {"x", "y", "z"}
+    angle : float or array (...)
+        Angle in rad.
+
+    Returns
+    -------
+    array (..., 3, 3)
+    """
+    if axis not in _AXES:
+        raise ValueError(f"axis must be 'x', 'y' or 'z', got {axis!r}")
+    a = np.asarray(angle, dtype=float)
+    c, s = np.cos(a), np.sin(a)
+    i, j = _AXES[axis]
+    m = np.zeros(a.shape + (3, 3))
+    k = 3 - i - j
+    m[..., k, k] = 1.0
+    m[..., i, i] = c
+    m[..., j, j] = c
+    m[..., i, j] = -s
+    m[..., j, i] = s
+    return m
+
+
+# plane (i, j) rotated by rot(axis): x -> (y, z), y -> (z, x), z -> (x, y)
+_AXES = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}
+_UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
+
+
+def _offsets(spec: RobotSpec) -> np.ndarray:
+    """Joint placements ``o_0 .. o_n`` (n+1, 3): o_i in links[i] axes; o_n is the flange face."""
+    return np.array([ln.com_m + ln.next_joint_m for ln in spec.links])
+
+
+def _as_q(spec: RobotSpec, q) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 0 or q.shape[-1] != spec.n_joints:
+        raise TargetError(f"q must have shape (..., {spec.n_joints}) (rad), got shape {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise TargetError(f"q must be finite, got {q}")
+    return q
+
+
+# ------------------------------------------------------------------------------ forward kinematics
+def fk_frames(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
+    """Joint origins and link orientations in the base frame.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    q : array (..., n)
+        Joint angles, rad.
+
+    Returns
+    -------
+    positions : array (..., n + 1, 3)
+        Origin of joint 1 .. n, then the flange face, m (base frame).
+    rotations : array (..., n + 1, 3, 3)
+        ``rotations[..., i]`` is the orientation of ``links[i]`` (the parent of joint i+1, so
+        ``rotations[..., i] @ e_axis`` is the axis of joint i+1); the last entry is the flange.
+    """
+    q = _as_q(spec, q)
+    o = _offsets(spec)
+    batch = q.shape[:-1]
+    R = np.broadcast_to(np.eye(3), batch + (3, 3)).copy()
+    p = np.zeros(batch + (3,))
+    ps, Rs = [], []
+    for i, jt in enumerate(spec.joints):
+        p = p + R @ o[i]
+        ps.append(p)
+        Rs.append(R)
+        R = R @ rot(jt.axis, q[..., i])
+    p = p + R @ o[-1]
+    ps.append(p)
+    Rs.append(R)
+    return np.stack(ps, axis=-2), np.stack(Rs, axis=-3)
+
+
+def fk(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
+    """TCP pose of the rigid robot in the base frame.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    q : array (n,) or (..., n)
+        Joint angles, rad (vectorized over leading axes).
+
+    Returns
+    -------
+    p : array (..., 3)
+        TCP position, m.
+    R : array (..., 3, 3)
+        TCP orientation (columns: TCP axes in base coordinates); ``R[..., :, 2]`` is the tool axis.
+    """
+    pos, rots = fk_frames(spec, q)
+    Rf = rots[..., -1, :, :]
+    p = pos[..., -1, :] + Rf @ spec.payload.tcp_m
+    return p, Rf @ spec.payload.tcp_rotation
+
+
+def wrist_centre(spec: RobotSpec, q) -> np.ndarray:
+    """Origin of joint 5 (the wrist centre for a spherical wrist), base frame, m; shape (..., 3)."""
+    return fk_frames(spec, q)[0][..., 4, :]
+
+
+def jacobian(spec: RobotSpec, q) -> np.ndarray:
+    """Geometric Jacobian of the TCP in the base frame.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    q : array (n,) or (..., n)
+        Joint angles, rad.
+
+    Returns
+    -------
+    array (..., 6, n)
+        Rows 0-2: TCP linear velocity (m/s per rad/s), rows 3-5: angular velocity (base axes).
+    """
+    q = _as_q(spec, q)
+    pos, rots = fk_frames(spec, q)
+    p_tcp, _ = fk(spec, q)
+    cols = []
+    for i, jt in enumerate(spec.joints):
+        # joint i+1 rotates about the axis of links[i+1] == axis of links[i] rotated by q_i (same)
+        z = rots[..., i, :, :] @ _UNIT[jt.axis]
+        cols.append(np.concatenate([np.cross(z, p_tcp - pos[..., i, :]), z], axis=-1))
+    return np.stack(cols, axis=-1)
+
+
+# ----------------------------------------------------------------------------------- arm geometry
+@dataclass(frozen=True)
+class ArmGeometry:
+    """Parameters of an anthropomorphic arm with spherical wrist, derived from a RobotSpec.
+
+    Attributes
+    ----------
+    o0 : array (3,)
+        Base origin to joint 1, base axes, m.
+    o1 : array (3,)
+        Joint 1 to joint 2, shoulder axes, m.
+    y_offset : float
+        Sum of the y offsets from joint 1 to the wrist centre (shoulder axes), m. 0 for the TX200.
+    a2, alpha2 : float
+        Joint 2 to joint 3 in the arm plane: length (m) and direction from z towards x (rad).
+    a3, alpha3 : float
+        Joint 3 to the wrist centre in the arm plane: length (m) and direction (rad).
+    wrist_to_tcp : array (3,)
+        Wrist centre to TCP in flange axes, m.
+    tcp_rotation : array (3, 3)
+        TCP orientation in flange axes.
+    lower, upper : array (6,)
+        Joint limits, rad.
+    names : tuple of str
+        Joint names.
+    """
+
+    o0: np.ndarray
+    o1: np.ndarray
+    y_offset: float
+    a2: float
+    alpha2: float
+    a3: float
+    alpha3: float
+    wrist_to_tcp: np.ndarray
+    tcp_rotation: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    names: tuple[str, ...]
+
+    @property
+    def reach_max_m(self) -> float:
+        """Largest distance joint 2 -> wrist centre in the arm plane (stretched), m."""
+        return self.a2 + self.a3
+
+    @property
+    def reach_min_m(self) -> float:
+        """Smallest distance joint 2 -> wrist centre in the arm plane (folded), m."""
+        return abs(self.a2 - self.a3)
+
+
+_GEOM_CACHE: dict[int, tuple[RobotSpec, ArmGeometry]] = {}
+
+
+def arm_geometry(spec: RobotSpec) -> ArmGeometry:
+    """Derive (and check) the closed-form IK parameters of a robot.
+
+    Raises
+    ------
+    RobotStructureError
+        Not 6 joints with axes z, y, y, z, y, z; wrist axes 4, 5, 6 not meeting at one point
+        (x, y of joint 4 -> 5 or joint 5 -> 6 offsets above ``STRUCTURE_TOL_M`` = 1e-9 m); a
+        zero-length arm or forearm.
+    """
+    hit = _GEOM_CACHE.get(id(spec))
+    if hit is not None and hit[0] is spec:
+        return hit[1]
+    axes = tuple(j.axis for j in spec.joints)
+    if axes != ("z", "y", "y", "z", "y", "z"):
+        raise RobotStructureError(
+            f"robot {spec.name!r}: closed-form IK needs 6 joints with axes z, y, y, z, y, z "
+            f"(anthropomorphic arm, spherical wrist), got {', '.join(axes)}")
+    o = _offsets(spec)
+    for k, what in ((4, "joint 4 -> joint 5"), (5, "joint 5 -> joint 6")):
+        off = np.hypot(o[k][0], o[k][1])
+        if off > STRUCTURE_TOL_M:
+            raise RobotStructureError(
+                f"robot {spec.name!r}: the wrist axes 4, 5, 6 do not meet at one point: the {what} "
+                f"offset {o[k].tolist()} m has {off:.3g} m off the z axis (tolerance {STRUCTURE_TOL_M:g} m)")
+    u = o[3] + o[4]  # joint 3 -> wrist centre (rotz(q4) leaves o[4] unchanged), elbow axes
+    a2, alpha2 = math.hypot(o[2][2], o[2][0]), math.atan2(o[2][0], o[2][2])
+    a3, alpha3 = math.hypot(u[2], u[0]), math.atan2(u[0], u[2])
+    if a2 < 1e-6 or a3 < 1e-6:
+        raise RobotStructureError(
+            f"robot {spec.name!r}: arm length a2 = {a2:.3g} m or forearm length a3 = {a3:.3g} m is zero "
+            f"in the plane of joints 2, 3")
+    g = ArmGeometry(
+        o0=o[0].copy(), o1=o[1].copy(), y_offset=float(o[1][1] + o[2][1] + u[1]), a2=a2, alpha2=alpha2,
+        a3=a3, alpha3=alpha3, wrist_to_tcp=o[5] + o[6] + spec.payload.tcp_m,
+        tcp_rotation=np.array(spec.payload.tcp_rotation), lower=spec.joint_range_rad[:, 0].copy(),
+        upper=spec.joint_range_rad[:, 1].copy(), names=tuple(j.name for j in spec.joints))
+    _GEOM_CACHE[id(spec)] = (spec, g)
+    return g
+
+
+# --------------------------------------------------------------------------------------- branches
+def branch_name(branch: int) -> str:
+    """Name of a branch index, e.g. ``0 -> "front-up-noflip"``."""
+    return BRANCHES[branch_index(branch)]
+
+
+def branch_index(branch) -> int:
+    """Branch index 0..7 from an index or a name (``"front-up-noflip"``; order of words free)."""
+    if isinstance(branch, (int, np.integer)) and not isinstance(branch, bool):
+        if 0 <= branch < 8:
+            return int(branch)
+        raise TargetError(f"branch index must be 0..7, got {branch}")
+    if isinstance(branch, str):
+        words = set(branch.replace("_", "-").replace(" ", "-").lower().split("-"))
+        bits = []
+        for pair in (("front", "back"), ("up", "down"), ("noflip", "flip")):
+            got = words & set(pair)
+            if len(got) != 1:
+                break
+            bits.append(pair.index(got.pop()))
+        else:
+            if len(words) == 3:
+                return 4 * bits[0] + 2 * bits[1] + bits[2]
+    raise TargetError(f"branch must be an index 0..7 or a name like 'front-up-noflip' (one of {list(BRANCHES)}), "
+                      f"got {branch!r}")
+
+
+def _xs_and_psi(g: ArmGeometry, spec: RobotSpec, q: np.ndarray):
+    C = wrist_centre(spec, q) - g.o0
+    xs = np.cos(q[..., 0]) * C[..., 0] + np.sin(q[..., 0]) * C[..., 1]
+    psi = q[..., 2] + g.alpha3 - g.alpha2
+    return xs, psi
+
+
+def branch_of(spec: RobotSpec, q) -> int | np.ndarray:
+    """Branch index of joint angles ``q`` (n,) or (..., n), see the module docstring."""
+    g = arm_geometry(spec)
+    q = _as_q(spec, q)
+    xs, psi = _xs_and_psi(g, spec, q)
+    back = xs < 0
+    down = np.where(back, np.sin(psi) > 0, np.sin(psi) < 0)
+    flip = np.sin(q[..., 4]) < 0
+    b = 4 * back.astype(int) + 2 * down.astype(int) + flip.astype(int)
+    return int(b) if np.ndim(b) == 0 else b
+
+
+def singularity_measures(spec: RobotSpec, q) -> dict[str, np.ndarray]:
+    """Distances to the three singularities at joint angles q (n,) or (..., n).
+
+    Returns
+    -------
+    dict
+        ``"shoulder"``: distance of the wrist centre from axis 1 beyond the y offset,
+        ``sqrt(r^2 - y_offset^2)`` (m); ``"elbow"``: ``|sin psi|``; ``"wrist"``: ``|sin q5|``.
+    """
+    g = arm_geometry(spec)
+    q = _as_q(spec, q)
+    C = wrist_centre(spec, q) - g.o0
+    r2 = C[..., 0] ** 2 + C[..., 1] ** 2
+    psi = q[..., 2] + g.alpha3 - g.alpha2
+    return {"shoulder": np.sqrt(np.maximum(r2 - g.y_offset ** 2, 0.0)), "elbow": np.abs(np.sin(psi)),
+            "wrist": np.abs(np.sin(q[..., 4]))}
+
+
+# ----------------------------------------------------------------------------------- target check
+def _check_target(p, R) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a target (p (..., 3), R (..., 3, 3)); project R on SO(3) when within tolerance."""
+    try:
+        p = np.asarray(p, dtype=float)
+        R = np.asarray(R, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise TargetError(f"target position and rotation must be numeric arrays: {e}") from None
+    if p.ndim < 1 or p.shape[-1] != 3:
+        raise TargetError(f"target position must have shape (3,) or (N, 3) (m), got {p.shape}")
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise TargetError(f"target rotation must have shape (3, 3) or (N, 3, 3), got {R.shape}")
+    if not np.all(np.isfinite(p)):
+        raise TargetError(f"target position must be finite, got {p}")
+    if not np.all(np.isfinite(R)):
+        raise TargetError(f"target rotation must be finite, got {R}")
+    err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-2, -1))
+    det = np.linalg.det(R)
+    bad = (err > ORTHONORMAL_TOL) | (det <= 0)
+    if np.any(bad):
+        k = np.flatnonzero(np.atleast_1d(bad))[0]
+        e1 = np.atleast_1d(err)[k]
+        d1 = np.atleast_1d(det)[k]
+        raise TargetError(
+            f"target rotation is not a proper rotation matrix: max |R^T R - I| = {e1:.3g} "
+            f"(tolerance {ORTHONORMAL_TOL:g}), det = {d1:.6g} (must be +1)")
+    if np.any(err > 1e-15):  # polar projection onto SO(3): R (R^T R)^(-1/2)
+        U, _, Vt = np.linalg.svd(R)
+        R = U @ Vt
+    return p, R
+
+
+# ----------------------------------------------------------------------------- closed-form IK core
+_OK, _NEAR_AXIS, _TOO_FAR, _TOO_CLOSE, _SHOULDER, _ELBOW, _WRIST = range(7)
+
+
+def _ik_core(g: ArmGeometry, p: np.ndarray, R: np.ndarray, branch, *, shoulder_tol=SHOULDER_TOL_M,
+             elbow_tol=ELBOW_TOL, wrist_tol=WRIST_TOL):
+    """Principal joint angles in (-pi, pi] of validated targets, vectorized over targets and branches.
+
+    Parameters
+    ----------
+    p : array (..., 3), R : array (..., 3, 3)
+    branch : int or int array broadcastable with the leading shape of p
+
+    Returns
+    -------
+    q : array (..., 6)
+    code : int array (...)
+        0 for a valid solution, else the first failure in the order: near axis 1 (shoulder y
+        offset), too far, too close, shoulder, elbow, wrist singularity.
+    info : dict of arrays (...)
+        Diagnostic values used in the error messages.
+    """
+    b = np.asarray(branch)
+    shoulder, elbow, wrist = (b >> 2) & 1, (b >> 1) & 1, b & 1
+    Rf = R @ g.tcp_rotation.T
+    C = p - (Rf @ g.wrist_to_tcp) - g.o0
+    cx, cy, cz = C[..., 0], C[..., 1], C[..., 2]
+    r2 = cx * cx + cy * cy
+    h2 = r2 - g.y_offset ** 2
+    h = np.sqrt(np.maximum(h2, 0.0))
+    xs = np.where(shoulder == 1, -h, h)
+    q1 = np.arctan2(cy, cx) - np.arctan2(g.y_offset, xs)
+    vx, vz = xs - g.o1[0], cz - g.o1[2]
+    rho = np.hypot(vx, vz)
+    D = (rho * rho - g.a2 ** 2 - g.a3 ** 2) / (2 * g.a2 * g.a3)
+    sign = np.where(shoulder == elbow, 1.0, -1.0)
+    spsi = sign * np.sqrt(np.clip(1 - D * D, 0.0, None))
+    psi = np.arctan2(spsi, np.clip(D, -1, 1))
+    q3 = psi + g.alpha2 - g.alpha3
+    q2 = np.arctan2(vx, vz) - np.arctan2(g.a2 * math.sin(g.alpha2) + g.a3 * np.sin(q3 + g.alpha3),
+                                         g.a2 * math.cos(g.alpha2) + g.a3 * np.cos(q3 + g.alpha3))
+    # M = (Rz(q1) Ry(q2 + q3))^T Rf, written out
+    c1, s1, c23, s23 = np.cos(q1), np.sin(q1), np.cos(q2 + q3), np.sin(q2 + q3)
+    Rf = np.broadcast_to(Rf, q1.shape + (3, 3))
+    a0 = c1[..., None] * Rf[..., 0, :] + s1[..., None] * Rf[..., 1, :]   # (Rz^T Rf) row 0
+    a1 = -s1[..., None] * Rf[..., 0, :] + c1[..., None] * Rf[..., 1, :]  # row 1
+    a2 = Rf[..., 2, :]                                                   # row 2
+    m0 = c23[..., None] * a0 - s23[..., None] * a2                      # (Ry^T .) row 0
+    m1 = a1
+    m2 = s23[..., None] * a0 + c23[..., None] * a2
+    sg = np.where(wrist == 1, -1.0, 1.0)
+    s5 = sg * np.hypot(m0[..., 2], m1[..., 2])
+    q5 = np.arctan2(s5, m2[..., 2])
+    q4 = np.arctan2(sg * m1[..., 2], sg * m0[..., 2])
+    q6 = np.arctan2(sg * m2[..., 1], -sg * m2[..., 0])
+    q = np.stack(np.broadcast_arrays(q1, q2, q3, q4, q5, q6), axis=-1)
+    q = np.where(q <= -np.pi, q + 2 * np.pi, q)
+    code = np.full(q.shape[:-1], _OK)
+    for c, bad in reversed(((_NEAR_AXIS, h2 < 0), (_TOO_FAR, rho > g.reach_max_m + REACH_EPS_M),
+                            (_TOO_CLOSE, rho < g.reach_min_m - REACH_EPS_M),
+                            (_SHOULDER, h < shoulder_tol), (_ELBOW, np.abs(spsi) < elbow_tol),
+                            (_WRIST, np.abs(s5) < wrist_tol))):
+        code = np.where(bad, c, code)
+    info = dict(r=np.sqrt(r2), rho=rho, h=h, D=D, spsi=spsi, psi=psi, q5=q5, s5=s5,
+                branch=np.broadcast_to(b, code.shape))
+    info = {k: np.broadcast_to(v, code.shape) for k, v in info.items()}
+    return q, code, info
+
+
+def _ik_error(g: ArmGeometry, code: int, info: dict, k, where: str = "", tols=None) -> KinematicsError:
+    """The exception for failure ``code`` of sample ``k`` (index into the arrays of ``info``)."""
+    tols = tols or {}
+    v = {key: float(val[k]) for key, val in info.items()}
+    name = BRANCHES[int(v["branch"])]
+    if code == _NEAR_AXIS:
+        return UnreachableError(
+            f"target unreachable{where}: the wrist centre is {v['r']:.6g} m from axis 1, closer than the shoulder "
+            f"y offset |{g.y_offset:.6g}| m allows (by {abs(g.y_offset) - v['r']:.3g} m)")
+    if code == _TOO_FAR:
+        return UnreachableError(
+            f"target unreachable{where} (branch {name}): the wrist centre is {v['rho']:.6g} m from joint 2 in the arm "
+            f"plane, farther than the stretched arm a2 + a3 = {g.reach_max_m:.6g} m, by {v['rho'] - g.reach_max_m:.6g} m")
+    if code == _TOO_CLOSE:
+        return UnreachableError(
+            f"target unreachable{where} (branch {name}): the wrist centre is {v['rho']:.6g} m from joint 2 in the arm "
+            f"plane, closer than the folded arm |a2 - a3| = {g.reach_min_m:.6g} m, by {g.reach_min_m - v['rho']:.6g} m")
+    if code == _SHOULDER:
+        return ShoulderSingularityError(
+            f"shoulder singularity{where}: the wrist centre is {v['h']:.3g} m from the axis of joint 1 (tolerance "
+            f"{tols.get('shoulder_tol', SHOULDER_TOL_M):g} m); q1 is undetermined there")
+    if code == _ELBOW:
+        state = "stretched" if v["D"] > 0 else "folded"
+        return ElbowSingularityError(
+            f"elbow singularity{where} (branch {name}): the arm is {state}, |sin(elbow angle)| = {abs(v['spsi']):.3g} "
+            f"< {tols.get('elbow_tol', ELBOW_TOL):g} (elbow angle {math.degrees(v['psi']):.4f} deg, wrist centre "
+            f"{v['rho']:.6g} m from joint 2, reach {g.reach_min_m:.6g} .. {g.reach_max_m:.6g} m)")
+    if code == _WRIST:
+        return WristSingularityError(
+            f"wrist singularity{where} (branch {name}): q5 = {math.degrees(v['q5']):.4f} deg, |sin q5| = "
+            f"{abs(v['s5']):.3g} < {tols.get('wrist_tol', WRIST_TOL):g}: axes 4 and 6 are aligned, only q4 + q6 is "
+            f"determined")
+    raise AssertionError(code)
+
+
+# ---------------------------------------------------------------------------------- limits, wraps
+def _deg(x: float) -> float:
+    return math.degrees(x)
+
+
+def _wrap_joint(q: float, lo: float, hi: float, ref: float | None):
+    """Candidates q + 2 pi k; return (value, excess_rad) with excess = 0 when inside [lo, hi]."""
+    cands = q + 2 * np.pi * np.arange(-3, 4)
+    exc = np.maximum(np.maximum(lo - cands, cands - hi), 0.0)
+    inside = exc == 0
+    target = q if ref is None else ref
+    if np.any(inside):
+        c = cands[inside]
+        return float(c[np.argmin(np.abs(c - target))]), 0.0
+    k = np.argmin(exc)
+    return float(cands[k]), float(exc[k])
+
+
+def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG, *, stacklevel: int = 2) -> np.ndarray:
+    """Check joint angles against the joint ranges, modulo 2 pi.
+
+    Each angle is first taken modulo 2 pi: a value outside the range whose equivalent
+    ``q + 2 pi k`` is inside is accepted silently (same physical angle) and replaced by the
+    equivalent closest to it. A value whose every equivalent is outside the range by at most
+    ``tolerance_deg`` is accepted with a :class:`JointLimitWarning` that names the joint, the
+    given and wrapped values, the limit and the excess (the paper's Tab. 7 pose: A3 = -212.14 deg,
+    i.e. +147.86 deg, 2.86 deg past +145 deg). Beyond the tolerance: :class:`JointLimitError`.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    q : array (n,) or (N, n)
+        Joint angles, rad. For a batch, one warning per joint names the worst sample.
+    tolerance_deg : float
+        Accepted excess beyond a limit, deg (default ``LIMIT_TOLERANCE_DEG`` = 5 deg: covers the
+        paper's own start pose with margin; the datasheet ranges are the controller's software
+        limits, not hard stops).
+
+    Returns
+    -------
+    array like q
+        The wrapped angles (each inside its range, or at most ``tolerance_deg`` outside), rad.
+    """
+    q = _as_q(spec, q)
+    single = q.ndim == 1
+    qs = np.atleast_2d(q)
+    out = qs.copy()
+    lo, hi = spec.joint_range_rad[:, 0], spec.joint_range_rad[:, 1]
+    tol = math.radians(tolerance_deg)
+    for j in range(spec.n_joints):
+        worst = (0.0, None)
+        for k in range(qs.shape[0]):
+            v, exc = _wrap_joint(qs[k, j], lo[j], hi[j], qs[k, j])
+            out[k, j] = v
+            if exc > worst[0]:
+                worst = (exc, k)
+        exc, k = worst
+        if k is None:
+            continue
+        name = spec.joints[j].name
+        given, wrapped = _deg(qs[k, j]), _deg(out[k, j])
+        side, lim = ("upper", hi[j]) if out[k, j] > hi[j] else ("lower", lo[j])
+        wrap_txt = f", wrapped to {wrapped:+.2f} deg," if abs(given - wrapped) > 1e-9 else ""
+        sample = f" (sample {k})" if not single else ""
+        rng = f"[{_deg(lo[j]):+.2f}, {_deg(hi[j]):+.2f}] deg"
+        if exc > tol:
+            raise JointLimitError(
+                f"joint {name}{sample} = {given:+.2f} deg{wrap_txt} is outside its range {rng} by "
+                f"{_deg(exc):.2f} deg, more than the tolerance of {tolerance_deg:g} deg")
+        warnings.warn(
+            f"joint {name}{sample} = {given:+.2f} deg{wrap_txt} is {_deg(exc):.2f} deg past its {side} limit "
+            f"{_deg(lim):+.2f} deg (range {rng}); accepted within the tolerance of {tolerance_deg:g} deg",
+            JointLimitWarning, stacklevel=stacklevel)
+    return out[0] if single else out
+
+
+def _representation(g: ArmGeometry, q: np.ndarray, q_ref, limits: bool, tol: float):
+    """Per joint, pick q + 2 pi k: inside the range if possible (else within tol), closest to q_ref.
+
+    Parameters
+    ----------
+    q : array (..., 6), principal angles.
+
+    Returns
+    -------
+    q_chosen : array (..., 6)
+    status : int array (...)
+        0 all inside, 1 some joint only within tolerance, 2 some joint outside.
+    """
+    ref = np.zeros(6) if q_ref is None else np.asarray(q_ref, dtype=float)
+    cands = q[..., None] + 2 * np.pi * np.arange(-3, 4)            # (..., 6, 7)
+    dist = np.abs(cands - ref[:, None])
+    if not limits:
+        k = np.argmin(dist, axis=-1)
+        return np.take_along_axis(cands, k[..., None], -1)[..., 0], np.zeros(q.shape[:-1], int)
+    exc = np.maximum(np.maximum(g.lower[:, None] - cands, cands - g.upper[:, None]), 0.0)
+    level = np.where(exc == 0, 0, np.where(exc <= tol, 1, 2))
+    # lexicographic: level first, then distance to ref (level 2: smallest excess)
+    key = level * 1e6 + np.where(level == 2, exc, dist)
+    k = np.argmin(key, axis=-1)
+    out = np.take_along_axis(cands, k[..., None], -1)[..., 0]
+    lev = np.take_along_axis(level, k[..., None], -1)[..., 0]
+    return out, lev.max(axis=-1)
+
+
+# ---------------------------------------------------------------------------------------- public IK
+@dataclass(frozen=True)
+class IKSolution:
+    """One inverse-kinematics solution.
+
+    Attributes
+    ----------
+    q : array (6,)
+        Joint angles, rad (representation chosen within the limits when possible).
+    branch : int
+        Branch index 0..7 (see :data:`BRANCHES`).
+    within_limits : bool
+        Every joint inside its range (strictly; a joint within the tolerance band counts as False).
+    """
+
+    q: np.ndarray
+    branch: int
+    within_limits: bool
+
+    @property
+    def branch_name(self) -> str:
+        return BRANCHES[self.branch]
+
+
+def _solve_all(spec, p, R, q_ref, limits, tol, **tols):
+    g = arm_geometry(spec)
+    p, R = _check_target(p, R)
+    if p.shape != (3,) or R.shape != (3, 3):
+        raise TargetError(f"ik expects one target: p (3,), R (3, 3); got {p.shape}, {R.shape} (use ik_batch)")
+    q, code, info = _ik_core(g, p, R, np.arange(8), **tols)
+    qc, status = _representation(g, q, q_ref, limits, tol)
+    sols, errs = [], {}
+    for b in range(8):
+        if code[b] != _OK:
+            errs[b] = _ik_error(g, int(code[b]), info, b, tols=tols)
+        else:
+            sols.append((IKSolution(q=qc[b], branch=b, within_limits=bool(status[b] == 0)), int(status[b])))
+    return g, sols, errs
+
+
+def ik_all(spec: RobotSpec, p, R, *, q_ref=None, shoulder_tol: float = SHOULDER_TOL_M,
+           elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL) -> list[IKSolution]:
+    """All closed-form IK solutions (up to 8) of a TCP pose.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    p : array (3,)
+        TCP position, base frame, m.
+    R : array (3, 3)
+        TCP orientation (tool axis ``R[:, 2]``); must be orthonormal to ``ORTHONORMAL_TOL``.
+    q_ref : array (6,), optional
+        Reference pose for the 2 pi representation of each joint (default: closest to 0).
+    shoulder_tol, elbow_tol, wrist_tol : float
+        Singularity tolerances (see the module docstring).
+
+    Returns
+    -------
+    list of IKSolution
+        One per branch that is reachable and not singular, in branch order; each ``q`` is taken
+        inside the joint range when an equivalent ``q + 2 pi k`` is (``within_limits`` tells).
+
+    Raises
+    ------
+    UnreachableError, SingularityError
+        When no branch has a solution (the error of the lowest branch index is raised).
+    TargetError
+        Malformed target.
+    """
+    if q_ref is not None:
+        q_ref = _as_q(spec, q_ref)
+    _, sols, errs = _solve_all(spec, p, R, q_ref, True, math.radians(LIMIT_TOLERANCE_DEG),
+                               shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
+    if not sols:
+        raise errs[min(errs)]
+    return [s for s, _ in sols]
+
+
+def ik(spec: RobotSpec, p, R, *, branch=None, q_ref=None, limits: bool = True,
+       tolerance_deg: float = LIMIT_TOLERANCE_DEG, shoulder_tol: float = SHOULDER_TOL_M,
+       elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL) -> np.ndarray:
+    """Closed-form inverse kinematics: joint angles that put the TCP at ``(p, R)``.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    p : array (3,)
+        TCP position, base frame, m.
+    R : array (3, 3)
+        TCP orientation in the base frame; must be orthonormal to ``ORTHONORMAL_TOL`` (1e-6, then
+        projected onto SO(3)).
+    branch : None, int 0..7 or str
+        Branch (index or name such as ``"front-up-noflip"``). None: the branch of ``q_ref`` when
+        given (path continuation), else the first branch in index order whose solution is inside
+        the joint limits or within ``tolerance_deg`` of them (so ``front-up-noflip`` whenever it
+        exists).
+    q_ref : array (6,), optional
+        Previous pose along a path, rad. Each joint's 2 pi representation is the one closest to
+        it; with ``branch=None`` the solution is continued on the branch of ``q_ref`` (if that
+        branch fails, e.g. at a singularity, its error is raised rather than jumping branch).
+    limits : bool
+        If True, representations are chosen inside the joint range (A4, A6: +-270 deg), a joint
+        within ``tolerance_deg`` outside is accepted with a :class:`JointLimitWarning`, and a
+        solution out of range raises :class:`JointLimitError`. If False, the closest
+        representation to ``q_ref`` (or to 0) is returned, unchecked.
+    tolerance_deg : float
+        See :func:`check_limits`.
+    shoulder_tol, elbow_tol, wrist_tol : float
+        Singularity tolerances (m, -, -).
+
+    Returns
+    -------
+    array (6,)
+        Joint angles, rad.
+
+    Raises
+    ------
+    UnreachableError, ShoulderSingularityError, ElbowSingularityError, WristSingularityError,
+    JointLimitError, TargetError
+    """
+    if q_ref is not None:
+        q_ref = _as_q(spec, q_ref)
+        if q_ref.shape != (spec.n_joints,):
+            raise TargetError(f"q_ref must have shape ({spec.n_joints},), got {q_ref.shape}")
+    tol = math.radians(tolerance_deg)
+    want = None if branch is None else branch_index(branch)
+    if want is None and q_ref is not None:
+        want = branch_of(spec, q_ref)
+    tols = dict(shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
+    g, sols, errs = _solve_all(spec, p, R, q_ref, limits, tol, **tols)
+    if want is not None:
+        if want in errs:
+            raise errs[want]
+        sol, status = next((s, st) for s, st in sols if s.branch == want)
+    else:
+        if not sols:
+            raise errs[min(errs)]
+        sol, status = min(sols, key=lambda x: (x[1] == 2, x[0].branch)) if limits else sols[0]
+    if limits:
+        if status == 2:
+            others = [s.branch_name for s, st in sols if st < 2]
+            hint = f"; branches within limits: {others}" if others else "; no branch is within the limits"
+            try:
+                check_limits(spec, sol.q, tolerance_deg, stacklevel=3)
+            except JointLimitError as e:
+                raise JointLimitError(f"IK branch {sol.branch_name}: {e}{hint}") from None
+        elif status == 1:
+            check_limits(spec, sol.q, tolerance_deg, stacklevel=3)
+    return sol.q
+
+
+def ik_batch(spec: RobotSpec, p, R, branch, *, errors: str = "raise", shoulder_tol: float = SHOULDER_TOL_M,
+             elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL, where=None) -> np.ndarray:
+    """Vectorized closed-form IK, principal angles.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+    p : array (N, 3)
+        TCP positions, m.
+    R : array (N, 3, 3) or (3, 3)
+        TCP orientations (one shared orientation allowed).
+    branch : int, str, or int array (N,)
+        Branch index or name (one for all targets, or one per target).
+    errors : {"raise", "nan"}
+        On an unreachable or singular sample: raise its error (the first one), or return NaN
+        rows for the failing samples.
+    where : callable, optional
+        ``where(k) -> str`` describing sample k in error messages.
+
+    Returns
+    -------
+    array (N, 6)
+        Joint angles in (-pi, pi], rad; no limit check, no 2 pi continuation (see
+        :class:`linearize.path.Pass` for continuation along a path).
+
+    Raises
+    ------
+    UnreachableError, SingularityError
+        For the first offending sample (``errors="raise"``).
+    """
+    if errors not in ("raise", "nan"):
+        raise ValueError(f"errors must be 'raise' or 'nan', got {errors!r}")
+    g = arm_geometry(spec)
+    p, R = _check_target(p, R)
+    if isinstance(branch, (str, int, np.integer)):
+        b = branch_index(branch)
+    else:
+        b = np.asarray(branch)
+        if not np.issubdtype(b.dtype, np.integer) or np.any((b < 0) | (b > 7)):
+            raise TargetError(f"branch array must hold integers 0..7, got {branch!r}")
+    tols = dict(shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
+    q, code, info = _ik_core(g, p, R, b, **tols)
+    bad = code != _OK
+    if np.any(bad):
+        if errors == "nan":
+            q = np.where(bad[..., None], np.nan, q)
+        else:
+            k = np.unravel_index(np.flatnonzero(bad)[0], bad.shape)
+            raise _ik_error(g, int(code[k]), info, k, where(int(k[0]) if len(k) else 0) if where else "", tols)
+    return q
