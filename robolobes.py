@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
 # subcommand -> module that registers it (imported lazily, in data-flow order)
 _COMMANDS = {
@@ -43,7 +44,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _format_warning(message, category, filename, lineno, line=None):
+    return f"robolobes: warning: {message}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
