@@ -54,6 +54,8 @@ __all__ = [
     "engagement_rad",
     "in_cut",
     "edge_forces",
+    "edge_force_law",
+    "project_cut_frame",
     "tool_force_cut_frame",
     "directional_matrix",
     "cut_frame",
@@ -290,8 +292,26 @@ def in_cut(phi_rad: np.ndarray, phi_st: float, phi_ex: float) -> np.ndarray:
     return (p >= phi_st) & (p <= phi_ex)
 
 
+def edge_force_law(h, db, ktc, krc, kac, kte, kre, kae):
+    """The force law itself, as plain arithmetic on scalars or arrays (numba can compile it).
+
+    ``(dFt, dFr, dFa) = K_c h db + K_e db`` where ``h > 0``, else 0. Units: h, db in m; cutting
+    coefficients in Pa, edge coefficients in N/m; forces in N. :func:`edge_forces` is the array API.
+    """
+    on = h > 0.0
+    return (on * (ktc * h + kte) * db, on * (krc * h + kre) * db, on * (kac * h + kae) * db)
+
+
+def project_cut_frame(phi, ft, fr, fa):
+    """Edge forces (tangential, radial, axial) at immersion ``phi`` to the cut frame, force on the
+    tool: plain arithmetic on scalars or arrays (numba can compile it). Returns ``(Fx, Fy, Fz)``."""
+    sn = np.sin(phi)
+    cs = np.cos(phi)
+    return (-ft * cs - fr * sn, ft * sn - fr * cs, fa)
+
+
 def edge_forces(h_m: np.ndarray, db_m: np.ndarray | float, law: CuttingLaw) -> np.ndarray:
-    """Tangential, radial, axial edge forces for chip thickness ``h_m``.
+    """Tangential, radial, axial edge forces for chip thickness ``h_m`` (array API of :func:`edge_force_law`).
 
     Parameters
     ----------
@@ -307,17 +327,15 @@ def edge_forces(h_m: np.ndarray, db_m: np.ndarray | float, law: CuttingLaw) -> n
     """
     h = np.asarray(h_m, dtype=float)
     db = np.broadcast_to(np.asarray(db_m, dtype=float), h.shape)
-    active = (h > 0)[..., None]
-    f = (h * db)[..., None] * law.cutting_pa + db[..., None] * law.edge_n_per_m
-    return np.where(active, f, 0.0)
+    return np.stack(edge_force_law(h, db, law.ktc_pa, law.krc_pa, law.kac_pa,
+                                   law.kte_n_per_m, law.kre_n_per_m, law.kae_n_per_m), axis=-1)
 
 
 def tool_force_cut_frame(phi_rad: np.ndarray, f_tra: np.ndarray) -> np.ndarray:
     """Project edge forces ``(dFt, dFr, dFa)`` (shape ``(..., 3)``) at angle ``phi_rad`` (shape ``(...)``)
-    into the cut frame: force on the tool, shape ``(..., 3)``, N."""
-    s, c = np.sin(phi_rad), np.cos(phi_rad)
-    ft, fr, fa = f_tra[..., 0], f_tra[..., 1], f_tra[..., 2]
-    return np.stack([-ft * c - fr * s, ft * s - fr * c, fa], axis=-1)
+    into the cut frame: force on the tool, shape ``(..., 3)``, N (array API of :func:`project_cut_frame`)."""
+    fx, fy, fz = project_cut_frame(np.asarray(phi_rad, dtype=float), f_tra[..., 0], f_tra[..., 1], f_tra[..., 2])
+    return np.stack(np.broadcast_arrays(fx, fy, fz), axis=-1)
 
 
 def directional_matrix(phi_rad: np.ndarray, law: CuttingLaw) -> np.ndarray:
