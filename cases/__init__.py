@@ -11,13 +11,13 @@ in the same TOML format and load it by path.
 18700
 """
 
-from .loader import DEFAULT_CASE, CaseError, builtin_cases, builtin_robots, load_case, load_robot
+from .loader import DEFAULT_CASE, CaseError, builtin_cases, builtin_robots, load_case, load_reference, load_robot
 from .milling import (Cut, CuttingLaw, MillingError, Tool, check_cut, cut_frame, directional_matrix,
                       edge_forces, engagement_rad, in_cut, regeneration, tool_force_cut_frame)
 from .spec import Assumption, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
 __all__ = [
-    "DEFAULT_CASE", "CaseError", "builtin_cases", "builtin_robots", "load_case", "load_robot",
+    "DEFAULT_CASE", "CaseError", "builtin_cases", "builtin_robots", "load_case", "load_reference", "load_robot",
     "Cut", "CuttingLaw", "MillingError", "Tool", "check_cut", "cut_frame", "directional_matrix",
     "edge_forces", "engagement_rad", "in_cut", "regeneration", "tool_force_cut_frame",
     "Assumption", "JointSpec", "LinkSpec", "MillingCase", "PassSpec", "PayloadSpec", "RobotSpec",

@@ -77,3 +77,55 @@ def save_figure(fig, path: str | os.PathLike, **kw) -> None:
     target = Path(path)
     with atomic_path(target) as tmp:
         fig.savefig(tmp, format=target.suffix.lstrip(".") or "png", **kw)
+
+
+class Progress:
+    """A one-line progress display on stderr for long work (simulations, lobe maps, studies).
+
+    ``Progress("simulate")(fraction)`` redraws ``simulate  42 %  (elapsed 3.1 s, left ~4.2 s)``
+    on a terminal (carriage return) and prints a line every 10 % otherwise; ``done()`` ends the
+    line. Silent when ``enabled`` is False.
+    """
+
+    def __init__(self, label: str, enabled: bool = True, stream=None):
+        import sys
+        import time
+
+        self.label, self.enabled = label, enabled
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.t0 = time.perf_counter()
+        self._last = -1
+
+    def __call__(self, fraction: float, note: str = "") -> None:
+        import time
+
+        if not self.enabled:
+            return
+        pct = int(100 * min(max(fraction, 0.0), 1.0))
+        step = 1 if self.tty else 10
+        if pct // step == self._last // step and note == "":
+            return
+        self._last = pct
+        el = time.perf_counter() - self.t0
+        left = f", left ~{el * (1 - fraction) / fraction:.0f} s" if 0 < fraction < 1 else ""
+        msg = f"{self.label} {pct:3d} %  (elapsed {el:.0f} s{left}){'  ' + note if note else ''}"
+        if self.tty:
+            self.stream.write("\r" + msg.ljust(78))
+        else:
+            self.stream.write(msg + "\n")
+        self.stream.flush()
+
+    def done(self, note: str = "") -> None:
+        import time
+
+        if not self.enabled:
+            return
+        el = time.perf_counter() - self.t0
+        msg = f"{self.label} done in {el:.1f} s{'  ' + note if note else ''}"
+        self.stream.write(("\r" + msg.ljust(78) + "\n") if self.tty else msg + "\n")
+        self.stream.flush()
+
+    def sub(self, lo: float, hi: float):
+        """A callback mapping a sub-task's 0..1 onto ``[lo, hi]`` of this display."""
+        return lambda f, note="": self(lo + (hi - lo) * f, note)

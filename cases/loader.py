@@ -20,7 +20,7 @@ import numpy as np
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
 from .spec import Assumption, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
-__all__ = ["CaseError", "load_robot", "load_case", "builtin_cases", "builtin_robots", "DEFAULT_CASE"]
+__all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE"]
 
 DEFAULT_CASE = "tx200-aluminium"
 
@@ -317,3 +317,12 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
                          ramp_s=pr.num("ramp_s", positive=True))
     return MillingCase(name=r.text("name", path.stem), robot=robot, tool=tool, law=law, cut=cut,
                        path=path_spec, source=r.text("source", ""))
+
+
+def load_reference(name_or_path: str | Path) -> dict:
+    """Published results to compare with (``kind = "reference"``), as a plain dict (units in the keys).
+
+    Built-in: ``"tx200-paper-results"`` (the paper's Tab. 10-12 and its steel observations).
+    """
+    _, data = _resolve(name_or_path, "reference")
+    return data

@@ -280,9 +280,20 @@ def _chip_kernel(wb, x0, dx, cx, cw, sgn, phi, radius, h, d):  # pragma: no cove
 
 @njit(cache=True, nogil=True)
 def _remove_kernel(wb, x0, dx, cx0, cw0, cx1, cw1, sgn, phi0, phi1, radius, dtheta_max, w_top,
-                   pend_i, pend_w, pend_a, pend_n):  # pragma: no cover - numba
+                   pend_i, pend_w, pend_a, pend_n, cull=True):  # pragma: no cover - numba
+    # cull: skip the chords of a tip path that provably cannot reach the part (every chord vertex
+    # above the block edge, or left or right of the column grid), from bounds of the path: the
+    # centre moves linearly and |d^2 (sin, cos) / d ang^2| <= 1, so between its ends a path
+    # coordinate deviates from its chord by at most r da^2 / 8. Such chords change nothing (the
+    # vertex test and the column range below skip them), so culling gives identical results; it
+    # saves the sines and cosines of the ~55 % of the revolution a tooth spends out of the part.
     n_teeth, n_discs = phi0.shape
     ncol = wb.shape[1]
+    x_lo = x0 - 0.5 * dx
+    x_hi = x0 + (ncol - 0.5) * dx
+    cwmin = min(cw0, cw1)
+    cxmin = min(cx0, cx1)
+    cxmax = max(cx0, cx1)
     cap = pend_i.shape[2]
     touched = 0
     overflow = 0
@@ -313,6 +324,13 @@ def _remove_kernel(wb, x0, dx, cx0, cw0, cx1, cw1, sgn, phi0, phi1, radius, dthe
             # 2. the new stretch of tip path, as chords
             a0 = phi0[j, k]
             da = a1 - a0
+            if cull:
+                sag = r * (da * da / 8.0) + 1e-12
+                s0 = math.sin(a0)
+                c0 = sgn * math.cos(a0)
+                if (cwmin + r * min(c0, c1) - sag > w_top or cxmax + r * max(s0, s1) + sag < x_lo
+                        or cxmin + r * min(s0, s1) - sag > x_hi):
+                    continue
             nsub = int(math.ceil(abs(da) / dtheta_max))
             if nsub < 1:
                 nsub = 1
@@ -647,10 +665,30 @@ class Workpiece:
             self._wb, self._x0, self._dx, cx0, self._sgn * cy0, cx1, self._sgn * cy1, self._sgn,
             phi0, phi1, r, self._dtheta_max, self._w_edge, self._pend_i, self._pend_w, self._pend_a, self._pend_n,
         )
-        self._n_removed_cells += int(n)
-        self._n_overflow += int(over)
-        self._revision += 1
+        self._account_removal(1, n, over)
         return int(n)
+
+    # ---- access for compiled callers (timedomain.fastpath) ----------------------------------
+    def _kernel_state(self) -> tuple:
+        """The live arrays and scalars the kernels take, for callers compiled with numba.
+
+        Returns ``(wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n)``, passed
+        exactly as :meth:`_chip` and :meth:`_remove` pass them:
+        ``_chip_kernel(wb, x0, dx, cx, sgn * cy, sgn, phi, radius, h, d)`` and
+        ``_remove_kernel(wb, x0, dx, cx0, sgn * cy0, cx1, sgn * cy1, sgn, phi0, phi1, radius,
+        dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n)``. The arrays are the part itself, not
+        copies: a caller that runs ``_remove_kernel`` on them must report its steps with
+        :meth:`_account_removal`.
+        """
+        return (self._wb, self._x0, self._dx, self._sgn, self._dtheta_max, self._w_edge,
+                self._pend_i, self._pend_w, self._pend_a, self._pend_n)
+
+    def _account_removal(self, commits: int, touched: int, overflow: int) -> None:
+        """Count ``commits`` removal steps (``_remove_kernel`` calls) with ``touched`` column updates,
+        ``overflow`` of them forced by a full pending buffer; bumps :attr:`revision`."""
+        self._n_removed_cells += int(touched)
+        self._n_overflow += int(overflow)
+        self._revision += int(commits)
 
     # ---- results ------------------------------------------------------------------------------
     def wall_profile(self) -> WallProfile:

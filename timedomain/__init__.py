@@ -1,0 +1,14 @@
+"""Timedomain: Newmark simulation of the nonlinear flexible robot with regenerative milling.
+
+* :mod:`timedomain.simulate` -- :class:`SimulationProblem`, :func:`simulate` (full nonlinear path,
+  and the linearized fast path compiled in :mod:`timedomain.fastpath`);
+* :mod:`timedomain.workpiece` -- the eraser-of-matter part (axial slices, column boundaries);
+* :mod:`timedomain.cutting` -- the milling force of the tool on the part (law from :mod:`cases.milling`);
+* :mod:`timedomain.newmark` -- average-acceleration Newmark in residual form;
+* :mod:`timedomain.signals` -- force statistics, stability verdict, chatter frequency, roughness;
+* :mod:`timedomain.output` -- series, wall, JSON summary and plots of a run.
+"""
+
+from .simulate import SimulationProblem, SimulationResult, simulate
+
+__all__ = ["SimulationProblem", "SimulationResult", "simulate"]

@@ -1,0 +1,563 @@
+"""The linearized path's time loop, compiled with numba (the fast path for sweeps).
+
+What it integrates
+------------------
+Exactly the equations of :class:`timedomain.simulate.LinearSystemData` (read its
+``residual(dq, v, a, t, f_cut_tool)`` and ``center(dq, t)``): the robot linearized at the start
+pose, the nonlinear milling force of :class:`timedomain.cutting.MillingForce` on the eroded
+:class:`timedomain.workpiece.Workpiece`, and the backlash dead zone of the motion springs::
+
+    r(dq, v, a, t) = M a + C v + K_rest dq - J^T R_c^T F_tool(c(dq, t), Omega t) + f_nom(t)
+                     + P k o (dz(d0 + P^T dq) - dz(d0))            (k o P^T dq without backlash)
+    c(dq, t) = (s(t), 0) + c_off + J_c dq
+
+Nothing of the physics is defined here. The compiled loop calls
+
+* :func:`cases.milling.edge_force_law` and :func:`cases.milling.project_cut_frame` (wrapped with
+  ``numba.njit``): the force law and the projection to the cut frame;
+* :func:`linearize.model.dead_zone` (wrapped with ``numba.njit``): the backlash of eq. 12;
+* the workpiece kernels ``_chip_kernel`` (chip thickness) and ``_remove_kernel`` (removal along
+  the tooth-tip arcs, with the pending updates) of :mod:`timedomain.workpiece`, on the live arrays
+  of the part (:meth:`Workpiece._kernel_state`).
+
+The time integration is the compiled form of ``newmark.integrate(residual, 0, 0, h_s=h,
+constant_tangent=(K, C, M), options=NewmarkOptions(atol=1e-11, rtol=1e-8, max_iter=20))`` for this
+system, i.e. of the Python reference ``simulate._run_linearized_python``: average acceleration
+(gamma = 1/2, beta = 1/4, :mod:`timedomain.newmark`), Newton on ``q1`` from the
+constant-acceleration predictor with the effective matrix ``S = K + 2/h C + 4/h^2 M`` factorized
+once (modified Newton: the true tangent differs from ``S`` only by the cutting stiffness,
+~1e6-1e7 N/m at the TCP, and, inside a dead zone, by a motion spring; both are ~1e-6-1e-4 of
+``4 M / h^2``, so each iteration contracts the error by that factor), the same convergence test
+``|dq_i| <= atol + rtol |q1_i - q0_i|`` and the same bookkeeping of the outputs: the force of an
+accepted step is that of the last residual evaluation (at most one increment, <= atol = 1e-11 m,
+from the accepted state), the centre is at the accepted state, and both are recorded before the
+step's material removal is committed. The initial acceleration is
+:func:`timedomain.newmark.initial_acceleration`, in Python, as on the reference path.
+
+Not carried over: step halving. The reference halves a step whose Newton iteration fails; this
+residual is Lipschitz (dead zones and chip thickness are continuous, the contraction factor above
+is tiny), Newton takes 1-2 iterations per step, and a failure would mean a broken model, so here
+a step that does not converge in ``max_iter`` iterations (or gives a non-finite value) raises
+:class:`FastPathConvergenceError` naming the time; nothing is returned.
+
+Chunks, progress, interruption
+------------------------------
+The loop runs in chunks of at most ``chunk_steps`` steps (default: 1 % of the run, 1 to 2000
+steps) per compiled call; ``progress(fraction)`` is called after each chunk. A chunk runs to its
+end once started (numba holds the interpreter), so Ctrl-C lands between chunks, with the state and
+the workpiece consistent (every accepted step committed, nothing else): it is raised as
+:class:`timedomain.newmark.NewmarkInterrupted` carrying the last accepted state, like the Python
+paths. Latency: one chunk, at most 2000 steps x ~30 us = 60 ms.
+
+Compilation and its cache
+-------------------------
+The kernel is compiled with ``cache=True``: the first call in a fresh environment compiles it
+(~10 s, with the workpiece kernels; ``bench/bench_timedomain.py`` measures it), later processes
+load it from ``timedomain/__pycache__`` (~0.3 s). numba's cache
+only watches the file that defines a function, not the files of the functions it calls (a known
+numba limitation, "cache invalidation fails to recognize changes in symbols defined in another
+file"), so this module fingerprints the sources it compiles in (``cases/milling.py``,
+``linearize/model.py``, ``timedomain/workpiece.py``, and the numba version) and flushes its own
+cache index when the fingerprint changes (:func:`_guard_cache`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import math
+import os
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import scipy.linalg as sla
+from numba import njit
+
+import cases.milling as _milling
+import linearize.model as _model
+from . import workpiece as _workpiece
+from .cutting import MillingForce
+from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats,
+                      effective_matrix, initial_acceleration)
+from .workpiece import _chip_kernel, _remove_kernel
+
+__all__ = ["FastPathError", "FastPathConvergenceError", "LinearRun", "run_linear_milling", "DEFAULT_ATOL_M",
+           "DEFAULT_RTOL", "DEFAULT_MAX_ITER", "MAX_CHUNK_STEPS"]
+
+#: Newton tolerances of the reference path (``simulate._run_newmark``): absolute on the increment
+#: of every coordinate (rad or m), relative to the step's change of that coordinate.
+DEFAULT_ATOL_M = 1e-11
+DEFAULT_RTOL = 1e-8
+DEFAULT_MAX_ITER = 20
+#: Largest number of steps per compiled call (bounds the Ctrl-C latency).
+MAX_CHUNK_STEPS = 2000
+
+# The Newmark parameters of timedomain.newmark (average acceleration); the kernel's update is
+# written for these values.
+_GAMMA = NewmarkOptions().gamma
+_BETA = NewmarkOptions().beta
+assert _GAMMA == 0.5 and _BETA == 0.25
+
+# Status codes of the kernel.
+_OK, _NO_CONVERGENCE, _NOT_FINITE = 0, 1, 2
+
+
+class FastPathError(ValueError):
+    """Bad input to :func:`run_linear_milling`."""
+
+
+class FastPathConvergenceError(NewmarkConvergenceError):
+    """Newton did not converge at some step of the compiled loop (``.result``: last accepted state)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# compiled pieces: the project's own functions, wrapped (not rewritten)
+
+_edge_force_law = njit(inline="always")(_milling.edge_force_law)
+_project_cut_frame = njit(inline="always")(_milling.project_cut_frame)
+_dead_zone = njit(_model.dead_zone)
+
+
+@njit(inline="always")
+def _interp(tab, dt, t):  # pragma: no cover - numba
+    """Row of a uniform table at time t: the arithmetic of ``LinearSystemData.interp``."""
+    x = t / dt
+    i = min(max(int(x), 0), tab.shape[0] - 2)
+    f = x - i
+    return i, f
+
+
+@njit(cache=True, nogil=True)
+def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
+               lu, piv, M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab,
+               idx, k_motion, backlash, d0,
+               offset, radius, db, law,
+               wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
+               q_n, v_n, a_n, c_n, rec_f, rec_c, counters):  # pragma: no cover - numba
+    """Steps k0 -> k1 (t = k h) of the linearized path; state (q_n, v_n, a_n, c_n) updated in place.
+
+    counters (int64): [0] accepted steps, [1] Newton iterations, [2] most iterations of a step,
+    [3] column updates, [4] pending-buffer overflows, [5] step that failed (-1: none).
+    Returns a status code (_OK, _NO_CONVERGENCE, _NOT_FINITE); on failure the state is the last
+    accepted one and nothing of the failed step was committed.
+    """
+    n = q_n.shape[0]
+    nt, nk = offset.shape
+    n_idx = idx.shape[0]
+    ca = 1.0 / (0.25 * h * h)  # 1 / (beta h^2)
+    gh = 0.5 * h  # gamma h
+    ktc, krc, kac, kte, kre, kae = law[0], law[1], law[2], law[3], law[4], law[5]
+    dz0 = _dead_zone(d0, backlash)
+    q = np.empty(n)
+    v = np.empty(n)
+    a = np.empty(n)
+    r = np.empty(n)
+    y = np.empty(n)
+    base_a = np.empty(n)
+    vpred = np.empty(n)
+    dqm = np.empty(n_idx)
+    phi = np.empty((nt, nk))
+    phi0 = np.empty((nt, nk))
+    hh = np.empty((nt, nk))
+    dh = np.empty((nt, nk, 2))
+    for k in range(k0, k1):
+        t0 = k * h
+        t1 = (k + 1) * h
+        for i in range(n):
+            base_a[i] = (0.5 / 0.25 - 1.0) * a_n[i]
+            vpred[i] = v_n[i] + h * (1.0 - 0.5) * a_n[i]
+            q[i] = q_n[i] + h * v_n[i] + 0.5 * h * h * a_n[i]
+        ang = omega * t1
+        for j in range(nt):
+            for kk in range(nk):
+                phi[j, kk] = ang + offset[j, kk]
+        # nominal-motion forcing and path coordinate at t1 (constant over the Newton iteration)
+        it_, ft_ = _interp(s_tab, dt_tab, t1)
+        s1 = s_tab[it_] + ft_ * (s_tab[it_ + 1] - s_tab[it_])
+        fx = fy = fz = 0.0
+        cx = cy = 0.0
+        status = _NO_CONVERGENCE
+        its = 0
+        for it in range(1, max_iter + 1):
+            its = it
+            for i in range(n):
+                a[i] = ca * (q[i] - q_n[i] - h * v_n[i]) - base_a[i]
+                v[i] = vpred[i] + gh * a[i]
+            # tool centre c(dq, t1) and the cutting force on the tool (cut frame)
+            jx = 0.0
+            jy = 0.0
+            for i in range(n):
+                jx += Jc[0, i] * q[i]
+                jy += Jc[1, i] * q[i]
+            cx = (s1 + c_off[0]) + jx
+            cy = (0.0 + c_off[1]) + jy
+            _chip_kernel(wb, x0, dx, cx, sgn * cy, sgn, phi, radius, hh, dh)
+            fx = 0.0
+            fy = 0.0
+            fz = 0.0
+            for j in range(nt):
+                for kk in range(nk):
+                    if hh[j, kk] > 0.0:
+                        et, er, ea = _edge_force_law(hh[j, kk], db, ktc, krc, kac, kte, kre, kae)
+                        px, py, pz = _project_cut_frame(phi[j, kk], et, er, ea)
+                        fx += px
+                        fy += py
+                        fz += pz
+            # residual (LinearSystemData.residual)
+            for i in range(n):
+                sm = 0.0
+                sc = 0.0
+                sk = 0.0
+                for jj in range(n):
+                    sm += M[i, jj] * a[jj]
+                    sc += C[i, jj] * v[jj]
+                    sk += K_rest[i, jj] * q[jj]
+                fn = f_nom_tab[it_, i] + ft_ * (f_nom_tab[it_ + 1, i] - f_nom_tab[it_, i])
+                r[i] = sm + sc + sk - (JtRt[i, 0] * fx + JtRt[i, 1] * fy + JtRt[i, 2] * fz) + fn
+            if backlash > 0.0:
+                for m in range(n_idx):
+                    dqm[m] = d0[m] + q[idx[m]]
+                dzm = _dead_zone(dqm, backlash)
+                for m in range(n_idx):
+                    r[idx[m]] += k_motion[m] * (dzm[m] - dz0[m])
+            else:
+                for m in range(n_idx):
+                    r[idx[m]] += k_motion[m] * q[idx[m]]
+            finite = True
+            for i in range(n):
+                if not math.isfinite(r[i]):
+                    finite = False
+            if not finite:
+                status = _NOT_FINITE
+                break
+            # increment: -S^-1 r with the LU factors of S (LAPACK getrf layout, 0-based pivots)
+            for i in range(n):
+                y[i] = r[i]
+            for i in range(n):
+                p = piv[i]
+                if p != i:
+                    tmp = y[i]
+                    y[i] = y[p]
+                    y[p] = tmp
+            for i in range(n):
+                s = y[i]
+                for jj in range(i):
+                    s -= lu[i, jj] * y[jj]
+                y[i] = s
+            for i in range(n - 1, -1, -1):
+                s = y[i]
+                for jj in range(i + 1, n):
+                    s -= lu[i, jj] * y[jj]
+                y[i] = s / lu[i, i]
+            converged = True
+            for i in range(n):
+                dq = -y[i]
+                if not math.isfinite(dq):
+                    finite = False
+                q[i] = q[i] + dq
+                if not (abs(dq) <= atol + rtol * abs(q[i] - q_n[i])):
+                    converged = False
+            if not finite:
+                status = _NOT_FINITE
+                break
+            if converged:
+                status = _OK
+                break
+        counters[1] += its
+        if status != _OK:
+            counters[5] = k + 1
+            return status
+        # accept
+        for i in range(n):
+            a[i] = ca * (q[i] - q_n[i] - h * v_n[i]) - base_a[i]
+            v[i] = vpred[i] + gh * a[i]
+        jx = 0.0
+        jy = 0.0
+        for i in range(n):
+            jx += Jc[0, i] * q[i]
+            jy += Jc[1, i] * q[i]
+        cx = (s1 + c_off[0]) + jx
+        cy = (0.0 + c_off[1]) + jy
+        # record (force of the last residual evaluation; centre at the accepted state), then commit
+        rec_f[k + 1, 0] = fx
+        rec_f[k + 1, 1] = fy
+        rec_f[k + 1, 2] = fz
+        rec_c[k + 1, 0] = cx
+        rec_c[k + 1, 1] = cy
+        ang0 = omega * t0
+        for j in range(nt):
+            for kk in range(nk):
+                phi0[j, kk] = ang0 + offset[j, kk]
+        touched, overflow = _remove_kernel(wb, x0, dx, c_n[0], sgn * c_n[1], cx, sgn * cy, sgn, phi0, phi, radius,
+                                           dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n)
+        for i in range(n):
+            q_n[i] = q[i]
+            v_n[i] = v[i]
+            a_n[i] = a[i]
+        c_n[0] = cx
+        c_n[1] = cy
+        counters[0] += 1
+        if its > counters[2]:
+            counters[2] = its
+        counters[3] += touched
+        counters[4] += overflow
+    return _OK
+
+
+# ---------------------------------------------------------------------------------------------
+# numba's cache does not see edits of the functions compiled into the kernel from other files
+
+
+def _dependency_fingerprint() -> str:
+    """sha256 of the sources compiled into :func:`_run_chunk` from other files, and numba's version."""
+    import numba
+
+    hsh = hashlib.sha256(numba.__version__.encode())
+    for mod in (_milling, _model, _workpiece):
+        try:
+            with open(inspect.getsourcefile(mod), "rb") as f:
+                hsh.update(f.read())
+        except (OSError, TypeError):  # pragma: no cover - sources not available: never trust the cache
+            hsh.update(os.urandom(16))
+    return hsh.hexdigest()
+
+
+def _guard_cache(dispatcher) -> None:
+    """Flush ``dispatcher``'s on-disk cache index if the dependency fingerprint changed since it
+    was written (stamp file next to the cache); best effort, silent when the cache is read-only."""
+    cache = getattr(dispatcher, "_cache", None)
+    path = getattr(cache, "cache_path", None)
+    if not path:  # pragma: no cover - caching disabled
+        return
+    fp = _dependency_fingerprint()
+    stamp = os.path.join(path, f"fastpath.{dispatcher.py_func.__name__}.deps")
+    try:
+        with open(stamp) as f:
+            if f.read().strip() == fp:
+                return
+    except OSError:
+        pass
+    try:
+        cache.flush()
+        os.makedirs(path, exist_ok=True)
+        with open(stamp, "w") as f:
+            f.write(fp)
+    except OSError:  # pragma: no cover - read-only cache directory: numba then recompiles anyway
+        pass
+
+
+_guard_cache(_run_chunk)
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class LinearRun:
+    """Output of :func:`run_linear_milling`: every grid time ``t = k h``, k = 0..n_steps.
+
+    Attributes
+    ----------
+    t_s : array (N,)
+        Times, s (N = n_steps + 1).
+    force_tool_n : array (N, 3)
+        Force on the tool, cut frame, N, at each accepted state before its step's removal.
+    center_m : array (N, 2)
+        Tool centre in the cut frame, m.
+    q, v, a : array (n,)
+        Final deviation state (rad or m, /s, /s^2).
+    stats : dict
+        steps, rejected (always 0), newton_iterations, max_iterations, removed_cells,
+        removal_overflows, chunks.
+    """
+
+    t_s: np.ndarray
+    force_tool_n: np.ndarray
+    center_m: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    stats: dict
+
+
+def _f64(name, x, shape=None):
+    a = np.ascontiguousarray(x, dtype=np.float64)
+    if shape is not None and a.shape != shape:
+        raise FastPathError(f"{name} must have shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise FastPathError(f"{name} must be finite")
+    return a
+
+
+def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int, omega_rad_s: float,
+                       progress: Callable[[float], None] | None = None, chunk_steps: int | None = None,
+                       atol: float = DEFAULT_ATOL_M, rtol: float = DEFAULT_RTOL,
+                       max_iter: int = DEFAULT_MAX_ITER) -> LinearRun:
+    """Integrate the linearized path from rest (``dq = v = 0`` at t = 0) over ``n_steps`` steps.
+
+    Parameters
+    ----------
+    data : timedomain.simulate.LinearSystemData
+        The equations (n DOF).
+    milling : MillingForce
+        Force law, tool and part; its workpiece is eroded in place, step by step.
+    h_s : float
+        Time step, s (> 0); the grid is ``t = k h_s``.
+    n_steps : int
+        Number of steps (>= 1).
+    omega_rad_s : float
+        Spindle speed, rad/s: the spindle angle is ``omega t``.
+    progress : callable ``(fraction) -> None``, optional
+        Called after every chunk (about every 1 % of the run) and at the end.
+    chunk_steps : int, optional
+        Steps per compiled call (default ``ceil(n_steps / 100)``, at most :data:`MAX_CHUNK_STEPS`).
+    atol : float
+        Newton increment tolerance, absolute, units of q (rad, m); > 0.
+    rtol : float
+        Newton increment tolerance relative to the step's change of q; >= 0.
+    max_iter : int
+        Newton iterations per step before :class:`FastPathConvergenceError`.
+
+    Returns
+    -------
+    LinearRun
+
+    Raises
+    ------
+    FastPathError
+        Bad input.
+    FastPathConvergenceError
+        Newton did not converge at some step (the message names the time; ``.result`` holds the
+        last accepted state, the workpiece is eroded up to it).
+    timedomain.newmark.NewmarkInterrupted
+        KeyboardInterrupt (Ctrl-C) between two chunks; ``.result`` holds the last accepted state,
+        the workpiece is eroded up to it.
+    """
+    if not isinstance(milling, MillingForce):
+        raise FastPathError(f"milling must be a timedomain.cutting.MillingForce, got {type(milling).__name__}")
+    try:
+        h = float(h_s)
+        omega = float(omega_rad_s)
+    except (TypeError, ValueError):
+        raise FastPathError(f"h_s and omega_rad_s must be numbers, got {h_s!r}, {omega_rad_s!r}") from None
+    if not (math.isfinite(h) and h > 0):
+        raise FastPathError(f"time step h_s must be finite and > 0 s, got {h_s!r}")
+    if not math.isfinite(omega):
+        raise FastPathError(f"spindle speed omega_rad_s must be finite, got {omega_rad_s!r}")
+    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
+        raise FastPathError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+    n_steps = int(n_steps)
+    if chunk_steps is None:
+        chunk = min(MAX_CHUNK_STEPS, max(1, math.ceil(n_steps / 100)))
+    elif isinstance(chunk_steps, bool) or not isinstance(chunk_steps, (int, np.integer)) or chunk_steps < 1:
+        raise FastPathError(f"chunk_steps must be an integer >= 1, got {chunk_steps!r}")
+    else:
+        chunk = int(chunk_steps)
+    if not (math.isfinite(atol) and atol > 0 and math.isfinite(rtol) and rtol >= 0):
+        raise FastPathError(f"atol must be > 0 and rtol >= 0, got {atol!r}, {rtol!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise FastPathError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+
+    M = _f64("M", data.M)
+    nd = M.shape[0]
+    if M.shape != (nd, nd):
+        raise FastPathError(f"M must be square, got {M.shape}")
+    C = _f64("C", data.C, (nd, nd))
+    K = _f64("K", data.K, (nd, nd))
+    K_rest = _f64("K_rest", data.K_rest, (nd, nd))
+    JtRt = _f64("JtRt", data.JtRt, (nd, 3))
+    Jc = _f64("Jc", data.Jc, (2, nd))
+    c_off = _f64("c_off", data.c_off, (2,))
+    idx = np.ascontiguousarray(data.motion_dofs, dtype=np.int64)
+    if idx.ndim != 1 or np.any(idx < 0) or np.any(idx >= nd) or len(set(idx.tolist())) != idx.size:
+        raise FastPathError(f"motion_dofs must be distinct indices into q (n = {nd}), got {data.motion_dofs!r}")
+    k_motion = _f64("k_motion", data.k_motion, idx.shape)
+    d0 = _f64("d0", data.d0, idx.shape)
+    backlash = float(data.backlash_rad)
+    if not (math.isfinite(backlash) and backlash >= 0):
+        raise FastPathError(f"backlash_rad must be finite and >= 0, got {data.backlash_rad!r}")
+    t_tab = _f64("t_tab", data.t_tab)
+    if t_tab.ndim != 1 or t_tab.size < 2:
+        raise FastPathError("t_tab must be a 1-D table of at least 2 times")
+    dt_tab = float(data.dt_tab)
+    s_tab = _f64("s_tab", data.s_tab, t_tab.shape)
+    f_nom_tab = _f64("f_nom_tab", data.f_nom_tab, (t_tab.size, nd))
+    if n_steps * h > t_tab[-1] * (1 + 1e-12):
+        raise FastPathError(f"the run ends at {n_steps * h:.6g} s, after the end of the tables ({t_tab[-1]:.6g} s)")
+
+    wp = milling.workpiece
+    wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n = wp._kernel_state()
+    offset = np.ascontiguousarray(milling.immersion_rad(0.0))
+    radius = np.ascontiguousarray(milling.tooth_radius_m)
+    law = milling.law
+    law_arr = np.array([law.ktc_pa, law.krc_pa, law.kac_pa, law.kte_n_per_m, law.kre_n_per_m, law.kae_n_per_m])
+    db = float(milling.db_m)
+
+    lu, piv = sla.lu_factor(effective_matrix(K, C, M, h, _GAMMA, _BETA))
+    lu = np.ascontiguousarray(lu)
+    piv = np.ascontiguousarray(piv, dtype=np.int64)
+
+    # initial state: rest, consistent acceleration (as the reference path)
+    q_n = np.zeros(nd)
+    v_n = np.zeros(nd)
+    c_n = np.asarray(data.center(q_n, 0.0), dtype=float).copy()
+    f0, _ = milling.force(omega * 0.0, c_n)
+    f0 = np.array(f0)
+
+    def residual0(q, v, a, t):
+        f, _ = milling.force(omega * t, data.center(q, t))
+        return data.residual(q, v, a, t, f)
+
+    a_n = np.array(initial_acceleration(residual0, q_n, v_n, 0.0, constant_tangent=(K, C, M)), dtype=float)
+
+    N = n_steps + 1
+    rec_f = np.empty((N, 3))
+    rec_c = np.empty((N, 2))
+    rec_f[0] = f0
+    rec_c[0] = c_n
+    counters = np.zeros(6, dtype=np.int64)
+    counters[5] = -1
+    def state() -> NewmarkResult:
+        st = NewmarkStats(accepted=int(counters[0]), rejected=0, newton_iterations=int(counters[1]),
+                          max_iterations=int(counters[2]), min_step_s=h if counters[0] else math.inf)
+        return NewmarkResult(int(counters[0]) * h, q_n.copy(), v_n.copy(), a_n.copy(), st, False)
+
+    chunks = 0
+    k = 0
+    try:
+        while k < n_steps:
+            k1 = min(n_steps, k + chunk)
+            status = _run_chunk(k, k1, h, omega, int(max_iter), float(atol), float(rtol),
+                                lu, piv, M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab,
+                                idx, k_motion, backlash, d0,
+                                offset, radius, db, law_arr,
+                                wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
+                                q_n, v_n, a_n, c_n, rec_f, rec_c, counters)
+            chunks += 1
+            if status != _OK:
+                kf = int(counters[5])
+                why = ("did not converge in %d iterations" % max_iter if status == _NO_CONVERGENCE
+                       else "gave a non-finite residual or increment")
+                raise FastPathConvergenceError(
+                    f"linearized fast path: Newton {why} at the step to t = {kf * h:.9g} s (step {kf} of "
+                    f"{n_steps}, h = {h:.6g} s); the last accepted state is t = {(kf - 1) * h:.9g} s. The compiled "
+                    f"path has no step halving: check the model, or run the Python reference "
+                    f"(simulate._run_linearized_python)", state())
+            k = int(counters[0])
+            if progress is not None:
+                progress(k / n_steps)
+    except KeyboardInterrupt as e:
+        if isinstance(e, NewmarkInterrupted):
+            raise
+        raise NewmarkInterrupted(state()) from e
+    finally:
+        # Report the kernel's removal steps to the workpiece (revision, counters). Each compiled
+        # call is atomic, so the counters match the eroded part whatever stopped the loop.
+        wp._account_removal(int(counters[0]), int(counters[3]), int(counters[4]))
+
+    stats = dict(steps=int(counters[0]), rejected=0, newton_iterations=int(counters[1]),
+                 max_iterations=int(counters[2]), removed_cells=int(counters[3]),
+                 removal_overflows=int(counters[4]), chunks=chunks)
+    t = np.arange(N) * h
+    return LinearRun(t_s=t, force_tool_n=rec_f, center_m=rec_c, q=q_n, v=v_n, a=a_n, stats=stats)
