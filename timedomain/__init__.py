@@ -7,8 +7,7 @@
 * :mod:`timedomain.newmark` -- average-acceleration Newmark in residual form;
 * :mod:`timedomain.signals` -- force statistics, stability verdict, chatter frequency, roughness;
 * :mod:`timedomain.output` -- series, wall, JSON summary and plots of a run.
+
+Import from the submodules (``from timedomain.simulate import SimulationProblem, simulate``); the
+package does not re-export ``simulate``, which would shadow the submodule of the same name.
 """
-
-from .simulate import SimulationProblem, SimulationResult, simulate
-
-__all__ = ["SimulationProblem", "SimulationResult", "simulate"]

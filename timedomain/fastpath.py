@@ -34,11 +34,14 @@ from the accepted state), the centre is at the accepted state, and both are reco
 step's material removal is committed. The initial acceleration is
 :func:`timedomain.newmark.initial_acceleration`, in Python, as on the reference path.
 
-Not carried over: step halving. The reference halves a step whose Newton iteration fails; this
-residual is Lipschitz (dead zones and chip thickness are continuous, the contraction factor above
-is tiny), Newton takes 1-2 iterations per step, and a failure would mean a broken model, so here
-a step that does not converge in ``max_iter`` iterations (or gives a non-finite value) raises
-:class:`FastPathConvergenceError` naming the time; nothing is returned.
+Newton includes the cutting stiffness exactly (a rank-3 Woodbury correction of ``S`` with
+``dF/dc`` from the chip kernel's derivatives); only the backlash softening stays out of the matrix.
+Step halving is not compiled: a step whose Newton iteration fails in the kernel (it happens in
+violent chatter, when the tool is thrown millimetres in and out of the part and teeth bury
+themselves) is redone by the Python reference (:func:`timedomain.newmark.integrate`, which halves
+the step) from the last accepted state, on the same workpiece, and the kernel resumes after it;
+``stats["python_fallback_steps"]`` counts them. Only if that fails too is
+:class:`FastPathConvergenceError` raised, naming the time.
 
 Chunks, progress, interruption
 ------------------------------
@@ -78,7 +81,7 @@ import cases.milling as _milling
 import linearize.model as _model
 from . import workpiece as _workpiece
 from .cutting import MillingForce
-from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats,
+from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats, integrate,
                       effective_matrix, initial_acceleration)
 from .workpiece import _chip_kernel, _remove_kernel
 
@@ -134,7 +137,7 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                idx, k_motion, backlash, d0,
                offset, radius, db, law,
                wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
-               q_n, v_n, a_n, c_n, rec_f, rec_c, counters):  # pragma: no cover - numba
+               q_n, v_n, a_n, c_n, rec_f, rec_c, counters, Z, JcZ):  # pragma: no cover - numba
     """Steps k0 -> k1 (t = k h) of the linearized path; state (q_n, v_n, a_n, c_n) updated in place.
 
     counters (int64): [0] accepted steps, [1] Newton iterations, [2] most iterations of a step,
@@ -161,6 +164,9 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
     phi0 = np.empty((nt, nk))
     hh = np.empty((nt, nk))
     dh = np.empty((nt, nk, 2))
+    dF = np.zeros((3, 2))
+    G = np.empty((3, 3))
+    wv = np.empty(3)
     for k in range(k0, k1):
         t0 = k * h
         t1 = (k + 1) * h
@@ -196,6 +202,9 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
             fx = 0.0
             fy = 0.0
             fz = 0.0
+            for ii in range(3):
+                dF[ii, 0] = 0.0
+                dF[ii, 1] = 0.0
             for j in range(nt):
                 for kk in range(nk):
                     if hh[j, kk] > 0.0:
@@ -204,6 +213,14 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                         fx += px
                         fy += py
                         fz += pz
+                        # cutting tangent dF/dc: the law is linear in h, dF/dh = project(K_c db)
+                        gx, gy, gz = _project_cut_frame(phi[j, kk], ktc * db, krc * db, kac * db)
+                        dF[0, 0] += gx * dh[j, kk, 0]
+                        dF[0, 1] += gx * dh[j, kk, 1]
+                        dF[1, 0] += gy * dh[j, kk, 0]
+                        dF[1, 1] += gy * dh[j, kk, 1]
+                        dF[2, 0] += gz * dh[j, kk, 0]
+                        dF[2, 1] += gz * dh[j, kk, 1]
             # residual (LinearSystemData.residual)
             for i in range(n):
                 sm = 0.0
@@ -250,6 +267,22 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                 for jj in range(i + 1, n):
                     s -= lu[i, jj] * y[jj]
                 y[i] = s / lu[i, i]
+            # Newton with the cutting stiffness: the residual's tangent is S - U V with U = J^T R_c^T
+            # (n x 3) and V = dF/dc Jc (3 x n), so (Woodbury, Z = S^-1 U precomputed)
+            # (S - U V)^-1 r = y + Z (I - V Z)^-1 V y,  y = S^-1 r. Only the backlash softening
+            # stays out of the matrix (modified Newton for it: a contraction, |dk| << 4 M / h^2).
+            jy0 = 0.0
+            jy1 = 0.0
+            for i in range(n):
+                jy0 += Jc[0, i] * y[i]
+                jy1 += Jc[1, i] * y[i]
+            for ii in range(3):
+                wv[ii] = dF[ii, 0] * jy0 + dF[ii, 1] * jy1
+                for jj in range(3):
+                    G[ii, jj] = (1.0 if ii == jj else 0.0) - (dF[ii, 0] * JcZ[0, jj] + dF[ii, 1] * JcZ[1, jj])
+            uv = np.linalg.solve(G, wv)
+            for i in range(n):
+                y[i] += Z[i, 0] * uv[0] + Z[i, 1] * uv[1] + Z[i, 2] * uv[2]
             converged = True
             for i in range(n):
                 dq = -y[i]
@@ -393,7 +426,7 @@ def _f64(name, x, shape=None):
 def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int, omega_rad_s: float,
                        progress: Callable[[float], None] | None = None, chunk_steps: int | None = None,
                        atol: float = DEFAULT_ATOL_M, rtol: float = DEFAULT_RTOL,
-                       max_iter: int = DEFAULT_MAX_ITER) -> LinearRun:
+                       max_iter: int = DEFAULT_MAX_ITER, fallback_halvings: int = 12) -> LinearRun:
     """Integrate the linearized path from rest (``dq = v = 0`` at t = 0) over ``n_steps`` steps.
 
     Parameters
@@ -417,7 +450,10 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
     rtol : float
         Newton increment tolerance relative to the step's change of q; >= 0.
     max_iter : int
-        Newton iterations per step before :class:`FastPathConvergenceError`.
+        Newton iterations per step in the kernel (and per attempt of the Python fallback).
+    fallback_halvings : int
+        Step halvings the Python fallback may use on a step the kernel could not converge
+        (smallest step ``h / 2**fallback_halvings``); beyond, :class:`FastPathConvergenceError`.
 
     Returns
     -------
@@ -458,6 +494,9 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
         raise FastPathError(f"atol must be > 0 and rtol >= 0, got {atol!r}, {rtol!r}")
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise FastPathError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    if (isinstance(fallback_halvings, bool) or not isinstance(fallback_halvings, (int, np.integer))
+            or not 0 <= fallback_halvings <= 40):
+        raise FastPathError(f"fallback_halvings must be an integer in [0, 40], got {fallback_halvings!r}")
 
     M = _f64("M", data.M)
     nd = M.shape[0]
@@ -496,6 +535,8 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
 
     lu, piv = sla.lu_factor(effective_matrix(K, C, M, h, _GAMMA, _BETA))
     lu = np.ascontiguousarray(lu)
+    Z = np.ascontiguousarray(sla.lu_solve((lu, piv), JtRt))  # S^-1 J^T R_c^T, (n, 3)
+    JcZ = np.ascontiguousarray(Jc @ Z)
     piv = np.ascontiguousarray(piv, dtype=np.int64)
 
     # initial state: rest, consistent acceleration (as the reference path)
@@ -525,6 +566,57 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
 
     chunks = 0
     k = 0
+    acct = [0, 0, 0]  # kernel commits, column updates, overflows already reported to the workpiece
+    fb = {"steps": 0, "substeps": 0, "rejected": 0, "iterations": 0}
+
+    def account():
+        wp._account_removal(int(counters[0]) - fb["steps"] - acct[0], int(counters[3]) - acct[1],
+                            int(counters[4]) - acct[2])
+        acct[:] = [int(counters[0]) - fb["steps"], int(counters[3]), int(counters[4])]
+
+    def fallback_step(kf: int, status: int) -> None:
+        """One nominal step with the Python reference (step halving) from the last accepted state."""
+        k_acc = int(counters[0])
+        account()  # the workpiece revision must be current before the Python force is evaluated
+        last = {}
+        prev = {"t": k_acc * h, "c": c_n.copy()}
+
+        def res(q, v, a, t):
+            f, _ = milling.force(omega * t, data.center(q, t))
+            last["f"] = f
+            return data.residual(q, v, a, t, f)
+
+        def on_step(st):
+            c = np.asarray(data.center(st.q, st.t_s), dtype=float)
+            if st.on_grid:
+                rec_f[k_acc + 1] = last["f"]
+                rec_c[k_acc + 1] = c
+            milling.commit(omega * prev["t"], prev["c"], omega * st.t_s, c)
+            prev.update(t=st.t_s, c=c)
+
+        try:
+            out = integrate(res, q_n, v_n, a0=a_n, t0_s=k_acc * h, h_s=h, n_steps=1, constant_tangent=(K, C, M),
+                            options=NewmarkOptions(atol=atol, rtol=rtol, max_iter=max_iter, defer_interrupts=False,
+                                                   max_halvings=int(fallback_halvings)),
+                            on_step=on_step)
+        except NewmarkConvergenceError:
+            why = ("did not converge in %d iterations" % max_iter if status == _NO_CONVERGENCE
+                   else "gave a non-finite residual or increment")
+            raise FastPathConvergenceError(
+                f"linearized fast path: Newton {why} at the step to t = {kf * h:.9g} s (step {kf} of {n_steps}, "
+                f"h = {h:.6g} s), also with step halving; the last accepted state is t = {k_acc * h:.9g} s",
+                state()) from None
+        q_n[:], v_n[:], a_n[:] = out.q, out.v, out.a
+        c_n[:] = prev["c"]
+        counters[0] += 1
+        counters[1] += out.stats.newton_iterations
+        counters[2] = max(int(counters[2]), out.stats.max_iterations)
+        counters[5] = -1
+        fb["steps"] += 1
+        fb["substeps"] += out.stats.accepted
+        fb["rejected"] += out.stats.rejected
+        fb["iterations"] += out.stats.newton_iterations
+
     try:
         while k < n_steps:
             k1 = min(n_steps, k + chunk)
@@ -533,17 +625,10 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
                                 idx, k_motion, backlash, d0,
                                 offset, radius, db, law_arr,
                                 wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
-                                q_n, v_n, a_n, c_n, rec_f, rec_c, counters)
+                                q_n, v_n, a_n, c_n, rec_f, rec_c, counters, Z, JcZ)
             chunks += 1
             if status != _OK:
-                kf = int(counters[5])
-                why = ("did not converge in %d iterations" % max_iter if status == _NO_CONVERGENCE
-                       else "gave a non-finite residual or increment")
-                raise FastPathConvergenceError(
-                    f"linearized fast path: Newton {why} at the step to t = {kf * h:.9g} s (step {kf} of "
-                    f"{n_steps}, h = {h:.6g} s); the last accepted state is t = {(kf - 1) * h:.9g} s. The compiled "
-                    f"path has no step halving: check the model, or run the Python reference "
-                    f"(simulate._run_linearized_python)", state())
+                fallback_step(int(counters[5]), status)
             k = int(counters[0])
             if progress is not None:
                 progress(k / n_steps)
@@ -554,10 +639,11 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
     finally:
         # Report the kernel's removal steps to the workpiece (revision, counters). Each compiled
         # call is atomic, so the counters match the eroded part whatever stopped the loop.
-        wp._account_removal(int(counters[0]), int(counters[3]), int(counters[4]))
+        account()
 
-    stats = dict(steps=int(counters[0]), rejected=0, newton_iterations=int(counters[1]),
+    stats = dict(steps=int(counters[0]), rejected=fb["rejected"], newton_iterations=int(counters[1]),
                  max_iterations=int(counters[2]), removed_cells=int(counters[3]),
-                 removal_overflows=int(counters[4]), chunks=chunks)
+                 removal_overflows=int(counters[4]), chunks=chunks, python_fallback_steps=fb["steps"],
+                 python_fallback_substeps=fb["substeps"])
     t = np.arange(N) * h
     return LinearRun(t_s=t, force_tool_n=rec_f, center_m=rec_c, q=q_n, v=v_n, a=a_n, stats=stats)
