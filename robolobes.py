@@ -14,8 +14,15 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import warnings
+
+# The work is many small matrices (18 x 18 robots, 2 x 2 cut planes): multi-threaded BLAS only
+# adds overhead, and two processes each spinning threads on a 2-core machine slow down ~10x.
+# Set before numpy is imported; a user's explicit setting wins.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 # subcommand -> module that registers it (imported lazily, in data-flow order)
 _COMMANDS = {

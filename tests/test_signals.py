@@ -227,3 +227,26 @@ def test_roughness_bad_input():
         roughness(x, np.zeros_like(x), form="spline")
     with pytest.raises(SignalError, match="cutoff_m must be finite and > 0"):
         roughness(_profile(), np.zeros_like(_profile()), form="gaussian", cutoff_m=-1.0)
+
+
+def test_trend_rule_separates_fluctuating_chatter_from_a_decaying_transient():
+    # Synthetic, fixed seed. Forced response at the tooth passing (100 Hz; sections every 10 ms,
+    # 249 of them in the 0.5-2.99 s window) plus a non-synchronous 23.3 Hz motion whose amplitude either (a) decays as
+    # exp(-2 t), (b) fluctuates randomly by +-40 % around a constant (saturated, chaotic chatter),
+    # or (c) grows as exp(+1.5 t) from 1e-2 of the forced motion (a slow instability, still below
+    # the 5 % threshold at the start). Expected: (a) stable, (b) unstable, (c) unstable.
+    from timedomain.signals import stability
+    rng = np.random.default_rng(7)
+    t = np.arange(0, 3.0, 1e-4)
+    forced = np.cos(2 * np.pi * 100 * t)
+    seg = np.repeat(1 + 0.4 * rng.uniform(-1, 1, 31), len(t) // 30 + 1)[: len(t)]
+    cases = {"decaying": (np.exp(-2 * t), "stable"), "fluctuating": (seg, "unstable"),
+             "growing": (1e-3 * np.exp(1.5 * t), "unstable")}
+    for name, (env, expect) in cases.items():
+        x = forced + 0.5 * env * np.cos(2 * np.pi * 23.3 * t)
+        v = stability(t, x, 0.01, t_start_s=0.5, t_end_s=2.99, rule="trend")
+        assert v.label == expect, (name, v.ratio, v.trend_per_s, v.trend_se_per_s)
+    # the decaying case: the fitted trend recovers the envelope's -2 1/s within its error
+    x = forced + 0.5 * np.exp(-2 * t) * np.cos(2 * np.pi * 23.3 * t)
+    v = stability(t, x, 0.01, t_start_s=0.5, t_end_s=2.99, rule="trend")
+    assert abs(v.trend_per_s + 2.0) < 3 * v.trend_se_per_s + 0.1

@@ -285,6 +285,9 @@ class StabilityVerdict:
     forced_ptp: float
     samples_t_s: np.ndarray
     samples: np.ndarray
+    rule: str = "thirds"
+    trend_per_s: float = math.nan
+    trend_se_per_s: float = math.nan
 
     @property
     def stable(self) -> bool:
@@ -309,6 +312,10 @@ def stability(
     threshold: float = 0.05,
     decay_limit: float = 0.5,
     phases: int = 8,
+    rule: Literal["thirds", "trend"] = "thirds",
+    segments: int = 6,
+    growth_floor: float = 1e-5,
+    min_decay_per_s: float = 0.0,
 ) -> StabilityVerdict:
     """Stable / unstable from the once-per-revolution samples of ``x`` (criterion: module docstring).
 
@@ -330,6 +337,24 @@ def stability(
         Poincare sections taken at this many spindle phases; the spread is the largest over them
         (a flip at ``(k + 1/2) f_s`` sampled once per revolution at its zero crossing would be
         invisible to a single section).
+    rule : {"thirds", "trend"}
+        How "dying out" is decided. "thirds": ``decay = spread_last / spread_first <= decay_limit``.
+        "trend": the spread is computed in ``segments`` consecutive segments, ``log(spread)`` is
+        fitted by a line in time, slope ``trend_per_s`` (1/s) with standard error
+        ``trend_se_per_s``; dying out iff ``trend + 2 se < 0`` (the decay is significant). A
+        chaotic or saturated chatter whose RMS fluctuates from segment to segment can pass the
+        two-point "thirds" test by chance; it does not show a significant exponential decay.
+        Also unstable under "trend": a significant growth (``trend - 2 se > 0``) of a
+        non-synchronous motion above ``growth_floor`` times the forced peak-to-peak, even while it
+        is still below ``threshold`` (a slow instability caught early).
+    segments : int
+        Segments of the "trend" rule (>= 3, each of at least 5 sections).
+    growth_floor : float
+        Smallest ``ratio`` for which a significant growth counts ("trend" rule): above round-off
+        and numerical noise (~1e-6 of the forced motion in the simulations here).
+    min_decay_per_s : float
+        "trend" rule: dying out needs ``trend + 2 se < -min_decay_per_s`` (1/s, >= 0): a decay so
+        slow that it is not distinguishable from saturated chatter over the window does not count.
 
     Returns
     -------
@@ -360,8 +385,35 @@ def stability(
     ptp = float(np.sqrt((np.ptp(avg.reshape(avg.shape[0], -1), axis=0) ** 2).sum()))
     ratio = s3 / ptp if ptp > 0 else (0.0 if s3 == 0 else math.inf)
     decay = s3 / s1 if s1 > 0 else (0.0 if s3 == 0 else math.inf)
-    label: StabilityLabel = "unstable" if (ratio > threshold and decay > decay_limit) else "stable"
+    trend = se = math.nan
+    growing = False
+    if rule == "thirds":
+        dying = decay <= decay_limit
+    elif rule == "trend":
+        if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 3:
+            raise SignalError(f"segments must be an integer >= 3, got {segments!r}")
+        m = n // segments
+        if m < 5:
+            raise SignalError(f"the window holds {n} periods: the trend rule needs >= 5 per segment "
+                              f"({5 * segments} in all)")
+        sp = np.array([max(_detrended_spread(pk[i * m:(i + 1) * m, j]) for j in range(phases))
+                       for i in range(segments)])
+        tc = lo + period * m * (np.arange(segments) + 0.5)
+        if np.all(sp > 0):
+            A = np.vstack([np.ones(segments), tc - tc.mean()]).T
+            coef, res, *_ = np.linalg.lstsq(A, np.log(sp), rcond=None)
+            resid = np.log(sp) - A @ coef
+            trend = float(coef[1])
+            se = float(np.sqrt((resid ** 2).sum() / (segments - 2) / ((tc - tc.mean()) ** 2).sum()))
+            dying = trend + 2 * se < -float(min_decay_per_s)
+            growing = trend - 2 * se > 0 and ratio > growth_floor
+        else:
+            dying = True  # no non-synchronous motion left at all in some segment
+    else:
+        raise SignalError(f"rule must be 'thirds' or 'trend', got {rule!r}")
+    label: StabilityLabel = "unstable" if ((ratio > threshold and not dying) or growing) else "stable"
     return StabilityVerdict(
+        rule=rule, trend_per_s=trend, trend_se_per_s=se,
         label=label, ratio=ratio, decay=decay, threshold=threshold, decay_limit=decay_limit,
         spread_first=s1, spread_last=s3, forced_ptp=ptp, samples_t_s=_ro(tk[:, 0]), samples=_ro(p),
     )

@@ -1,0 +1,143 @@
+"""Speed of the lobe solvers, as ratios against reference operations timed in the same process.
+
+Run: /tmp/venv/bin/python bench/bench_lobes.py [--quick]
+
+1. Insperger 2-DOF benchmark (symmetric, a/D = 0.05, down-milling), 200 speeds 5000-25000 rpm,
+   depths 0-10 mm, SDM m = 40:
+   * straightforward: for every (speed, depth) of a 200 x 200 grid, the dense monodromy (m
+     matrix exponentials, (2n + 2m)-wide products) and its eigenvalues. Timed on a sample of the
+     grid and extrapolated (the per-point time is what is measured);
+   * fast path: ``lobes.solve`` (reduced history, merged free flight, batched, bracketing +
+     Illinois on the critical depth);
+   * ratio straightforward / fast (target >= 20) and the agreement of the two lobes.
+2. TX200, 18-DOF ``orthogonal`` model at the Tab. 7 pose, aluminium case, 200 speeds 2000-25000
+   rpm, depths to 10 mm, m = 40: wall time of the full lobe diagram (target < 10 s on one core)
+   for both SDM schemes, and its ratio to one straightforward grid point of the same problem.
+
+The process is pinned to one BLAS thread (set before numpy is imported).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_v] = "1"
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from cases.milling import Cut, CuttingLaw, Tool  # noqa: E402
+from lobes import LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization, solve  # noqa: E402
+from lobes.sdm import SDMEngine  # noqa: E402
+
+
+def insperger_2dof() -> LobeProblem:
+    fn, zeta, mt = 922.0, 0.011, 0.03993
+    k = mt * (2 * np.pi * fn) ** 2
+    s = ModalStructure((Mode(fn, zeta, k, (1.0, 0.0)), Mode(fn, zeta, k, (0.0, 1.0))))
+    return LobeProblem(s, Tool(diameter_m=0.01, teeth=2), Cut(ae_m=0.0005, ap_m=1e-3, spindle_rpm=1e4, mode="down"),
+                       CuttingLaw(ktc_pa=6e8, krc_pa=2e8))
+
+
+def straightforward_grid(engine: SDMEngine, speeds, depths):
+    """First unstable grid depth per speed (inf if none): the classic per-grid-point approach."""
+    out = np.full(len(speeds), np.inf)
+    for i, s in enumerate(speeds):
+        for d in depths:
+            if np.max(np.abs(np.linalg.eigvals(engine.monodromy_dense(s, d)))) >= 1.0:
+                out[i] = d
+                break
+    return out
+
+
+def timed(f, *a, **k):
+    t = time.perf_counter()
+    r = f(*a, **k)
+    return time.perf_counter() - t, r
+
+
+def bench_insperger(quick: bool) -> None:
+    p = insperger_2dof()
+    meth = SemiDiscretization(m=40)
+    speeds = np.linspace(5000, 25000, 200)
+    depths = np.linspace(0.05e-3, 10e-3, 200)
+    eng = SDMEngine(p, meth, 10e-3)
+    # straightforward: every grid point of a sample of speeds (all 200 depths each)
+    sample = speeds[:: (40 if quick else 20)]
+    npts = len(sample) * len(depths)
+    t0 = time.perf_counter()
+    for s in sample:
+        for d in depths:
+            np.max(np.abs(np.linalg.eigvals(eng.monodromy_dense(s, d))))
+    t_point = (time.perf_counter() - t0) / npts
+    t_grid = t_point * len(speeds) * len(depths)
+    t_fast, res = timed(solve, p, meth, speeds, depth_max_m=10e-3, rtol=1e-3)
+    # agreement: the grid's first unstable depth brackets the fast limit within one grid step
+    grid_lim = straightforward_grid(eng, sample[:3], depths)
+    fast_lim = solve(p, meth, sample[:3], depth_max_m=10e-3, rtol=1e-6).depth_limit_m
+    step = depths[1] - depths[0]
+    agree = np.all((grid_lim >= fast_lim - 1e-12) & (grid_lim <= fast_lim + step + 1e-12))
+    print("1. Insperger 2-DOF benchmark, a/D = 0.05 down, 200 speeds x depths 0-10 mm, SDM m = 40")
+    print(f"   straightforward: {t_point * 1e3:.2f} ms per grid point (measured on {npts} points); "
+          f"200 x 200 grid = {t_grid:.1f} s (extrapolated)")
+    print(f"   fast path (solve): {t_fast:.2f} s, {res.stats['evaluations']} spectra, reduced monodromy "
+          f"{res.stats['monodromy_size']} x {res.stats['monodromy_size']} (dense: "
+          f"{eng.ns + 2 * 40} x {eng.ns + 2 * 40})")
+    print(f"   ratio straightforward / fast = {t_grid / t_fast:.1f}  (target >= 20)")
+    print(f"   grid and fast limits agree within one grid step ({step * 1e3:.3f} mm) on 3 speeds: {bool(agree)}")
+    j = int(np.argmin(res.depth_limit_m))
+    print(f"   lowest limit {res.depth_limit_m[j] * 1e3:.4f} mm at {res.spindle_rpm[j]:.0f} rpm ({res.bifurcation[j]})")
+
+
+def bench_tx200(quick: bool) -> None:
+    try:
+        import linearize
+        from cases import load_case
+    except ImportError as e:  # pragma: no cover
+        print(f"2. TX200: skipped ({e})")
+        return
+    case = load_case("tx200-aluminium")
+    rob = linearize.build_model(case.robot, "orthogonal")
+    lin = linearize.linearize(rob, case.robot.poses_rad["tab7"])
+    st = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
+    p = LobeProblem(st, case.tool, case.cut, case.law)
+    speeds = np.linspace(2000, 25000, 50 if quick else 200)
+    print(f"2. TX200 18-DOF orthogonal, Tab. 7 pose, aluminium cut, {len(speeds)} speeds 2000-25000 rpm, "
+          f"depths to 10 mm, m = 40, one core")
+    for scheme in ("sdm", "free-exact"):
+        meth = SemiDiscretization(m=40, scheme=scheme)
+        eng = SDMEngine(p, meth, 10e-3)
+        eng.monodromy_dense(18700.0, 1.6e-3)  # warm-up
+        reps = 5
+        t_ref = min(timed(lambda: np.linalg.eigvals(eng.monodromy_dense(18700.0, 1.6e-3)))[0] for _ in range(reps))
+        t, res = timed(solve, p, meth, speeds, depth_max_m=10e-3, rtol=1e-3)
+        finite = np.isfinite(res.depth_limit_m)
+        j = int(np.argmin(res.depth_limit_m))
+        pre = res.stats.get("prescan_evaluations", 0)
+        print(f"   scheme {scheme:10s}: {t:6.2f} s ({res.stats['evaluations']} spectra"
+              + (f" + {pre} free-exact prescan spectra" if pre else "") + ", monodromy "
+              f"<= {res.stats['monodromy_size']}), = {t / t_ref:.0f} straightforward grid points "
+              f"({t_ref * 1e3:.1f} ms each); target < 10 s")
+        print(f"      limited below 10 mm at {finite.sum()} / {len(speeds)} speeds; lowest "
+              f"{res.depth_limit_m[j] * 1e3:.3f} mm at {res.spindle_rpm[j]:.0f} rpm ({res.bifurcation[j]}, "
+              f"{res.chatter_freq_hz[j]:.1f} Hz)")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="smaller samples (smoke run)")
+    args = ap.parse_args(argv)
+    bench_insperger(args.quick)
+    bench_tx200(args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""Stability lobe diagrams of milling: semi-discretization and zero-order approximation.
+
+Problem / method / solve, in the spirit of SciML::
+
+    problem = LobeProblem(structure, tool, cut, law)          # cases.milling objects, SI units
+    result = solve(problem, SemiDiscretization(m=40), speeds_rpm=np.linspace(5e3, 25e3, 200))
+    point = stability(problem, SemiDiscretization())          # at problem.cut, decided robustly
+
+``structure`` is a :class:`PhysicalStructure` (M, C, K, tcp rows in the cut frame; from a robot
+with :meth:`PhysicalStructure.from_linear`), a :class:`ModalStructure` (hammer-test modes) or a
+:class:`ReducedStructure` (modal truncation with its error report). Methods:
+:class:`SemiDiscretization` (first-order SDM, or the exact-free-decay scheme) and
+:class:`ZeroOrder` (Altintas-Budak). Conventions: :mod:`cases.milling`.
+"""
+
+from ._errors import LobeError
+from .cutting import CuttingPlan, average_directional_matrix
+from .problem import LobeProblem
+from .sdm import Bifurcation, SemiDiscretization, classify_multiplier
+from .solve import LobeResult, Method, StabilityPoint, Verdict, solve, stability
+from .structure import (Mode, ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure,
+                        TruncationReport)
+from .zoa import ZeroOrder
+
+__all__ = [
+    "LobeError", "LobeProblem", "Mode", "ModalStructure", "PhysicalStructure", "ReducedStructure",
+    "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "ZeroOrder", "Method",
+    "solve", "stability", "LobeResult", "StabilityPoint", "Verdict", "Bifurcation", "classify_multiplier",
+    "CuttingPlan", "average_directional_matrix",
+]

@@ -1,0 +1,254 @@
+"""``robolobes lobes``: stability lobe diagram of the robot at a pose, or of a user's modal model.
+
+Robot (default): the case's tool, cutting law and cut; the structure is the robot linearized at
+the selected pose (``--case --variant --pose|--path-s|--q-deg``), seen in the cut frame of the
+case's feed direction. Operating point: ``--at-rpm``/``--at-depth-mm``, default the case's cut.
+
+Modal model: ``--modal FILE.toml`` with ``[[modes]]`` tables (``freq_hz``, ``damping_ratio``,
+``stiffness_n_per_m``, ``direction = [x, y]`` unit vector in the cut frame) and the tool and
+material on the command line (``--teeth --diameter-mm --ae-mm --up|--down --ktc-mpa --krc-mpa
+[--helix-deg] [--pitch-deg a,b,...]``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from cases.io import to_jsonable
+from cases.milling import Cut, CuttingLaw, MillingError, Tool
+
+from ._errors import LobeError
+from .problem import LobeProblem
+from .sdm import SemiDiscretization
+from .solve import solve, stability
+from .structure import Mode, ModalStructure, PhysicalStructure
+from .zoa import ZeroOrder
+
+__all__ = ["register", "run", "read_modal_toml"]
+
+
+def _add_pose_arguments(p: argparse.ArgumentParser) -> None:
+    try:
+        from linearize.cli import add_pose_arguments
+    except ImportError:  # pragma: no cover - linearize without a CLI
+        p.add_argument("--case", default="tx200-aluminium")
+        p.add_argument("--variant", default="basic")
+        g = p.add_mutually_exclusive_group()
+        g.add_argument("--pose", default=None)
+        g.add_argument("--path-s", type=float, default=None)
+        g.add_argument("--q-deg", default=None)
+        return
+    add_pose_arguments(p)
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    """Add the ``lobes`` subcommand to an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "lobes", help="stability lobe diagram (semi-discretization or zero-order)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_pose_arguments(p)
+    p.add_argument("--method", choices=("sdm", "zoa"), default="sdm",
+                   help="sdm: first-order semi-discretization (default); zoa: Altintas-Budak zero-order")
+    p.add_argument("--scheme", choices=("sdm", "free-exact"), default="sdm",
+                   help="SDM scheme: sdm (Insperger-Stepan, default) or free-exact (exact free decay, faster)")
+    p.add_argument("--m", type=int, default=40, help="SDM steps per principal period (default 40)")
+    p.add_argument("--rpm-min", type=float, default=2000.0, help="lowest spindle speed, rpm (default 2000)")
+    p.add_argument("--rpm-max", type=float, default=25000.0, help="highest spindle speed, rpm (default 25000)")
+    p.add_argument("--n-rpm", type=int, default=200, help="number of speeds (default 200)")
+    p.add_argument("--depth-max-mm", type=float, default=10.0, help="largest depth searched, mm (default 10)")
+    p.add_argument("--at-rpm", type=float, default=None, help="operating point speed, rpm")
+    p.add_argument("--at-depth-mm", type=float, default=None, help="operating point axial depth, mm")
+    p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
+    p.add_argument("--out", default=None, metavar="PNG", help="write the lobe diagram to this PNG")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    g = p.add_argument_group("user's modal model (instead of the robot)")
+    g.add_argument("--modal", default=None, metavar="FILE.toml", help="[[modes]] tables: freq_hz, damping_ratio, "
+                   "stiffness_n_per_m, direction = [x, y] (unit, cut frame)")
+    g.add_argument("--teeth", type=int, default=None)
+    g.add_argument("--diameter-mm", type=float, default=None)
+    g.add_argument("--ae-mm", type=float, default=None, help="radial depth of cut, mm")
+    ud = g.add_mutually_exclusive_group()
+    ud.add_argument("--up", dest="milling_mode", action="store_const", const="up", help="up-milling")
+    ud.add_argument("--down", dest="milling_mode", action="store_const", const="down", help="down-milling (default)")
+    g.add_argument("--ktc-mpa", type=float, default=None, help="tangential cutting coefficient, MPa")
+    g.add_argument("--krc-mpa", type=float, default=None, help="radial cutting coefficient, MPa")
+    g.add_argument("--kac-mpa", type=float, default=None, help="axial cutting coefficient, MPa (default 0)")
+    g.add_argument("--helix-deg", type=float, default=None, help="helix angle, deg (default 0)")
+    g.add_argument("--pitch-deg", default=None, metavar="A,B,...", help="pitch angles, deg, summing to 360")
+    p.set_defaults(run=run, milling_mode=None)
+    return p
+
+
+def read_modal_toml(path: str | Path) -> ModalStructure:
+    """A :class:`ModalStructure` from a TOML file of ``[[modes]]`` tables (see module docstring)."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"modal file {path} not found") from None
+    except tomllib.TOMLDecodeError as e:
+        raise LobeError(f"{path}: not valid TOML: {e}") from None
+    modes = data.get("modes")
+    if not isinstance(modes, list) or not modes or not all(isinstance(m, dict) for m in modes):
+        raise LobeError(f"{path}: needs at least one [[modes]] table with freq_hz, damping_ratio, "
+                        f"stiffness_n_per_m, direction = [x, y]")
+    out = []
+    for i, m in enumerate(modes):
+        missing = [k for k in ("freq_hz", "damping_ratio", "stiffness_n_per_m", "direction") if k not in m]
+        if missing:
+            raise LobeError(f"{path}: modes[{i}] is missing {', '.join(missing)}")
+        unknown = sorted(set(m) - {"freq_hz", "damping_ratio", "stiffness_n_per_m", "direction", "name"})
+        if unknown:
+            raise LobeError(f"{path}: modes[{i}] has unknown key(s) {unknown}; valid: freq_hz, damping_ratio, "
+                            f"stiffness_n_per_m, direction, name")
+        for k in ("freq_hz", "damping_ratio", "stiffness_n_per_m"):
+            if isinstance(m[k], bool) or not isinstance(m[k], (int, float)):
+                raise LobeError(f"{path}: modes[{i}].{k} must be a number, got {m[k]!r}")
+        d = m["direction"]
+        if not isinstance(d, list) or len(d) != 2 or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in d):
+            raise LobeError(f"{path}: modes[{i}].direction must be [x, y] (unit vector in the cut frame), got {d!r}")
+        try:
+            out.append(Mode(float(m["freq_hz"]), float(m["damping_ratio"]), float(m["stiffness_n_per_m"]),
+                            (float(d[0]), float(d[1]))))
+        except LobeError as e:
+            raise LobeError(f"{path}: modes[{i}]: {e}") from None
+    return ModalStructure(tuple(out))
+
+
+def _modal_problem(args) -> tuple[LobeProblem, str]:
+    need = {"--teeth": args.teeth, "--diameter-mm": args.diameter_mm, "--ae-mm": args.ae_mm,
+            "--ktc-mpa": args.ktc_mpa, "--krc-mpa": args.krc_mpa}
+    missing = [k for k, v in need.items() if v is None]
+    if missing:
+        raise LobeError(f"--modal needs the tool and material too: missing {', '.join(missing)}")
+    structure = read_modal_toml(args.modal)
+    pitch = None
+    if args.pitch_deg is not None:
+        try:
+            pitch = tuple(math.radians(float(x)) for x in args.pitch_deg.split(","))
+        except ValueError:
+            raise LobeError(f"--pitch-deg must be comma-separated angles in deg, got {args.pitch_deg!r}") from None
+    try:
+        tool = Tool(diameter_m=args.diameter_mm * 1e-3, teeth=args.teeth,
+                    helix_rad=math.radians(args.helix_deg or 0.0), pitch_rad=pitch)
+        law = CuttingLaw(ktc_pa=args.ktc_mpa * 1e6, krc_pa=args.krc_mpa * 1e6, kac_pa=(args.kac_mpa or 0.0) * 1e6)
+        depth = (args.at_depth_mm if args.at_depth_mm is not None else 1.0) * 1e-3
+        rpm = args.at_rpm if args.at_rpm is not None else 0.5 * (args.rpm_min + args.rpm_max)
+        cut = Cut(ae_m=args.ae_mm * 1e-3, ap_m=depth, spindle_rpm=rpm, mode=args.milling_mode or "down")
+    except MillingError as e:
+        raise LobeError(str(e)) from None
+    return LobeProblem(structure, tool, cut, law), f"modal model {args.modal}"
+
+
+def _robot_problem(args) -> tuple[LobeProblem, str]:
+    import linearize
+    from linearize.cli import resolve_pose
+
+    case, robot, theta, label = resolve_pose(args)
+    lin = linearize.linearize(robot, theta)
+    structure = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
+    tool, law, cut = case.tool, case.law, case.cut
+    over = {}
+    if args.ae_mm is not None:
+        over["ae_m"] = args.ae_mm * 1e-3
+    if args.milling_mode is not None:
+        over["mode"] = args.milling_mode
+    if args.at_rpm is not None:
+        over["spindle_rpm"] = args.at_rpm
+    if args.at_depth_mm is not None:
+        over["ap_m"] = args.at_depth_mm * 1e-3
+    try:
+        cut = replace(cut, **over)
+    except MillingError as e:
+        raise LobeError(str(e)) from None
+    return LobeProblem(structure, tool, cut, law), f"{case.name}, {robot.variant} variant, {label}"
+
+
+def _method(args):
+    if args.method == "zoa":
+        return ZeroOrder()
+    if isinstance(args.m, bool) or args.m < 2:
+        raise LobeError(f"--m must be an integer >= 2 (steps per principal period), got {args.m}")
+    return SemiDiscretization(m=args.m, scheme=args.scheme)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``robolobes lobes``; returns the exit code (0). Bad input raises ValueError."""
+    if (args.at_rpm is None) != (args.at_depth_mm is None) and args.modal is not None:
+        raise LobeError("give both --at-rpm and --at-depth-mm for an operating point")
+    for name in ("rpm_min", "rpm_max", "depth_max_mm"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise LobeError(f"--{name.replace('_', '-')} must be finite and > 0, got {v}")
+    if args.rpm_max < args.rpm_min:
+        raise LobeError(f"--rpm-max ({args.rpm_max}) must be >= --rpm-min ({args.rpm_min})")
+    if args.n_rpm < 1:
+        raise LobeError(f"--n-rpm must be >= 1, got {args.n_rpm}")
+    if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and args.at_rpm > 0):
+        raise LobeError(f"--at-rpm must be a speed > 0 rpm, got {args.at_rpm}")
+    if args.at_depth_mm is not None and not (math.isfinite(args.at_depth_mm) and args.at_depth_mm > 0):
+        raise LobeError(f"--at-depth-mm must be a depth > 0 mm, got {args.at_depth_mm}")
+    method = _method(args)
+    if args.modal is not None:
+        problem, label = _modal_problem(args)
+        has_op = args.at_rpm is not None
+    else:
+        problem, label = _robot_problem(args)
+        has_op = True  # the case's own cut, or --at-*
+    speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
+
+    def progress(done, total):
+        if not args.quiet:
+            print(f"lobes: {done}/{total} speeds", file=sys.stderr, flush=True)
+
+    result = solve(problem, method, speeds, depth_max_m=args.depth_max_mm * 1e-3, progress=progress)
+    op = None
+    if has_op:
+        op = stability(problem, method, depth_max_m=max(args.depth_max_mm * 1e-3, 4 * problem.cut.ap_m))
+    if args.out:
+        from .plot import plot_lobes
+
+        plot_lobes(result, args.out, op, title=label)
+    if args.json:
+        out = {
+            "structure": label,
+            "method": method.name,
+            "m": getattr(method, "m", None),
+            "depth_max_m": args.depth_max_mm * 1e-3,
+            "rpm": result.spindle_rpm,
+            "depth_limit_m": result.depth_limit_m,  # null: stable up to depth_max_m
+            "chatter_freq_hz": result.chatter_freq_hz,
+            "bifurcation": result.bifurcation.tolist(),
+            "stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float, str))},
+        }
+        if op is not None:
+            out["operating_point"] = {
+                "rpm": op.spindle_rpm, "depth_m": op.depth_m, "spectral_radius": op.spectral_radius,
+                "stable": op.stable, "verdict": op.verdict, "margin": op.margin,
+                "margin_error": op.margin_error, "depth_limit_m": op.depth_limit_m,
+                "chatter_freq_hz": op.chatter_freq_hz, "bifurcation": op.bifurcation,
+            }
+        print(json.dumps(to_jsonable(out), indent=1))
+    else:
+        j = int(np.argmin(result.depth_limit_m))
+        print(f"{label}: {method.name}, {len(speeds)} speeds {args.rpm_min:g}-{args.rpm_max:g} rpm, "
+              f"{result.stats['wall_s']:.2f} s")
+        if np.isfinite(result.depth_limit_m[j]):
+            print(f"lowest limit {result.depth_limit_m[j] * 1e3:.4g} mm at {result.spindle_rpm[j]:.6g} rpm "
+                  f"({result.bifurcation[j]}, chatter {result.chatter_freq_hz[j]:.5g} Hz)")
+        else:
+            print(f"stable at every speed up to {args.depth_max_mm:g} mm")
+        if op is not None:
+            print(f"operating point {op.spindle_rpm:.6g} rpm, {op.depth_m * 1e3:.4g} mm: {op.verdict}, "
+                  f"margin {op.margin:+.4g} (+-{op.margin_error:.2g}), |mu| = {op.spectral_radius:.7f}, "
+                  f"{op.bifurcation}, chatter {op.chatter_freq_hz:.5g} Hz")
+    return 0

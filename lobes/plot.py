@@ -1,0 +1,67 @@
+"""Lobe diagram figure (matplotlib, Agg): limit depth over speed, chatter frequency below."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from cases.io import save_figure
+
+__all__ = ["plot_lobes"]
+
+
+def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str | None = None) -> None:
+    """Write a PNG of a :class:`lobes.LobeResult`.
+
+    Parameters
+    ----------
+    result : LobeResult
+    path : str or PathLike
+        Output file (PNG; written atomically, no partial file on error or interrupt).
+    operating_point : StabilityPoint, optional
+        Marked on the diagram (green circle if stable, red cross if not, orange if marginal).
+    title : str, optional
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rpm = np.asarray(result.spindle_rpm)
+    d_mm = np.asarray(result.depth_limit_m) * 1e3
+    dmax_mm = result.stats.get("depth_max_m", np.nanmax(d_mm[np.isfinite(d_mm)], initial=1e-3) / 1e3) * 1e3
+    shown = np.where(np.isfinite(d_mm), d_mm, np.nan)
+    fig, (ax, axf) = plt.subplots(2, 1, sharex=True, figsize=(8, 6.5), gridspec_kw={"height_ratios": [2.2, 1]})
+    ax.fill_between(rpm, np.where(np.isfinite(d_mm), d_mm, dmax_mm), dmax_mm, color="tab:red", alpha=0.15,
+                    label="unstable")
+    ax.plot(rpm, shown, color="k", lw=1.2, label=f"limit ({result.method.name})")
+    bif = np.asarray(result.bifurcation)
+    for kind, mk, col in (("flip", "v", "tab:purple"), ("fold", "s", "tab:green")):
+        sel = bif == kind
+        if sel.any():
+            ax.plot(rpm[sel], d_mm[sel], mk, ms=3, color=col, label=f"{kind} limit", ls="none")
+    if operating_point is not None:
+        op = operating_point
+        col = {"stable": "tab:green", "unstable": "tab:red"}.get(op.verdict, "tab:orange")
+        mk = "o" if op.verdict == "stable" else "X"
+        ax.plot([op.spindle_rpm], [op.depth_m * 1e3], mk, color=col, ms=9, mec="k",
+                label=f"operating point: {op.verdict} (margin {op.margin:+.2f})")
+    ax.set_ylim(0, dmax_mm)
+    ax.set_ylabel("axial depth limit (mm)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(alpha=0.3)
+    if title:
+        ax.set_title(title, fontsize=10)
+    axf.plot(rpm, np.asarray(result.chatter_freq_hz), ".", ms=3, color="tab:blue")
+    if operating_point is not None and np.isfinite(operating_point.chatter_freq_hz):
+        axf.plot([operating_point.spindle_rpm], [operating_point.chatter_freq_hz], "o", color="tab:orange", mec="k")
+    axf.set_ylabel("chatter freq. (Hz)")
+    axf.set_xlabel("spindle speed (rpm)")
+    axf.grid(alpha=0.3)
+    fig.tight_layout()
+
+    try:
+        save_figure(fig, path, dpi=110)  # atomic: temp file + os.replace
+    finally:
+        plt.close(fig)

@@ -1,0 +1,514 @@
+"""Structures seen from the tool tip: physical (M, C, K, TCP rows), modal (hammer-test modes), reduced.
+
+Every structure becomes the same internal first-order model (:class:`StateSpace`)::
+
+    dy/dt = A y + B F,        r = S y
+
+with ``F`` (3,) the force on the tool in the cut frame ``(x_c, y_c, z_c)`` (N) and ``r`` (3,) the
+tool displacement in the cut frame (m). Only ``r[:2]`` (x_c, y_c) enters the chip thickness; the
+whole force, including the axial one (``Kac``), acts through ``B``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence, Union
+
+import numpy as np
+
+from cases.milling import cut_frame
+
+from ._errors import LobeError
+
+__all__ = [
+    "Mode",
+    "ModalStructure",
+    "PhysicalStructure",
+    "ReducedStructure",
+    "TruncationReport",
+    "StateSpace",
+    "Structure",
+]
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, copy=True)
+    a.setflags(write=False)
+    return a
+
+
+def _real_matrix(name: str, value) -> np.ndarray:
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise LobeError(f"{name} must be a real matrix, got {value!r}") from None
+    if a.ndim != 2:
+        raise LobeError(f"{name} must be a 2-D matrix, got an array of shape {a.shape}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise LobeError(f"{name} must be finite; entry [{i}, {j}] is {a[i, j]}")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class StateSpace:
+    """First-order tool-tip model ``dy/dt = A y + B F``, ``r = S y`` (internal, scaled coordinates).
+
+    Attributes
+    ----------
+    A : array (ns, ns), 1/s
+        Block-diagonal with 2 x 2 blocks (``block2``) in modal coordinates, which keeps its norm
+        near the largest pole (fewer squarings in the matrix exponential) and makes the free
+        propagator block-diagonal.
+    B : array (ns, 3)
+        Input: force on the tool in the cut frame, N.
+    S : array (3, ns)
+        Output: tool displacement in the cut frame, m.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    S: np.ndarray
+
+    def __post_init__(self) -> None:
+        for k in ("A", "B", "S"):
+            object.__setattr__(self, k, _ro(np.asarray(getattr(self, k), dtype=float)))
+        lam, V = np.linalg.eig(self.A)
+        object.__setattr__(self, "_lam", lam)
+        object.__setattr__(self, "_V", V)
+        n = self.A.shape[0]
+        off = self.A.copy()
+        if n % 2 == 0:
+            for k in range(0, n, 2):
+                off[k:k + 2, k:k + 2] = 0.0
+        object.__setattr__(self, "block2", bool(n % 2 == 0 and not np.any(off)))
+
+    @property
+    def blocks(self) -> np.ndarray:
+        """The 2 x 2 diagonal blocks of a block-diagonal ``A`` (``block2``), shape (ns/2, 2, 2)."""
+        n = self.A.shape[0]
+        return np.stack([self.A[k:k + 2, k:k + 2] for k in range(0, n, 2)])
+
+    @property
+    def n_states(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def poles(self) -> np.ndarray:
+        """Eigenvalues of ``A`` (ns,), complex, rad/s."""
+        return self._lam.copy()
+
+    def check_stable(self) -> None:
+        """Raise :class:`LobeError` if the structure alone is not asymptotically stable."""
+        worst = float(np.max(self._lam.real))
+        if worst >= 0:
+            raise LobeError(
+                f"the structure is not asymptotically stable without cutting (largest real part of its "
+                f"poles {worst:.6g} 1/s >= 0); stability lobes need a damped, stable structure"
+            )
+
+    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
+        """Tool-tip receptance ``S (i w I - A)^-1 B`` in the cut frame.
+
+        Parameters
+        ----------
+        freq_hz : array (F,), Hz
+
+        Returns
+        -------
+        complex array (F, 3, 3), m/N
+        """
+        w = 2 * np.pi * np.asarray(freq_hz, dtype=float).reshape(-1)
+        # modal evaluation: S V diag(1/(iw - lam)) V^-1 B
+        SV = self.S @ self._V
+        VB = np.linalg.solve(self._V, self.B)
+        g = 1.0 / (1j * w[:, None] - self._lam[None, :])
+        return np.einsum("ik,fk,kj->fij", SV, g, VB)
+
+    def static_compliance(self) -> np.ndarray:
+        """``-S A^-1 B`` (3, 3), m/N."""
+        return -self.S @ np.linalg.solve(self.A, self.B)
+
+    def mode_weights(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Split states ``y`` (..., ns) into modal contributions to the tool displacement.
+
+        Returns
+        -------
+        freq_rad_s : array (ns,)
+            ``|Im lambda_k|`` of each pole.
+        weight : array (..., ns)
+            ``|c_k| * ||S[:2] v_k||`` with ``y = sum_k c_k v_k``: how much pole k moves the tool
+            in the (x_c, y_c) plane.
+        """
+        c = np.linalg.solve(self._V, np.asarray(y).T).T
+        vis = np.linalg.norm(self.S[:2] @ self._V, axis=0)
+        return np.abs(self._lam.imag), np.abs(c) * vis
+
+
+def _real_modal_form(A: np.ndarray, B: np.ndarray, S: np.ndarray) -> StateSpace | None:
+    """``A`` in real 2 x 2 block-diagonal modal form, or None if the eigenvectors are ill-conditioned."""
+    lam, V = np.linalg.eig(A)
+    if not np.all(np.isfinite(V)) or np.linalg.cond(V) > 1e8:
+        return None
+    n = len(lam)
+    Vinv = np.linalg.inv(V)
+    cols, rows, blocks = [], [], []
+    used = np.zeros(n, bool)
+    reals = []
+    for k in np.argsort(np.abs(lam.imag), kind="stable"):
+        if used[k]:
+            continue
+        if lam[k].imag == 0.0:
+            reals.append(k)
+            used[k] = True
+            continue
+        if lam[k].imag < 0:
+            continue
+        j = int(np.argmin(np.where(used, np.inf, np.abs(lam - lam[k].conjugate()))))
+        used[k] = used[j] = True
+        cols += [V[:, k].real, V[:, k].imag]
+        rows += [2 * Vinv[k].real, -2 * Vinv[k].imag]
+        blocks.append(np.array([[lam[k].real, lam[k].imag], [-lam[k].imag, lam[k].real]]))
+    if not used.all() or len(reals) % 2:
+        return None
+    for a, b in zip(reals[::2], reals[1::2]):
+        cols += [V[:, a].real, V[:, b].real]
+        rows += [Vinv[a].real, Vinv[b].real]
+        blocks.append(np.diag([lam[a].real, lam[b].real]))
+    T = np.array(cols).T
+    L = np.array(rows)
+    if np.linalg.norm(L @ T - np.eye(n)) > 1e-8:
+        return None
+    from scipy.linalg import block_diag
+
+    return StateSpace(block_diag(*blocks), L @ B, S @ T)
+
+
+@dataclass(frozen=True, eq=False)
+class PhysicalStructure:
+    """``M q'' + C q' + K q = tcp^T F``, tool displacement ``r = tcp q`` in the cut frame.
+
+    Parameters
+    ----------
+    M, C, K : array (n, n)
+        Mass, damping, stiffness in SI units of the generalized coordinates (need not be
+        symmetric; ``M`` must be invertible).
+    tcp : array (3, n) or (2, n)
+        Rows mapping the coordinates to the tool-tip displacement along ``x_c`` (feed), ``y_c``
+        (normal) and, if given, ``z_c`` (axial), m per unit coordinate. A 2-row ``tcp`` means no
+        axial motion (the axial force then does no work).
+    """
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    tcp: np.ndarray
+
+    def __post_init__(self) -> None:
+        M, C, K = (_real_matrix(k, getattr(self, k)) for k in ("M", "C", "K"))
+        if M.shape[0] != M.shape[1]:
+            raise LobeError(f"M must be square n x n, got {M.shape[0]} x {M.shape[1]}")
+        n = M.shape[0]
+        for name, a in (("C", C), ("K", K)):
+            if a.shape != (n, n):
+                raise LobeError(f"{name} is {a.shape[0]} x {a.shape[1]} but M is {n} x {n}; M, C, K must all be n x n")
+        tcp = _real_matrix("tcp", self.tcp)
+        if tcp.shape not in ((2, n), (3, n)):
+            raise LobeError(
+                f"tcp must be 2 x n or 3 x n (rows x_c, y_c[, z_c] of the cut frame) with n = {n}, "
+                f"got {tcp.shape[0]} x {tcp.shape[1]}"
+            )
+        if tcp.shape[0] == 2:
+            tcp = np.vstack([tcp, np.zeros((1, n))])
+        if not np.any(tcp[:2]):
+            raise LobeError("tcp rows x_c, y_c are all zero: the structure does not move the tool in the cut plane")
+        cond = np.linalg.cond(M)
+        if not np.isfinite(cond) or cond > 1e13:
+            raise LobeError(f"M is singular or nearly so (condition number {cond:.3g}); it must be invertible")
+        for k, v in (("M", M), ("C", C), ("K", K), ("tcp", tcp)):
+            object.__setattr__(self, k, _ro(v))
+
+    @property
+    def n_dof(self) -> int:
+        return self.M.shape[0]
+
+    @classmethod
+    def from_linear(cls, lin, feed_direction) -> "PhysicalStructure":
+        """From a :class:`linearize.LinearModel` (``M, C, K``, base-frame ``J`` (3 x n), ``tool_axis``).
+
+        ``tcp = cut_frame(feed_direction, lin.tool_axis) @ lin.J``.
+
+        Parameters
+        ----------
+        lin : linearize.LinearModel
+        feed_direction : array (3,)
+            Feed direction in the robot base frame.
+        """
+        R = cut_frame(np.asarray(feed_direction, dtype=float), np.asarray(lin.tool_axis, dtype=float))
+        return cls(lin.M, lin.C, lin.K, R @ np.asarray(lin.J, dtype=float))
+
+    def state_space(self) -> StateSpace:
+        """Internal first-order model in real modal coordinates (2 x 2 blocks per complex pair, real
+        poles paired into diagonal blocks); if the eigenvectors are ill-conditioned (cond > 1e8),
+        the physical state ``[q; q' / w_s]`` with the velocities scaled by the largest undamped
+        frequency ``w_s``."""
+        n = self.n_dof
+        MiK = np.linalg.solve(self.M, self.K)
+        MiC = np.linalg.solve(self.M, self.C)
+        MiP = np.linalg.solve(self.M, self.tcp.T)
+        ws = math.sqrt(max(float(np.max(np.abs(np.linalg.eigvals(MiK)))), 1e-30))
+        A = np.block([[np.zeros((n, n)), ws * np.eye(n)], [-MiK / ws, -MiC]])
+        B = np.vstack([np.zeros((n, 3)), MiP / ws])
+        S = np.hstack([self.tcp, np.zeros((3, n))])
+        modal = _real_modal_form(A, B, S)
+        return modal if modal is not None else StateSpace(A, B, S)
+
+    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
+        """Tool-tip receptance in the cut frame, complex (F, 3, 3), m/N (direct solve)."""
+        w = 2 * np.pi * np.asarray(freq_hz, dtype=float).reshape(-1)
+        Z = self.K[None] - (w**2)[:, None, None] * self.M[None] + 1j * w[:, None, None] * self.C[None]
+        X = np.linalg.solve(Z, np.broadcast_to(self.tcp.T, (len(w),) + self.tcp.T.shape))
+        return self.tcp[None] @ X
+
+    def truncated(
+        self,
+        *,
+        max_freq_hz: float | None = None,
+        n_modes: int | None = None,
+        band_hz: tuple[float, float] | None = None,
+    ) -> "ReducedStructure":
+        """Modal truncation: keep the lowest modes (by ``|lambda| / 2 pi``), drop the rest.
+
+        Parameters
+        ----------
+        max_freq_hz : float, optional
+            Keep modes whose natural frequency ``|lambda| / 2 pi`` is at most this, Hz (for an
+            overdamped real pole that is its corner frequency).
+        n_modes : int, optional
+            Keep this many lowest modes (a complex pair counts once, a real pole as one mode).
+        band_hz : (float, float), optional
+            Band in which the FRF error is reported, Hz. Default ``(0, 1.5 * highest kept)``.
+
+        Returns
+        -------
+        ReducedStructure
+            With its :class:`TruncationReport` (static compliance error and FRF error in the band).
+        """
+        return _truncate(self.state_space(), max_freq_hz=max_freq_hz, n_modes=n_modes, band_hz=band_hz)
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One measured (hammer-test) mode of the tool tip.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Undamped natural frequency, Hz (> 0).
+    damping_ratio : float
+        Viscous damping ratio zeta, 0 < zeta < 1.
+    stiffness_n_per_m : float
+        Modal stiffness along ``direction``, N/m (> 0).
+    direction : (float, float)
+        Unit vector ``[x, y]`` in the cut frame (x_c feed, y_c normal) along which the mode moves
+        the tool.
+    """
+
+    freq_hz: float
+    damping_ratio: float
+    stiffness_n_per_m: float
+    direction: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        def num(name, v):
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise LobeError(f"mode {name} must be a number, got {v!r}") from None
+            if not math.isfinite(x):
+                raise LobeError(f"mode {name} must be finite, got {x}")
+            return x
+
+        f = num("freq_hz", self.freq_hz)
+        z = num("damping_ratio", self.damping_ratio)
+        k = num("stiffness_n_per_m", self.stiffness_n_per_m)
+        if f <= 0:
+            raise LobeError(f"mode freq_hz must be > 0 Hz, got {f}")
+        if not 0.0 < z < 1.0:
+            raise LobeError(f"mode damping_ratio must be in (0, 1) (an underdamped, damped mode), got {z}")
+        if k <= 0:
+            raise LobeError(f"mode stiffness_n_per_m must be > 0, got {k}")
+        try:
+            d = np.array(self.direction, dtype=float)
+        except (TypeError, ValueError):
+            raise LobeError(f"mode direction must be [x, y], got {self.direction!r}") from None
+        if d.shape != (2,) or not np.all(np.isfinite(d)):
+            raise LobeError(f"mode direction must be a finite unit vector [x, y] in the cut frame, got {self.direction!r}")
+        nd = float(np.linalg.norm(d))
+        if abs(nd - 1.0) > 1e-3:
+            raise LobeError(
+                f"mode direction {d.tolist()} has norm {nd:.6g}; it must be a unit vector [x, y] in the cut "
+                f"frame (e.g. [1, 0] for the feed direction)"
+            )
+        object.__setattr__(self, "freq_hz", f)
+        object.__setattr__(self, "damping_ratio", z)
+        object.__setattr__(self, "stiffness_n_per_m", k)
+        object.__setattr__(self, "direction", tuple((d / nd).tolist()))
+
+    @property
+    def omega_rad_s(self) -> float:
+        return 2 * math.pi * self.freq_hz
+
+    @property
+    def mass_kg(self) -> float:
+        """Modal mass ``k / w_n^2``, kg."""
+        return self.stiffness_n_per_m / self.omega_rad_s**2
+
+
+@dataclass(frozen=True)
+class ModalStructure:
+    """Uncoupled modes of the tool tip, each moving it along its own direction in the cut plane.
+
+    The equivalent physical structure has one coordinate per mode (modal displacement in m along
+    the mode's direction): ``M = diag(k/w^2)``, ``C = diag(2 zeta k / w)``, ``K = diag(k)``,
+    ``tcp = [[d_x...], [d_y...], [0...]]``; its receptance is ``sum d d^T / (k (1 - r^2 + 2 i zeta r))``.
+    """
+
+    modes: tuple[Mode, ...]
+
+    def __post_init__(self) -> None:
+        modes = tuple(self.modes) if isinstance(self.modes, (list, tuple)) else (self.modes,)
+        if not modes:
+            raise LobeError("a ModalStructure needs at least one Mode")
+        for i, m in enumerate(modes):
+            if not isinstance(m, Mode):
+                raise LobeError(f"modes[{i}] must be a Mode, got {type(m).__name__}")
+        object.__setattr__(self, "modes", modes)
+
+    def to_physical(self) -> PhysicalStructure:
+        k = np.array([m.stiffness_n_per_m for m in self.modes])
+        w = np.array([m.omega_rad_s for m in self.modes])
+        z = np.array([m.damping_ratio for m in self.modes])
+        d = np.array([m.direction for m in self.modes]).T  # (2, n)
+        return PhysicalStructure(np.diag(k / w**2), np.diag(2 * z * k / w), np.diag(k), d)
+
+    def state_space(self) -> StateSpace:
+        """One 2 x 2 block per mode, state ``(q_k, q_k' / w_k)``: ``[[0, w], [-w, -2 zeta w]]``."""
+        n = len(self.modes)
+        A = np.zeros((2 * n, 2 * n))
+        B = np.zeros((2 * n, 3))
+        S = np.zeros((3, 2 * n))
+        for k, md in enumerate(self.modes):
+            w, z = md.omega_rad_s, md.damping_ratio
+            A[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[0.0, w], [-w, -2 * z * w]]
+            B[2 * k + 1, :2] = np.array(md.direction) / (md.mass_kg * w)
+            S[:2, 2 * k] = md.direction
+        return StateSpace(A, B, S)
+
+    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
+        """Tool-tip receptance in the cut frame, complex (F, 3, 3), m/N."""
+        return self.to_physical().frf(freq_hz)
+
+
+@dataclass(frozen=True)
+class TruncationReport:
+    """What a modal truncation dropped and what it costs.
+
+    Attributes
+    ----------
+    kept_freq_hz, dropped_freq_hz : tuple of float
+        Natural frequencies ``|lambda| / 2 pi`` of the kept and dropped modes, Hz.
+    static_compliance_rel_error : float
+        ``||G_red(0) - G(0)|| / ||G(0)||`` (2-norm of the 3 x 3 cut-frame compliance).
+    frf_rel_error : float
+        ``max_band ||G_red - G|| / max_band ||G||`` over ``band_hz``.
+    band_hz : (float, float)
+    """
+
+    kept_freq_hz: tuple[float, ...]
+    dropped_freq_hz: tuple[float, ...]
+    static_compliance_rel_error: float
+    frf_rel_error: float
+    band_hz: tuple[float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedStructure:
+    """A modally truncated structure (real block-diagonal modal state space) and its error report."""
+
+    ss: StateSpace
+    report: TruncationReport
+
+    def state_space(self) -> StateSpace:
+        return self.ss
+
+    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
+        return self.ss.frf(freq_hz)
+
+
+def _truncate(ss: StateSpace, *, max_freq_hz, n_modes, band_hz) -> ReducedStructure:
+    if (max_freq_hz is None) == (n_modes is None):
+        raise LobeError("give exactly one of max_freq_hz or n_modes for a modal truncation")
+    lam, V = ss._lam, ss._V
+    f = np.abs(lam) / (2 * np.pi)  # undamped natural frequency; corner frequency of a real pole
+    # one representative per physical mode: Im >= 0 (real poles are their own mode)
+    rep = np.flatnonzero(lam.imag >= 0)
+    order = rep[np.argsort(f[rep], kind="stable")]
+    if max_freq_hz is not None:
+        if not (isinstance(max_freq_hz, (int, float)) and math.isfinite(max_freq_hz) and max_freq_hz > 0):
+            raise LobeError(f"max_freq_hz must be a finite frequency > 0 Hz, got {max_freq_hz!r}")
+        keep_rep = [k for k in order if f[k] <= max_freq_hz]
+    else:
+        if isinstance(n_modes, bool) or not isinstance(n_modes, (int, np.integer)) or not 1 <= n_modes <= len(order):
+            raise LobeError(f"n_modes must be an integer in [1, {len(order)}], got {n_modes!r}")
+        keep_rep = list(order[: int(n_modes)])
+    if not keep_rep:
+        raise LobeError(f"no mode below max_freq_hz = {max_freq_hz} Hz (lowest is {f[order[0]]:.6g} Hz)")
+    Vinv = np.linalg.inv(V)
+    cols, rowsL, blocks = [], [], []
+    used = np.zeros(len(lam), bool)
+    for k in keep_rep:
+        if abs(lam[k].imag) > 0:
+            # real basis of the pair: V [a b], A [a b] = [a b] [[s, w], [-w, s]]
+            a, b = V[:, k].real, V[:, k].imag
+            la, lb = 2 * Vinv[k].real, -2 * Vinv[k].imag
+            cols += [a, b]
+            rowsL += [la, lb]
+            blocks.append(np.array([[lam[k].real, lam[k].imag], [-lam[k].imag, lam[k].real]]))
+            used[k] = True
+            used[np.argmin(np.abs(lam - lam[k].conjugate()))] = True
+        else:
+            cols.append(V[:, k].real)
+            rowsL.append(Vinv[k].real)
+            blocks.append(np.array([[lam[k].real]]))
+            used[k] = True
+    T = np.array(cols).T
+    L = np.array(rowsL)
+    from scipy.linalg import block_diag
+
+    Ar = block_diag(*blocks)
+    Br = L @ ss.B
+    Sr = ss.S @ T
+    red = StateSpace(Ar, Br, Sr)
+    kept = tuple(sorted(float(f[k]) for k in keep_rep))
+    dropped_rep = [k for k in order if k not in set(keep_rep)]
+    dropped = tuple(sorted(float(f[k]) for k in dropped_rep))
+    G0 = ss.static_compliance()
+    Gr0 = red.static_compliance()
+    st_err = float(np.linalg.norm(Gr0 - G0, 2) / np.linalg.norm(G0, 2))
+    if band_hz is None:
+        band_hz = (0.0, 1.5 * max(kept) if max(kept) > 0 else 1.0)
+    lo, hi = (float(band_hz[0]), float(band_hz[1]))
+    if not (0 <= lo < hi and math.isfinite(hi)):
+        raise LobeError(f"band_hz must be (lo, hi) with 0 <= lo < hi, got {band_hz!r}")
+    fb = np.linspace(lo, hi, 4001)
+    Hf, Hr = ss.frf(fb), red.frf(fb)
+    num = np.max(np.linalg.norm(Hr - Hf, ord=2, axis=(1, 2)))
+    den = np.max(np.linalg.norm(Hf, ord=2, axis=(1, 2)))
+    rep_ = TruncationReport(kept, dropped, st_err, float(num / den), (lo, hi))
+    return ReducedStructure(red, rep_)
+
+
+Structure = Union[PhysicalStructure, ModalStructure, ReducedStructure]

@@ -1,0 +1,125 @@
+"""``robolobes lobes``: modal TOML input, JSON output, PNG written atomically, robot pose input."""
+
+import argparse
+import json
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from lobes import LobeError
+from lobes.cli import read_modal_toml, register, run
+
+MODAL = """
+[[modes]]
+freq_hz = 922
+damping_ratio = 0.011
+stiffness_n_per_m = 1.34003e6
+direction = [1, 0]
+
+[[modes]]
+freq_hz = 922
+damping_ratio = 0.011
+stiffness_n_per_m = 1.34003e6
+direction = [0, 1]
+"""
+
+TOOLARGS = ["--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5", "--down", "--ktc-mpa", "600", "--krc-mpa", "200"]
+
+
+def parser():
+    p = argparse.ArgumentParser(prog="robolobes")
+    sub = p.add_subparsers(dest="command")
+    register(sub)
+    return p
+
+
+def test_modal_json_and_png(tmp_path, capsys):
+    f = tmp_path / "modes.toml"
+    f.write_text(MODAL)
+    png = tmp_path / "lobes.png"
+    args = parser().parse_args(["lobes", "--modal", str(f), *TOOLARGS, "--rpm-min", "18000", "--rpm-max", "19000",
+                                "--n-rpm", "11", "--at-rpm", "10000", "--at-depth-mm", "1", "--json", "--out",
+                                str(png), "--quiet"])
+    assert args.run(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert_allclose(out["rpm"], np.linspace(18000, 19000, 11))
+    assert len(out["depth_limit_m"]) == 11 and len(out["chatter_freq_hz"]) == 11 and len(out["bifurcation"]) == 11
+    # the symmetric 2-DOF benchmark at m = 40: flip minimum 0.849 mm near 18 700 rpm (test_lobes)
+    j = int(np.argmin(out["depth_limit_m"]))
+    assert out["bifurcation"][j] == "flip" and abs(out["rpm"][j] - 18700) <= 100
+    assert_allclose(out["depth_limit_m"][j], 0.8493e-3, rtol=2e-3)
+    op = out["operating_point"]
+    assert set(op) >= {"rpm", "depth_m", "spectral_radius", "stable", "margin"}
+    assert op["rpm"] == 10000 and op["depth_m"] == pytest.approx(1e-3) and isinstance(op["stable"], bool)
+    assert op["stable"] == (op["margin"] > 0)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["lobes.png", "modes.toml"]  # no temp file left
+
+
+def test_interrupted_plot_leaves_no_file(tmp_path, monkeypatch):
+    f = tmp_path / "modes.toml"
+    f.write_text(MODAL)
+    png = tmp_path / "lobes.png"
+    import matplotlib.figure
+
+    def boom(self, fname, *a, **k):
+        with open(fname, "wb") as fh:
+            fh.write(b"\x89PNG partial")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", boom)
+    args = parser().parse_args(["lobes", "--modal", str(f), *TOOLARGS, "--n-rpm", "3", "--out", str(png), "--quiet"])
+    with pytest.raises(KeyboardInterrupt):
+        run(args)
+    assert list(tmp_path.iterdir()) == [f]
+
+
+def test_modal_file_errors(tmp_path):
+    f = tmp_path / "bad.toml"
+    f.write_text(MODAL.replace("direction = [1, 0]", "direction = [1, 1]"))
+    with pytest.raises(LobeError, match=r"bad.toml: modes\[0\].*unit vector"):
+        read_modal_toml(f)
+    f.write_text(MODAL.replace("damping_ratio = 0.011\nstiffness_n_per_m = 1.34003e6\ndirection = [0, 1]",
+                               "damping_ratio = 0.011\ndirection = [0, 1]"))
+    with pytest.raises(LobeError, match=r"modes\[1\] is missing stiffness_n_per_m"):
+        read_modal_toml(f)
+    f.write_text("x = 1\n")
+    with pytest.raises(LobeError, match=r"at least one \[\[modes\]\]"):
+        read_modal_toml(f)
+    g = tmp_path / "ok.toml"
+    g.write_text(MODAL)
+    with pytest.raises(LobeError, match="missing --teeth"):
+        run(parser().parse_args(["lobes", "--modal", str(g), "--diameter-mm", "10", "--ae-mm", "1",
+                                 "--ktc-mpa", "600", "--krc-mpa", "200"]))
+    with pytest.raises(LobeError, match="--rpm-max"):
+        run(parser().parse_args(["lobes", "--modal", str(g), *TOOLARGS, "--rpm-min", "9000", "--rpm-max", "8000"]))
+    with pytest.raises(ValueError, match="exceeds the tool diameter"):
+        run(parser().parse_args(["lobes", "--modal", str(g), "--teeth", "2", "--diameter-mm", "10", "--ae-mm", "12",
+                                 "--ktc-mpa", "600", "--krc-mpa", "200", "--n-rpm", "2"]))
+
+
+def test_dispatcher_reports_bad_input(tmp_path, capsys):
+    robolobes = pytest.importorskip("robolobes")
+    g = tmp_path / "ok.toml"
+    g.write_text(MODAL)
+    rc = robolobes.main(["lobes", "--modal", str(g), *TOOLARGS, "--m", "1", "--n-rpm", "2"])
+    assert rc == 2
+    assert "--m must be an integer >= 2" in capsys.readouterr().err
+
+
+def test_robot_pose_operating_point(capsys):
+    linearize = pytest.importorskip("linearize")
+    if not hasattr(linearize, "linearize"):
+        pytest.skip("linearize not ready")
+    args = parser().parse_args(["lobes", "--case", "tx200-aluminium", "--variant", "basic", "--pose", "tab7",
+                                "--rpm-min", "18000", "--rpm-max", "19000", "--n-rpm", "3", "--json", "--quiet"])
+    assert run(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    op = out["operating_point"]
+    # the case's own cut: 18 700 rpm, 1.6 mm, stable with margin 2.18 (test_lobes_robot)
+    assert op["rpm"] == 18700 and op["depth_m"] == pytest.approx(1.6e-3)
+    assert op["stable"] is True and op["verdict"] == "stable"
+    assert_allclose(op["margin"], 2.1824, atol=5e-3)
+    assert math.isclose(op["spectral_radius"], 0.99525, abs_tol=1e-4)
