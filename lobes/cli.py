@@ -27,6 +27,8 @@ from cases.milling import Cut, CuttingLaw, MillingError, Tool
 
 from ._errors import LobeError
 from .problem import LobeProblem
+from linearize.cli import add_pose_arguments
+
 from .sdm import SemiDiscretization
 from .solve import solve, stability
 from .structure import Mode, ModalStructure, PhysicalStructure
@@ -35,26 +37,12 @@ from .zoa import ZeroOrder
 __all__ = ["register", "run", "read_modal_toml"]
 
 
-def _add_pose_arguments(p: argparse.ArgumentParser) -> None:
-    try:
-        from linearize.cli import add_pose_arguments
-    except ImportError:  # pragma: no cover - linearize without a CLI
-        p.add_argument("--case", default="tx200-aluminium")
-        p.add_argument("--variant", default="basic")
-        g = p.add_mutually_exclusive_group()
-        g.add_argument("--pose", default=None)
-        g.add_argument("--path-s", type=float, default=None)
-        g.add_argument("--q-deg", default=None)
-        return
-    add_pose_arguments(p)
-
-
 def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``lobes`` subcommand to an argparse subparsers object."""
     p = subparsers.add_parser(
         "lobes", help="stability lobe diagram (semi-discretization or zero-order)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    _add_pose_arguments(p)
+    add_pose_arguments(p)
     p.add_argument("--method", choices=("sdm", "zoa"), default="sdm",
                    help="sdm: first-order semi-discretization (default); zoa: Altintas-Budak zero-order")
     p.add_argument("--scheme", choices=("sdm", "free-exact"), default="sdm",

@@ -316,6 +316,7 @@ def stability(
     segments: int = 6,
     growth_floor: float = 1e-5,
     min_decay_per_s: float = 0.0,
+    min_growth_per_window: float = 2.0,
 ) -> StabilityVerdict:
     """Stable / unstable from the once-per-revolution samples of ``x`` (criterion: module docstring).
 
@@ -344,9 +345,11 @@ def stability(
         ``trend_se_per_s``; dying out iff ``trend + 2 se < 0`` (the decay is significant). A
         chaotic or saturated chatter whose RMS fluctuates from segment to segment can pass the
         two-point "thirds" test by chance; it does not show a significant exponential decay.
-        Also unstable under "trend": a significant growth (``trend - 2 se > 0``) of a
+        Also unstable under "trend": a clear exponential growth (``trend - 2 se`` above
+        ``min_growth_per_window / window``, i.e. by e^2 over the window by default) of a
         non-synchronous motion above ``growth_floor`` times the forced peak-to-peak, even while it
-        is still below ``threshold`` (a slow instability caught early).
+        is still below ``threshold`` (a slow instability caught early; slower trends are drift of
+        the forced response, e.g. along a pass).
     segments : int
         Segments of the "trend" rule (>= 3, each of at least 5 sections).
     growth_floor : float
@@ -406,7 +409,7 @@ def stability(
             trend = float(coef[1])
             se = float(np.sqrt((resid ** 2).sum() / (segments - 2) / ((tc - tc.mean()) ** 2).sum()))
             dying = trend + 2 * se < -float(min_decay_per_s)
-            growing = trend - 2 * se > 0 and ratio > growth_floor
+            growing = trend - 2 * se > float(min_growth_per_window) / (hi - lo) and ratio > growth_floor
         else:
             dying = True  # no non-synchronous motion left at all in some segment
     else:
