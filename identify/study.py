@@ -504,8 +504,9 @@ def _verdict(v):
 
 
 def _mm(v):
-    """m -> mm for the report; None stands for 'no limit found' (inf in the computation)."""
-    return "> 10 (none found)" if v is None else _fmt(v * 1e3)
+    """m -> mm for the report; None: no limit found up to the search bound (10 x ap for operating
+    points, lobes.stability's default)."""
+    return "none below 10 ap" if v is None else _fmt(v * 1e3)
 
 
 def _report(results: dict, settings: StudySettings) -> str:

@@ -131,6 +131,25 @@ def _interp(tab, dt, t):  # pragma: no cover - numba
     return i, f
 
 
+@njit(inline="always")
+def _newmark_av(q, q_n, v_n, base_a, vpred, ca, gh, h, a, v):  # pragma: no cover - numba
+    """Newmark (gamma 1/2, beta 1/4): acceleration and velocity of the iterate q, in place."""
+    for i in range(q.shape[0]):
+        a[i] = ca * (q[i] - q_n[i] - h * v_n[i]) - base_a[i]
+        v[i] = vpred[i] + gh * a[i]
+
+
+@njit(inline="always")
+def _centre(Jc, q, s1, c_off):  # pragma: no cover - numba
+    """Tool centre (x_c, y_c) of ``LinearSystemData.center``: commanded s + static offset + Jc q."""
+    jx = 0.0
+    jy = 0.0
+    for i in range(q.shape[0]):
+        jx += Jc[0, i] * q[i]
+        jy += Jc[1, i] * q[i]
+    return (s1 + c_off[0]) + jx, c_off[1] + jy
+
+
 @njit(cache=True, nogil=True)
 def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                lu, piv, M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab,
@@ -187,17 +206,9 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
         its = 0
         for it in range(1, max_iter + 1):
             its = it
-            for i in range(n):
-                a[i] = ca * (q[i] - q_n[i] - h * v_n[i]) - base_a[i]
-                v[i] = vpred[i] + gh * a[i]
+            _newmark_av(q, q_n, v_n, base_a, vpred, ca, gh, h, a, v)
             # tool centre c(dq, t1) and the cutting force on the tool (cut frame)
-            jx = 0.0
-            jy = 0.0
-            for i in range(n):
-                jx += Jc[0, i] * q[i]
-                jy += Jc[1, i] * q[i]
-            cx = (s1 + c_off[0]) + jx
-            cy = (0.0 + c_off[1]) + jy
+            cx, cy = _centre(Jc, q, s1, c_off)
             _chip_kernel(wb, x0, dx, cx, sgn * cy, sgn, phi, radius, hh, dh)
             fx = 0.0
             fy = 0.0
@@ -302,16 +313,8 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
             counters[5] = k + 1
             return status
         # accept
-        for i in range(n):
-            a[i] = ca * (q[i] - q_n[i] - h * v_n[i]) - base_a[i]
-            v[i] = vpred[i] + gh * a[i]
-        jx = 0.0
-        jy = 0.0
-        for i in range(n):
-            jx += Jc[0, i] * q[i]
-            jy += Jc[1, i] * q[i]
-        cx = (s1 + c_off[0]) + jx
-        cy = (0.0 + c_off[1]) + jy
+        _newmark_av(q, q_n, v_n, base_a, vpred, ca, gh, h, a, v)
+        cx, cy = _centre(Jc, q, s1, c_off)
         # record (force of the last residual evaluation; centre at the accepted state), then commit
         rec_f[k + 1, 0] = fx
         rec_f[k + 1, 1] = fy

@@ -160,6 +160,14 @@ def _ro(a):
     return a
 
 
+def _lerp_row(tab: np.ndarray, dt: float, t: float):
+    """Row of a uniform table (spacing dt from t = 0) at time t, linearly interpolated, clamped."""
+    x = t / dt
+    i = min(max(int(x), 0), len(tab) - 2)
+    f = x - i
+    return tab[i] + f * (tab[i + 1] - tab[i])
+
+
 class _Setup:
     """Everything a run needs, built once: model, pass, cut frame, part, motor-angle tables."""
 
@@ -198,10 +206,7 @@ class _Setup:
         return float(np.min(-np.asarray(lin.modes().poles).real))
 
     def theta(self, t: float) -> np.ndarray:
-        x = t / self.dt_tab
-        i = min(max(int(x), 0), len(self.t_tab) - 2)
-        f = x - i
-        return self.th_tab[i] + f * (self.th_tab[i + 1] - self.th_tab[i])
+        return _lerp_row(self.th_tab, self.dt_tab, t)
 
     def center_of(self, p_tcp: np.ndarray) -> np.ndarray:
         return self.Rc[:2] @ (p_tcp - self.p_ref)
@@ -315,10 +320,7 @@ class LinearSystemData:
 
     def interp(self, tab: np.ndarray, t: float):
         """Linear interpolation of a table row at time t (clamped to the table)."""
-        x = t / self.dt_tab
-        i = min(max(int(x), 0), len(self.t_tab) - 2)
-        f = x - i
-        return tab[i] + f * (tab[i + 1] - tab[i])
+        return _lerp_row(tab, self.dt_tab, t)
 
     def center(self, dq: np.ndarray, t: float) -> np.ndarray:
         """Tool centre (x_c, y_c) in the cut frame, m."""
