@@ -589,7 +589,7 @@ def _report(results: dict, settings: StudySettings) -> str:
     a("|---|---|---|---|---|---|---|---|")
     for k, e in results["time_domain"]["runs"].items():
         fs = e.get("force_stats_paper_axes", {}).get("y", {})
-        r = e.get("roughness_um", {})
+        r = (e.get("roughness_um") or {})
         a(f"| {k} | {_fmt(e.get('stable'))} | {_fmt(e.get('chatter_freq_hz'), 1)} | {_fmt(fs.get('min'), 1)} | "
           f"{_fmt(fs.get('rms'), 1)} | {_fmt(r.get('Ra'))} / {_fmt(r.get('Rt'))} | {e['t_end_s']:.2f} | {e['wall_s']:.1f} |")
     a("\n![time domain](time_domain.png)\n")
@@ -676,10 +676,12 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
         results["roughness"] = {
             "paper aluminium simulation": paper["aluminium"]["roughness_um"]["simulation"],
             "paper aluminium experimental": paper["aluminium"]["roughness_um"]["experimental"],
-            "robolobes aluminium basic": td["runs"]["aluminium/basic"].get("roughness_um", {}),
+            "robolobes aluminium basic": td["runs"]["aluminium/basic"].get("roughness_um") or {},
+            "robolobes aluminium backlash": td["runs"]["aluminium/backlash"].get("roughness_um") or {},
             "paper steel simulation": paper["steel"]["roughness_um"]["simulation"],
             "paper steel experimental": paper["steel"]["roughness_um"]["experimental"],
-            "robolobes steel basic": td["runs"]["steel/basic"].get("roughness_um", {}),
+            "robolobes steel basic": td["runs"]["steel/basic"].get("roughness_um") or {},
+            "robolobes steel backlash": td["runs"]["steel/backlash"].get("roughness_um") or {},
         }
         results["explanation"] = _explanation(cases_, results["modes"], lobes_out, td, lobes_damping,
                                               results["steel_damping"]["time_domain"])

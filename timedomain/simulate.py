@@ -591,31 +591,38 @@ def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *, l
                                               "rms": fp.rms_n[i]} for i, ax in enumerate("xy")}
         Tp, pname = principal_period(case.tool, case.cut)
         out["verdict_section"] = f"once per {pname} period ({Tp * 1e3:.3f} ms)"
-        # a transient must decay at least at a quarter of the slowest free robot mode's rate
-        # (cutting slows the decay near the boundary; slower than that is, over a window of a few
-        # seconds, indistinguishable from saturated chatter: conservative)
-        min_decay = 0.25 * slowest_decay_per_s if slowest_decay_per_s is not None else 0.0
-        verdict = stability(t, result.tcp_deviation_m[:, :2], Tp, t_start_s=t0, t_end_s=t1, decay_limit=DECAY_LIMIT,
-                            rule="trend", min_decay_per_s=min_decay)
-        forced = "tooth" if (pname == "tooth" and not _has_runout(case.tool)) else "spindle"
-        cf = chatter_frequency(t, result.tcp_deviation_m[:, :2], 1.0 / T, teeth=case.tool.teeth, harmonics=forced,
-                               t_start_s=t0, t_end_s=t1)
-        ringing = None if slowest_decay_per_s is None else math.exp(-slowest_decay_per_s * (t1 - t0) * 2 / 3)
-        stable = verdict.stable
-        if not stable and ringing is not None and ringing > DECAY_LIMIT:
-            # a free robot mode would itself lose less than the required 20 % over this window (and
-            # close modes beat): ringing after the entry cannot be told from chatter
-            stable = None
-            out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
-                           f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two thirds "
-                           f"of the {t1 - t0:.2f} s steady window; simulate longer")
-        out["stable"] = stable
-        out["stability"] = {"ratio": verdict.ratio, "decay": verdict.decay, "threshold": verdict.threshold,
-                            "trend_per_s": verdict.trend_per_s, "trend_se_per_s": verdict.trend_se_per_s,
-                            "slowest_mode_decay_over_window": ringing}
-        out["chatter_freq_hz"] = cf.freq_hz if stable is False else None
-        out["nonsynchronous_peak_hz"] = cf.freq_hz
-        out["nonsynchronous_ratio"] = cf.ratio
+        n_sec = int((t1 - t0) / Tp + 1e-9)
+        if n_sec < 30:
+            # the trend rule needs 6 segments of >= 5 sections
+            out.update(stable=None, chatter_freq_hz=None,
+                       note=f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
+                            f"verdict needs 30: simulate longer")
+        else:
+            # a transient must decay at least at a quarter of the slowest free robot mode's rate
+            # (cutting slows the decay near the boundary; slower than that is, over a window of a few
+            # seconds, indistinguishable from saturated chatter: conservative)
+            min_decay = 0.25 * slowest_decay_per_s if slowest_decay_per_s is not None else 0.0
+            verdict = stability(t, result.tcp_deviation_m[:, :2], Tp, t_start_s=t0, t_end_s=t1, decay_limit=DECAY_LIMIT,
+                                rule="trend", min_decay_per_s=min_decay)
+            forced = "tooth" if (pname == "tooth" and not _has_runout(case.tool)) else "spindle"
+            cf = chatter_frequency(t, result.tcp_deviation_m[:, :2], 1.0 / T, teeth=case.tool.teeth, harmonics=forced,
+                                   t_start_s=t0, t_end_s=t1)
+            ringing = None if slowest_decay_per_s is None else math.exp(-slowest_decay_per_s * (t1 - t0) * 2 / 3)
+            stable = verdict.stable
+            if not stable and ringing is not None and ringing > DECAY_LIMIT:
+                # a free robot mode would itself lose less than the required 20 % over this window (and
+                # close modes beat): ringing after the entry cannot be told from chatter
+                stable = None
+                out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
+                               f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two thirds "
+                               f"of the {t1 - t0:.2f} s steady window; simulate longer")
+            out["stable"] = stable
+            out["stability"] = {"ratio": verdict.ratio, "decay": verdict.decay, "threshold": verdict.threshold,
+                                "trend_per_s": verdict.trend_per_s, "trend_se_per_s": verdict.trend_se_per_s,
+                                "slowest_mode_decay_over_window": ringing}
+            out["chatter_freq_hz"] = cf.freq_hz if stable is False else None
+            out["nonsynchronous_peak_hz"] = cf.freq_hz
+            out["nonsynchronous_ratio"] = cf.ratio
         dy = result.tcp_deviation_m[(t >= t0) & (t <= t1), 1]
         out["tcp_deviation_y_um"] = {"min": float(dy.min() * 1e6), "max": float(dy.max() * 1e6)}
     else:
@@ -628,7 +635,11 @@ def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *, l
         x_lo = workpiece.x_entry_m + case.tool.radius_m
         x_hi = min(workpiece.x_exit_m, last_centre_x_m - case.tool.radius_m)
         out["wall_x_range_m"] = [x_lo, x_hi]
-        if x_hi - x_lo > 2.5e-3:
+        out["roughness_um"] = None
+        if x_hi - x_lo <= 2.5e-3:
+            out["roughness_note"] = (f"finished wall {max(0.0, x_hi - x_lo) * 1e3:.2f} mm long: too short for the "
+                                     f"0.8 mm cutoff and its run-in/run-out (needs > 2.5 mm); simulate longer")
+        else:
             rough = workpiece.roughness(x_range_m=(x_lo, x_hi), form="gaussian", cutoff_m=0.8e-3)
             out["roughness_um"] = {"Ra": rough.ra_um, "Rq": rough.rq_um, "Rt": rough.rt_um}
             out["roughness_evaluation_length_m"] = rough.evaluation_length_m

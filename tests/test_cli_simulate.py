@@ -1,0 +1,44 @@
+"""``robolobes simulate`` end to end: files, JSON summary keys, bad input."""
+
+import json
+
+import numpy as np
+import pytest
+
+import robolobes
+
+
+def test_simulate_writes_series_plots_and_summary(tmp_path, capsys):
+    out = tmp_path / "sim"
+    rc = robolobes.main(["simulate", "--duration", "0.3", "--linearized", "--quiet", "--json", "--series", "csv",
+                         "--out", str(out)])
+    assert rc == 0
+    s = json.loads(capsys.readouterr().out)
+    # the keys the issue asks for, and the stats per axis
+    assert {"stable", "chatter_freq_hz", "force_stats", "roughness_um", "wall_s"} <= set(s)
+    assert set(s["force_stats"]) == {"x", "y", "z"}
+    assert set(s["force_stats"]["y"]) == {"min", "max", "mean", "rms"}
+    assert s["wall_s"] > 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["closeup.png", "forces.png", "series.csv", "summary.json", "wall.csv", "wall.png"]
+    data = np.loadtxt(out / "series.csv", delimiter=",", skiprows=1)
+    # 2 deg of spindle rotation per step at 18 700 rpm: 0.3 s -> 16 830 steps + the start
+    assert data.shape == (16831, 8)
+    # the summary's statistics are those of the written series (force on the workpiece, N)
+    t, fy = data[:, 0], data[:, 2]
+    lo, hi = s["force_stats_window_s"]
+    sel = (t >= lo) & (t <= hi)
+    assert abs(fy[sel].mean() - s["force_stats"]["y"]["mean"]) < 0.05 * abs(s["force_stats"]["y"]["mean"])
+
+
+@pytest.mark.parametrize("argv, msg", [
+    (["simulate", "--duration", "-1"], "--duration must be a simulated time > 0 s"),
+    (["simulate", "--damping-scale", "nan"], "damping_scale must be a finite number >= 0"),
+    (["simulate", "--deg-per-step", "20"], "deg_per_step must be in (0, 10]"),
+    (["simulate", "--case", "nope"], "no cut named 'nope'"),
+])
+def test_simulate_bad_input(tmp_path, capsys, argv, msg):
+    rc = robolobes.main(argv + ["--quiet", "--out", str(tmp_path / "o")])
+    assert rc == 2
+    assert msg in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
