@@ -17,7 +17,7 @@ from typing import Iterator
 
 import numpy as np
 
-__all__ = ["atomic_path", "write_json", "write_text", "save_figure", "to_jsonable"]
+__all__ = ["atomic_path", "write_json", "write_text", "save_figure", "pyplot", "to_jsonable", "Progress"]
 
 
 @contextlib.contextmanager
@@ -70,6 +70,16 @@ def write_text(path: str | os.PathLike, text: str) -> None:
     """Write a text file atomically."""
     with atomic_path(path) as tmp:
         tmp.write_text(text)
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the headless Agg backend (figures are only ever saved to files)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def save_figure(fig, path: str | os.PathLike, **kw) -> None:

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 import cases
-from cases.io import Progress, save_figure, to_jsonable, write_json, write_text
+from cases.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
 from linearize.cli import modes_summary
 from linearize.kinematics import JointLimitWarning
 from linearize.linear import linearize
@@ -335,15 +335,10 @@ def _td_entry(r) -> dict:
 
 
 # ------------------------------------------------------------------------------------------ figures
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def _plot_frfs(frfs, path, case):
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
     for ax, (i, name) in zip(axes, ((0, "feed"), (1, "normal"))):
         for variant in VARIANTS:
@@ -362,7 +357,7 @@ def _plot_frfs(frfs, path, case):
 
 
 def _plot_td(sims, path):
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 1, figsize=(9, 6))
     for ax, mat in zip(axes, ("aluminium", "steel")):
         r = sims[(mat, "basic", 1.0)]
@@ -388,7 +383,7 @@ def _plot_td(sims, path):
 
 def _plot_main(results, lobes_out, sims, path):
     """The study's main figure: modes vs tooth passing, the two operating points, the two cuts."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5))
     ax = axes[0, 0]
     ex = results["explanation"]

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.io import atomic_path, save_figure
+from cases.io import atomic_path, pyplot, save_figure
 from .linear import FRF
 
 __all__ = ["write_frf", "read_frf", "plot_bode"]
@@ -105,9 +105,7 @@ def read_frf(path: str | Path, frame: str = "base") -> FRF:
 
 def plot_bode(frf: FRF, path: str | Path, title: str = "") -> Path:
     """Bode plot (magnitude in um/N, phase in deg) of the direct and cross terms, saved atomically."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     H = np.asarray(frf.H)
     f = frf.freq_hz

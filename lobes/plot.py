@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from cases.io import save_figure
+from cases.io import pyplot, save_figure
 
 __all__ = ["plot_lobes"]
 
@@ -23,10 +23,7 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
         Marked on the diagram (green circle if stable, red cross if not, orange if marginal).
     title : str, optional
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     rpm = np.asarray(result.spindle_rpm)
     d_mm = np.asarray(result.depth_limit_m) * 1e3

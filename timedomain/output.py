@@ -24,7 +24,7 @@ from typing import Literal
 
 import numpy as np
 
-from cases.io import save_figure, to_jsonable, write_json
+from cases.io import pyplot, save_figure, to_jsonable, write_json
 from .simulate import PAPER_AXES, SimulationResult
 
 __all__ = ["save_result", "summary_dict", "plot_forces", "plot_closeup", "plot_wall"]
@@ -43,16 +43,11 @@ def summary_dict(result: SimulationResult) -> dict:
     return to_jsonable(out)
 
 
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def plot_forces(result: SimulationResult, path) -> None:
     """Fx, Fy (paper axes) over the whole run, with the steady window shaded."""
-    plt = _plt()
+    plt = pyplot()
     t = np.asarray(result.t_s)
     f = np.asarray(result.force_paper_axes_n)
     fig, ax = plt.subplots(figsize=(8, 3.6))
@@ -74,7 +69,7 @@ def plot_forces(result: SimulationResult, path) -> None:
 
 def plot_closeup(result: SimulationResult, path) -> None:
     """Three spindle revolutions in the middle of the steady cut."""
-    plt = _plt()
+    plt = pyplot()
     t = np.asarray(result.t_s)
     T = result.problem.case.cut.spindle_period_s
     t0, t1 = result.steady_window_s
@@ -96,7 +91,7 @@ def plot_closeup(result: SimulationResult, path) -> None:
 
 def plot_wall(result: SimulationResult, path) -> None:
     """The machined lateral wall (middle slice): deviation from the nominal wall y = -R (down) / +R (up)."""
-    plt = _plt()
+    plt = pyplot()
     case = result.problem.case
     R = case.tool.radius_m
     nominal = -R if case.cut.mode == "down" else R
