@@ -16,10 +16,10 @@ import time
 
 import numpy as np
 
-from cases import load_case
-from timedomain.cutting import MillingForce, run_prescribed, straight_path
-from timedomain.newmark import LinearSystem, NewmarkOptions, integrate
-from timedomain.workpiece import Workpiece
+from robolobes.cases import load_case
+from robolobes.timedomain.cutting import MillingForce, run_prescribed, straight_path
+from robolobes.timedomain.newmark import LinearSystem, NewmarkOptions, integrate
+from robolobes.timedomain.workpiece import Workpiece
 
 
 def _per_call(fn, n):
@@ -75,7 +75,7 @@ def main(n: int = 20000) -> None:
         res[name] = (time.perf_counter() - t0) / steps
 
     # coupled: 2-DOF tool on springs cutting (the pattern of the robot coupling)
-    from cases.milling import Cut, Tool
+    from robolobes.cases.milling import Cut, Tool
 
     tool_s = Tool(diameter_m=0.01, teeth=2, helix_rad=math.radians(30))
     cut_s = Cut(ae_m=4e-3, ap_m=1.6e-3, spindle_rpm=cut.spindle_rpm, feed_per_tooth_m=cut.feed_per_tooth_m)

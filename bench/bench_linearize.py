@@ -12,8 +12,8 @@ import time
 import numpy as np
 import pinocchio as pin
 
-import cases
-import linearize as L
+from robolobes import cases
+import robolobes.linearize as L
 
 
 def main(n_poses: int = 1000, n_freq: int = 500):

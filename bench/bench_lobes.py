@@ -33,9 +33,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from cases.milling import Cut, CuttingLaw, Tool  # noqa: E402
-from lobes import LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization, solve  # noqa: E402
-from lobes.sdm import SDMEngine  # noqa: E402
+from robolobes.cases.milling import Cut, CuttingLaw, Tool  # noqa: E402
+from robolobes.lobes import LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization, solve  # noqa: E402
+from robolobes.lobes.sdm import SDMEngine  # noqa: E402
 
 
 def insperger_2dof() -> LobeProblem:
@@ -98,8 +98,8 @@ def bench_insperger(quick: bool) -> None:
 
 def bench_tx200(quick: bool) -> None:
     try:
-        import linearize
-        from cases import load_case
+        from robolobes import linearize
+        from robolobes.cases import load_case
     except ImportError as e:  # pragma: no cover
         print(f"2. TX200: skipped ({e})")
         return

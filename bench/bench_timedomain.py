@@ -33,8 +33,8 @@ import warnings
 import numpy as np
 import pinocchio as pin
 
-import cases
-from timedomain.simulate import SimulationProblem, _run_full, _run_linearized, _Setup
+from robolobes import cases
+from robolobes.timedomain.simulate import SimulationProblem, _run_full, _run_linearized, _Setup
 
 VARIANT = "backlash"
 
@@ -42,12 +42,12 @@ _COMPILE_SNIPPET = r"""
 import time, warnings
 warnings.simplefilter("ignore")
 t0 = time.perf_counter()
-import cases
-from timedomain.simulate import SimulationProblem, _Setup, linear_system_data
+from robolobes import cases
+from robolobes.timedomain.simulate import SimulationProblem, _Setup, linear_system_data
 S = _Setup(SimulationProblem(cases.load_case("tx200-aluminium"), variant="backlash", t_end_s=0.001, linearized=True))
 d = linear_system_data(S)
 t1 = time.perf_counter()
-from timedomain.fastpath import run_linear_milling
+from robolobes.timedomain.fastpath import run_linear_milling
 run_linear_milling(d, S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega)
 t2 = time.perf_counter()
 print(t2 - t1)

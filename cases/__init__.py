@@ -5,7 +5,7 @@ modelling of a flexible 6-axis robot dedicated to robotic machining"), with its 
 shoulder-milling cases (``tx200-aluminium``, ``tx200-steel``). Users write their own robot or cut
 in the same TOML format and load it by path.
 
->>> from cases import load_case
+>>> from robolobes.cases import load_case
 >>> case = load_case("tx200-aluminium")
 >>> round(case.cut.spindle_rpm)
 18700

@@ -30,7 +30,7 @@ class CaseError(ValueError):
 
 
 def _data_dir():
-    return resources.files("cases") / "data"
+    return resources.files("robolobes.cases") / "data"
 
 
 def _builtin(kind: str) -> list[str]:

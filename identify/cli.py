@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from cases.io import Progress
+from robolobes.core.io import Progress
 
 __all__ = ["register", "run_study_cli"]
 

@@ -28,13 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-import cases
-from cases.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
-from linearize.cli import modes_summary
-from linearize.kinematics import JointLimitWarning
-from linearize.linear import linearize
-from linearize.model import VARIANTS, build_model
-from linearize.path import Pass
+from robolobes import cases
+from robolobes.core.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
+from robolobes.linearize.cli import modes_summary
+from robolobes.linearize.kinematics import JointLimitWarning
+from robolobes.linearize.linear import linearize
+from robolobes.linearize.model import VARIANTS, build_model
+from robolobes.linearize.path import Pass
 
 __all__ = ["StudySettings", "run_study", "POSES"]
 
@@ -87,7 +87,7 @@ def _poses(pas: Pass) -> dict[str, np.ndarray]:
 
 
 def _cut_frame_structure(robot, theta, case):
-    from lobes.structure import PhysicalStructure
+    from robolobes.lobes.structure import PhysicalStructure
     lin = linearize(robot, theta)
     return lin, PhysicalStructure.from_linear(lin, case.cut.feed_direction)
 
@@ -111,7 +111,7 @@ def _mode_contributions(lin, case, freq_hz: float) -> np.ndarray:
 # ------------------------------------------------------------------------------------------ sections
 def section_modes(settings, pas, al_case, progress, figdir: Path) -> dict:
     """Modes, TCP stiffness and FRFs at the three poses for the four variants."""
-    from linearize.frf_io import write_frf
+    from robolobes.linearize.frf_io import write_frf
     out = {}
     poses = _poses(pas)
     w = 2 * math.pi * np.linspace(1.0, 300.0, 600)
@@ -144,11 +144,11 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
     """Operating points (all variants, study poses) and lobe diagrams (selected variants)."""
     from dataclasses import replace as dc_replace
 
-    from lobes.plot import plot_lobes
-    from lobes.problem import LobeProblem
-    from lobes.sdm import SemiDiscretization
-    from lobes.solve import solve, stability
-    from lobes.zoa import ZeroOrder
+    from robolobes.lobes.plot import plot_lobes
+    from robolobes.lobes.problem import LobeProblem
+    from robolobes.lobes.sdm import SemiDiscretization
+    from robolobes.lobes.solve import solve, stability
+    from robolobes.lobes.zoa import ZeroOrder
 
     method = SemiDiscretization(m=settings.sdm_m)
     poses = _poses(pas)
@@ -245,9 +245,9 @@ def smallest_stable_scale(check, scales, tol) -> dict:
 def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
     """Smallest motion-axis damping scale for which the SDM limit at 3100 rpm exceeds ap = 1.6 mm
     (a "marginal" verdict counts as not stable)."""
-    from lobes.problem import LobeProblem
-    from lobes.sdm import SemiDiscretization
-    from lobes.solve import stability
+    from robolobes.lobes.problem import LobeProblem
+    from robolobes.lobes.sdm import SemiDiscretization
+    from robolobes.lobes.solve import stability
 
     theta = _poses(pas)["start"]
     method = SemiDiscretization(m=settings.sdm_m)
@@ -287,7 +287,7 @@ def steel_damping_by_time_domain(settings, steel, variant="basic", progress=None
 
 
 def _simulate(case, variant, settings, t_end, damping_scale=1.0, stats_window=None, progress=None):
-    from timedomain.simulate import SimulationProblem, simulate
+    from robolobes.timedomain.simulate import SimulationProblem, simulate
     pb = SimulationProblem(case=case, variant=variant, damping_scale=damping_scale, t_end_s=t_end,
                            linearized=settings.td_linearized, stats_window_s=stats_window)
     return simulate(pb, progress=progress)
@@ -295,7 +295,7 @@ def _simulate(case, variant, settings, t_end, damping_scale=1.0, stats_window=No
 
 def section_time_domain(settings, cases_, paper, progress, figdir: Path, lobes_damping: dict) -> dict:
     """Aluminium and steel passes for the four variants; steel at the stabilizing damping."""
-    from timedomain.output import plot_wall
+    from robolobes.timedomain.output import plot_wall
     out: dict = {"linearized": settings.td_linearized, "runs": {}}
     win = tuple(paper["aluminium"]["tab10"]["window_s"])
     runs = [("aluminium", v, 1.0) for v in VARIANTS] + [("steel", v, 1.0) for v in VARIANTS]

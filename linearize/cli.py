@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cases import DEFAULT_CASE, load_case
-from cases.io import to_jsonable
+from robolobes.cases import DEFAULT_CASE, load_case
+from robolobes.core.io import to_jsonable
 from .model import VARIANTS, FlexibleRobot, build_model
 
 __all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "modes_summary"]

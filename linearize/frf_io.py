@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.io import atomic_path, pyplot, save_figure
+from robolobes.core.io import atomic_path, pyplot, save_figure
 from .linear import FRF
 
 __all__ = ["write_frf", "read_frf", "plot_bode"]

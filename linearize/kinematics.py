@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cases.spec import RobotSpec
+from robolobes.cases.spec import RobotSpec
 
 __all__ = [
     "KinematicsError",

@@ -387,7 +387,7 @@ class LinearModel:
         if frame == "cut":
             if feed_direction is None:
                 raise ValueError("frame 'cut' needs the feed direction (base frame)")
-            from cases.milling import cut_frame
+            from robolobes.cases.milling import cut_frame
             return cut_frame(feed_direction, self.tool_axis)
         raise ValueError(f"unknown frame {frame!r}; valid: 'base', 'cut'")
 

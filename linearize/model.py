@@ -28,7 +28,7 @@ from typing import Literal, Sequence
 import numpy as np
 import pinocchio as pin
 
-from cases.spec import PayloadSpec, RobotSpec
+from robolobes.cases.spec import PayloadSpec, RobotSpec
 
 __all__ = [
     "Variant",

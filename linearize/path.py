@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cases.spec import MillingCase, RobotSpec
+from robolobes.cases.spec import MillingCase, RobotSpec
 
 from .kinematics import (BRANCHES, arm_geometry, branch_of, check_limits, fk, ik_batch,
                          jacobian)

@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.io import to_jsonable
-from cases.milling import Cut, CuttingLaw, MillingError, Tool
+from robolobes.core.io import to_jsonable
+from robolobes.cases.milling import Cut, CuttingLaw, MillingError, Tool
 
 from ._errors import LobeError
 from .problem import LobeProblem
-from linearize.cli import add_pose_arguments
+from robolobes.linearize.cli import add_pose_arguments
 
 from .sdm import SemiDiscretization
 from .solve import solve, stability
@@ -138,8 +138,8 @@ def _modal_problem(args) -> tuple[LobeProblem, str]:
 
 
 def _robot_problem(args) -> tuple[LobeProblem, str]:
-    import linearize
-    from linearize.cli import resolve_pose
+    from robolobes import linearize
+    from robolobes.linearize.cli import resolve_pose
 
     case, robot, theta, label = resolve_pose(args)
     lin = linearize.linearize(robot, theta)

@@ -22,7 +22,7 @@ from typing import Literal
 
 import numpy as np
 
-from cases.milling import CuttingLaw, Cut, Tool, directional_matrix, engagement_rad, in_cut, regeneration
+from robolobes.cases.milling import CuttingLaw, Cut, Tool, directional_matrix, engagement_rad, in_cut, regeneration
 
 from ._errors import LobeError
 

@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from cases.io import pyplot, save_figure
+from robolobes.core.io import pyplot, save_figure
 
 __all__ = ["plot_lobes"]
 

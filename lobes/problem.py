@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cases.milling import Cut, CuttingLaw, MillingError, Tool, check_cut
+from robolobes.cases.milling import Cut, CuttingLaw, MillingError, Tool, check_cut
 
 from ._errors import LobeError
 from .structure import ModalStructure, PhysicalStructure, ReducedStructure, Structure

@@ -17,7 +17,7 @@ from typing import Sequence, Union
 
 import numpy as np
 
-from cases.milling import cut_frame
+from robolobes.cases.milling import cut_frame
 
 from ._errors import LobeError
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cases.milling import regeneration
+from robolobes.cases.milling import regeneration
 
 from ._errors import LobeError
 from .cutting import average_directional_matrix

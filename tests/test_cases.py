@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import cases
-from cases import CaseError, load_case, load_robot
-from cases.io import atomic_path, write_json
+from robolobes import cases
+from robolobes.cases import CaseError, load_case, load_robot
+from robolobes.core.io import atomic_path, write_json
 
 DATA = Path(cases.__file__).parent / "data"
 

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import cases
-import linearize as L
-import robolobes
-from linearize.frf_io import read_frf
+from robolobes import cases
+import robolobes.linearize as L
+from robolobes.main import main as robolobes_main
+from robolobes.linearize.frf_io import read_frf
 
 
 def run(capsys, *argv):
-    rc = robolobes.main(list(argv))
+    rc = robolobes_main(list(argv))
     out = capsys.readouterr()
     return rc, out.out, out.err
 

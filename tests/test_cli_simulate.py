@@ -5,12 +5,12 @@ import json
 import numpy as np
 import pytest
 
-import robolobes
+from robolobes.main import main as robolobes_main
 
 
 def test_simulate_writes_series_plots_and_summary(tmp_path, capsys):
     out = tmp_path / "sim"
-    rc = robolobes.main(["simulate", "--duration", "0.3", "--linearized", "--quiet", "--json", "--series", "csv",
+    rc = robolobes_main(["simulate", "--duration", "0.3", "--linearized", "--quiet", "--json", "--series", "csv",
                          "--out", str(out)])
     assert rc == 0
     s = json.loads(capsys.readouterr().out)
@@ -38,7 +38,7 @@ def test_simulate_writes_series_plots_and_summary(tmp_path, capsys):
     (["simulate", "--case", "nope"], "no cut named 'nope'"),
 ])
 def test_simulate_bad_input(tmp_path, capsys, argv, msg):
-    rc = robolobes.main(argv + ["--quiet", "--out", str(tmp_path / "o")])
+    rc = robolobes_main(argv + ["--quiet", "--out", str(tmp_path / "o")])
     assert rc == 2
     assert msg in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

@@ -10,10 +10,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
-from cases import load_case
-from cases.milling import Cut, CuttingLaw, Tool, engagement_rad, regeneration
-from timedomain.cutting import MillingForce, run_prescribed, straight_path
-from timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError
+from robolobes.cases import load_case
+from robolobes.cases.milling import Cut, CuttingLaw, Tool, engagement_rad, regeneration
+from robolobes.timedomain.cutting import MillingForce, run_prescribed, straight_path
+from robolobes.timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError
 
 R = 5e-3
 LAW = CuttingLaw(ktc_pa=661.553e6, krc_pa=253.458e6)
@@ -291,7 +291,7 @@ def test_directional_tangent_is_the_linear_model():
     run_prescribed(geo, t, *straight_path(tool, cut, t, 12e-3))
     c, a = straight_path(tool, cut, [t[-1] + 0.3 * cut.spindle_period_s], 12e-3)
     out = lin.evaluate(a[0], c[0])
-    from cases.milling import directional_matrix
+    from robolobes.cases.milling import directional_matrix
 
     phi = out.phi_rad[out.engaged]
     assert phi.size > 0
@@ -331,7 +331,7 @@ def _spring_mounted_tool(ap, k, fn_hz, zeta, n_rev, spr=100):
     """A tool on two orthogonal spring-damper modes (x_c, y_c) cutting the aluminium part with a
     straight 2-tooth cutter: residual M a + C v + K q - F_tool(Omega t, c_nom(t) + q), tangent
     K - dF/dc, the workpiece eroded in the step hook. Returns on-grid samples."""
-    from timedomain.newmark import NewmarkOptions, integrate
+    from robolobes.timedomain.newmark import NewmarkOptions, integrate
 
     case = load_case("tx200-aluminium")
     tool = Tool(diameter_m=2 * R, teeth=2)
@@ -379,7 +379,7 @@ def test_coupled_stiff_tool_deflects_by_mean_force_over_k():
     last = slice(-10 * 100, None)
     # the transient decays as exp(-zeta w t), e-folding in 0.2 revolution: gone; Newton atol 1e-13 m
     assert_allclose(q[last].mean(0), f[last].mean(0)[:2] / k, rtol=1e-6, atol=1e-13)
-    from timedomain.signals import stability
+    from robolobes.timedomain.signals import stability
 
     v = stability(t, q, cut.spindle_period_s, t_start_s=t[-1] - 15 * cut.spindle_period_s)
     assert v.label == "stable" and v.ratio < 1e-3
@@ -388,7 +388,7 @@ def test_coupled_stiff_tool_deflects_by_mean_force_over_k():
 def test_coupled_soft_tool_chatters_near_its_natural_frequency():
     """ap = 3 mm is ~25 x the smallest stability limit of an 800 Hz, 2 %, 2e6 N/m mode: chatter, at
     a frequency just above the natural frequency (the cutting stiffness adds to the structure's)."""
-    from timedomain.signals import chatter_frequency, stability
+    from robolobes.timedomain.signals import chatter_frequency, stability
 
     cut, out, t, q, f = _spring_mounted_tool(3e-3, 2e6, 800.0, 0.02, n_rev=45)
     start = t[-1] - 20 * cut.spindle_period_s

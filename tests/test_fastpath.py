@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-import cases
-from cases.milling import Cut, Tool
-from timedomain import fastpath
-from timedomain.fastpath import FastPathConvergenceError, FastPathError, run_linear_milling
-from timedomain.newmark import NewmarkConvergenceError, NewmarkInterrupted
-from timedomain.simulate import (SimulationProblem, _run_full, _run_linearized, _run_linearized_python, _Setup,
+from robolobes import cases
+from robolobes.cases.milling import Cut, Tool
+from robolobes.timedomain import fastpath
+from robolobes.timedomain.fastpath import FastPathConvergenceError, FastPathError, run_linear_milling
+from robolobes.timedomain.newmark import NewmarkConvergenceError, NewmarkInterrupted
+from robolobes.timedomain.simulate import (SimulationProblem, _run_full, _run_linearized, _run_linearized_python, _Setup,
                                  linear_system_data)
-from timedomain.workpiece import Workpiece, _remove_kernel
+from robolobes.timedomain.workpiece import Workpiece, _remove_kernel
 
 ALU = cases.load_case("tx200-aluminium")
 STEEL = cases.load_case("tx200-steel")

@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import pytest
 
-import cases
-from linearize.kinematics import (BRANCHES, ElbowSingularityError, JointLimitError, JointLimitWarning,
+from robolobes import cases
+from robolobes.linearize.kinematics import (BRANCHES, ElbowSingularityError, JointLimitError, JointLimitWarning,
                                   KinematicsError, RobotStructureError, ShoulderSingularityError, TargetError,
                                   UnreachableError, WristSingularityError, arm_geometry, branch_index, branch_name,
                                   branch_of, check_limits, fk, fk_frames, ik, ik_all, ik_batch, jacobian, rot,
@@ -144,7 +144,7 @@ def test_fk_vectorized_and_rot(spec):
     assert P.shape == (4, 5, 3) and R.shape == (4, 5, 3, 3)
     p, r = fk(spec, Q[2, 3])
     assert np.array_equal(p, P[2, 3]) and np.array_equal(r, R[2, 3])
-    from cases.loader import _ROT
+    from robolobes.cases.loader import _ROT
     for ax in "xyz":
         assert np.allclose(rot(ax, 0.7), _ROT[ax](0.7), atol=1e-15)
 

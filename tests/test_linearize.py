@@ -13,9 +13,9 @@ import pinocchio as pin
 import pytest
 from numpy.testing import assert_allclose
 
-import cases
-import linearize as L
-from cases.spec import JointSpec, LinkSpec, PayloadSpec, RobotSpec
+from robolobes import cases
+import robolobes.linearize as L
+from robolobes.cases.spec import JointSpec, LinkSpec, PayloadSpec, RobotSpec
 
 SPEC = cases.load_robot("tx200")
 TAB7 = SPEC.pose("tab7")
@@ -272,7 +272,7 @@ def test_control_interop():
 def test_pass_map_matches_single_pose_linearization():
     # The batched map at s = 0 is the single-pose linearization at the pass start (same code path,
     # stacked): equal to round-off.
-    from linearize.maps import pass_map
+    from robolobes.linearize.maps import pass_map
     case = cases.load_case("tx200-aluminium")
     robot = L.build_model(case.robot, "basic")
     with pytest.warns(L.JointLimitWarning, match=r"A3 .*= -212.14 deg, wrapped to \+147.86 deg"):
@@ -285,7 +285,7 @@ def test_pass_map_matches_single_pose_linearization():
 
 
 def test_grid_map_reports_unreachable_targets():
-    from linearize.maps import grid_map
+    from robolobes.linearize.maps import grid_map
     case = cases.load_case("tx200-aluminium")
     robot = L.build_model(case.robot, "basic")
     p0, R0 = L.fk(case.robot, case.path.start_q_rad)

@@ -28,10 +28,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.linalg import expm
 
-from cases.milling import Cut, CuttingLaw, Tool, directional_matrix, in_cut
-from lobes import (LobeError, LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
+from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, in_cut
+from robolobes.lobes import (LobeError, LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
                    ZeroOrder, average_directional_matrix, classify_multiplier, solve, stability)
-from lobes.sdm import SDMEngine
+from robolobes.lobes.sdm import SDMEngine
 
 FN, ZETA, MT = 922.0, 0.011, 0.03993
 WN = 2 * math.pi * FN

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from lobes import LobeError
-from lobes.cli import read_modal_toml, register, run
+from robolobes.lobes import LobeError
+from robolobes.lobes.cli import read_modal_toml, register, run
 
 MODAL = """
 [[modes]]
@@ -101,10 +101,10 @@ def test_modal_file_errors(tmp_path):
 
 
 def test_dispatcher_reports_bad_input(tmp_path, capsys):
-    robolobes = pytest.importorskip("robolobes")
+    from robolobes.main import main as robolobes_main
     g = tmp_path / "ok.toml"
     g.write_text(MODAL)
-    rc = robolobes.main(["lobes", "--modal", str(g), *TOOLARGS, "--m", "1", "--n-rpm", "2"])
+    rc = robolobes_main(["lobes", "--modal", str(g), *TOOLARGS, "--m", "1", "--n-rpm", "2"])
     assert rc == 2
     assert "--m must be an integer >= 2" in capsys.readouterr().err
 

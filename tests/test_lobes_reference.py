@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from test_lobes import limit, problem, radius  # noqa: E402
 
-from lobes import SemiDiscretization, solve  # noqa: E402
+from robolobes.lobes import SemiDiscretization, solve  # noqa: E402
 
 DATA = Path(__file__).resolve().parent / "data" / "lobes_reference.json"
 
@@ -92,7 +92,7 @@ def test_reference_tables_reproduce_and_converge():
 
 if __name__ == "__main__":
     if "--write" in sys.argv:
-        from cases.io import write_json
+        from robolobes.core.io import write_json
 
         write_json(DATA, compute())
         print(f"wrote {DATA}")

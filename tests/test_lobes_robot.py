@@ -36,9 +36,9 @@ linearize = pytest.importorskip("linearize")
 if not hasattr(linearize, "linearize"):
     pytest.skip("linearize.linearize not available yet", allow_module_level=True)
 
-from cases import load_case
-from lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve, stability
-from lobes.sdm import SDMEngine
+from robolobes.cases import load_case
+from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve, stability
+from robolobes.lobes.sdm import SDMEngine
 
 EXPECTED = {
     # (variant, case): (verdict, limit_mm, bifurcation at the operating point, chatter Hz)

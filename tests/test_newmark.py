@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from timedomain.newmark import (LinearSystem, NewmarkConvergenceError, NewmarkError, NewmarkInterrupted,
+from robolobes.timedomain.newmark import (LinearSystem, NewmarkConvergenceError, NewmarkError, NewmarkInterrupted,
                                 NewmarkOptions, initial_acceleration, integrate)
 
 

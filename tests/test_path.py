@@ -12,9 +12,9 @@ import warnings
 import numpy as np
 import pytest
 
-import cases
-from linearize.kinematics import JointLimitWarning, UnreachableError, fk, jacobian
-from linearize.path import FeedProfile, Pass, PassError, make_pass
+from robolobes import cases
+from robolobes.linearize.kinematics import JointLimitWarning, UnreachableError, fk, jacobian
+from robolobes.linearize.path import FeedProfile, Pass, PassError, make_pass
 
 
 def build(case):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from timedomain.signals import (SignalError, chatter_frequency, force_stats, gaussian_mean_line, once_per_revolution,
+from robolobes.timedomain.signals import (SignalError, chatter_frequency, force_stats, gaussian_mean_line, once_per_revolution,
                                 roughness, stability, synchronous_average)
 
 FS = 18700 / 60.0  # spindle frequency, Hz (the aluminium cut)
@@ -235,7 +235,7 @@ def test_trend_rule_separates_fluctuating_chatter_from_a_decaying_transient():
     # exp(-2 t), (b) fluctuates randomly by +-40 % around a constant (saturated, chaotic chatter),
     # or (c) grows as exp(+1.5 t) from 1e-2 of the forced motion (a slow instability, still below
     # the 5 % threshold at the start). Expected: (a) stable, (b) unstable, (c) unstable.
-    from timedomain.signals import stability
+    from robolobes.timedomain.signals import stability
     rng = np.random.default_rng(7)
     t = np.arange(0, 3.0, 1e-4)
     forced = np.cos(2 * np.pi * 100 * t)

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import identify.study as study
-import robolobes
+import robolobes.identify.study as study
+from robolobes.main import main as robolobes_main
 
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     out = tmp_path_factory.mktemp("study") / "robolobes-study"
-    rc = robolobes.main(["study", "--quick", "--quiet", "--out", str(out)])
+    rc = robolobes_main(["study", "--quick", "--quiet", "--out", str(out)])
     assert rc == 0
     return out, json.loads((out / "results.json").read_text())
 
@@ -44,7 +44,7 @@ def test_aluminium_stable_and_steel_unstable_in_lobes_and_time_domain(quick):
 def test_modes_at_the_start_pose_equal_robolobes_modes(quick, capsys):
     _, res = quick
     for variant in ("basic", "orthogonal"):
-        assert robolobes.main(["modes", "--variant", variant, "--json"]) == 0
+        assert robolobes_main(["modes", "--variant", variant, "--json"]) == 0
         cli = json.loads(capsys.readouterr().out)
         # the study's start pose is the pass at s = 0, which is the Tab. 7 pose as given
         assert_allclose(res["modes"][variant]["start"]["freq_hz"], cli["freq_hz"], rtol=1e-10)
@@ -74,7 +74,7 @@ def test_interrupted_study_leaves_the_previous_report(tmp_path, monkeypatch):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(study, "section_lobes", boom)
-    rc = robolobes.main(["study", "--quick", "--quiet", "--out", str(out)])
+    rc = robolobes_main(["study", "--quick", "--quiet", "--out", str(out)])
     assert rc == 130
     assert (out / "report.md").read_text() == "previous report"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["robolobes-study"]

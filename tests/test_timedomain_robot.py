@@ -8,11 +8,11 @@ import pinocchio as pin
 import pytest
 from numpy.testing import assert_allclose
 
-import cases
-import linearize as L
-from linearize.model import assemble
-from timedomain.newmark import NewmarkOptions, integrate
-from timedomain.simulate import robot_equations
+from robolobes import cases
+import robolobes.linearize as L
+from robolobes.linearize.model import assemble
+from robolobes.timedomain.newmark import NewmarkOptions, integrate
+from robolobes.timedomain.simulate import robot_equations
 
 SPEC = cases.load_robot("tx200")
 TAB7 = SPEC.pose("tab7")

@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import cases
-import linearize as L
-from lobes.problem import LobeProblem
-from lobes.sdm import SemiDiscretization
-from lobes.solve import stability
-from lobes.structure import PhysicalStructure
-from timedomain.simulate import SimulationProblem, principal_period, simulate
+from robolobes import cases
+import robolobes.linearize as L
+from robolobes.lobes.problem import LobeProblem
+from robolobes.lobes.sdm import SemiDiscretization
+from robolobes.lobes.solve import stability
+from robolobes.lobes.structure import PhysicalStructure
+from robolobes.timedomain.simulate import SimulationProblem, principal_period, simulate
 
 warnings.filterwarnings("ignore", category=L.JointLimitWarning)  # Tab. 7's A3, accepted and tested elsewhere
 STEEL = cases.load_case("tx200-steel")

@@ -10,10 +10,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
-from cases.milling import Cut, Tool
-from timedomain.cutting import MillingForce, run_prescribed, straight_path
-from timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError, default_disc_count
-from cases.milling import CuttingLaw
+from robolobes.cases.milling import Cut, Tool
+from robolobes.timedomain.cutting import MillingForce, run_prescribed, straight_path
+from robolobes.timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError, default_disc_count
+from robolobes.cases.milling import CuttingLaw
 
 LAW = CuttingLaw(ktc_pa=661.553e6, krc_pa=253.458e6)
 R = 5e-3

@@ -6,9 +6,9 @@ import json
 import math
 import sys
 
-from cases import DEFAULT_CASE, load_case
-from cases.io import Progress
-from linearize.model import VARIANTS
+from robolobes.cases import DEFAULT_CASE, load_case
+from robolobes.core.io import Progress
+from robolobes.linearize.model import VARIANTS
 
 __all__ = ["register", "run_simulate"]
 

@@ -61,7 +61,7 @@ from typing import Literal
 
 import numpy as np
 
-from cases.milling import (Cut, CuttingLaw, MillingError, Tool, check_cut, directional_matrix, edge_forces,
+from robolobes.cases.milling import (Cut, CuttingLaw, MillingError, Tool, check_cut, directional_matrix, edge_forces,
                            tool_force_cut_frame)
 
 from .workpiece import Workpiece, WorkpieceError

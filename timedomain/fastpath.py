@@ -77,8 +77,8 @@ import numpy as np
 import scipy.linalg as sla
 from numba import njit
 
-import cases.milling as _milling
-import linearize.model as _model
+import robolobes.cases.milling as _milling
+import robolobes.linearize.model as _model
 from . import workpiece as _workpiece
 from .cutting import MillingForce
 from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats, integrate,

@@ -24,7 +24,7 @@ from typing import Literal
 
 import numpy as np
 
-from cases.io import pyplot, save_figure, to_jsonable, write_json
+from robolobes.core.io import pyplot, save_figure, to_jsonable, write_json
 from .simulate import PAPER_AXES, SimulationResult
 
 __all__ = ["save_result", "summary_dict", "plot_forces", "plot_closeup", "plot_wall"]

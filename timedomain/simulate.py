@@ -42,12 +42,12 @@ from typing import Callable
 import numpy as np
 import pinocchio as pin
 
-from cases.milling import cut_frame
-from cases.spec import MillingCase
-from linearize.linear import equilibrium, linearize
-from linearize.model import (VARIANTS, MotionSprings, build_model, dead_zone, element_forces, element_tangents,
+from robolobes.cases.milling import cut_frame
+from robolobes.cases.spec import MillingCase
+from robolobes.linearize.linear import equilibrium, linearize
+from robolobes.linearize.model import (VARIANTS, MotionSprings, build_model, dead_zone, element_forces, element_tangents,
                              rigid_q)
-from linearize.path import Pass
+from robolobes.linearize.path import Pass
 
 from .cutting import MillingForce
 from .newmark import NewmarkOptions, integrate
@@ -534,7 +534,7 @@ def principal_period(tool, cut) -> tuple[float, str]:
     runout too small to make a tooth skip), else the spindle revolution ``T`` (variable pitch,
     skipped teeth). The lobes (:mod:`lobes`) use the same principal period; a flip bifurcation is a
     period doubling of it, which a once-per-revolution section cannot see when N = 2."""
-    from cases.milling import regeneration
+    from robolobes.cases.milling import regeneration
     reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
     pitch = 2 * math.pi / tool.teeth
     if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):

@@ -72,7 +72,7 @@ from typing import Literal
 
 import numpy as np
 
-from cases.milling import Cut, MillingError, Tool, check_cut
+from robolobes.cases.milling import Cut, MillingError, Tool, check_cut
 
 try:  # numba is optional: the kernels are plain Python without it.
     from numba import njit

@@ -17,7 +17,7 @@ from typing import Iterator
 
 import numpy as np
 
-__all__ = ["atomic_path", "write_json", "write_text", "save_figure", "pyplot", "to_jsonable", "Progress"]
+__all__ = ["atomic_path", "write_json", "write_text", "save_figure", "pyplot", "to_jsonable", "Progress", "provenance"]
 
 
 @contextlib.contextmanager
@@ -139,3 +139,18 @@ class Progress:
     def sub(self, lo: float, hi: float):
         """A callback mapping a sub-task's 0..1 onto ``[lo, hi]`` of this display."""
         return lambda f, note="": self(lo + (hi - lo) * f, note)
+
+
+def provenance(inputs) -> dict:
+    """What produced a result: ``{"robolobes_version": str, "inputs_sha256": str}``.
+
+    ``inputs`` is any JSON-able description of the inputs (case, variant, options, measured files'
+    hashes...); its hash is the SHA-256 of its canonical JSON (sorted keys, no whitespace), so two
+    runs with equal inputs record equal hashes. Every JSON and report robolobes writes records this.
+    """
+    import hashlib
+
+    from robolobes import __version__
+
+    text = json.dumps(to_jsonable(inputs), sort_keys=True, separators=(",", ":"))
+    return {"robolobes_version": __version__, "inputs_sha256": hashlib.sha256(text.encode()).hexdigest()}

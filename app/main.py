@@ -26,11 +26,11 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 # subcommand -> module that registers it (imported lazily, in data-flow order)
 _COMMANDS = {
-    "study": "identify.cli",
-    "modes": "linearize.cli",
-    "frf": "linearize.cli",
-    "lobes": "lobes.cli",
-    "simulate": "timedomain.cli",
+    "study": "robolobes.identify.cli",
+    "modes": "robolobes.linearize.cli",
+    "frf": "robolobes.linearize.cli",
+    "lobes": "robolobes.lobes.cli",
+    "simulate": "robolobes.timedomain.cli",
 }
 
 

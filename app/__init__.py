@@ -1,0 +1,22 @@
+"""robolobes: dynamics of robotic milling.
+
+Subpackages, in data-flow order (each imports only those before it)::
+
+    robolobes.core        shared types and helpers: Verdict, BadInput, validation, numerics, atomic I/O
+    robolobes.cases       robots, tools, materials, cuts and toolpaths as data; the milling force law
+    robolobes.linearize   the configuration-dependent flexible robot, kinematics, modes, tool-tip FRFs
+    robolobes.lobes       stability lobes (semi-discretization, zero-order approximation)
+    robolobes.timedomain  Newmark simulation of the nonlinear robot with regenerative milling
+    robolobes.identify    measured data in, residual, missing effect, refit
+    robolobes.study       the aluminium-versus-steel study of the TX200 (``robolobes study``)
+    robolobes.workspace   lobe maps over poses and placements, pose and placement optimization
+
+The command line is :func:`robolobes.main.main` (``robolobes ...`` or ``python -m robolobes ...``).
+"""
+
+from importlib.metadata import PackageNotFoundError, version as _version
+
+try:
+    __version__ = _version("robolobes")
+except PackageNotFoundError:  # running from a source tree that was not installed
+    __version__ = "0+unknown"

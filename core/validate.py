@@ -1,0 +1,68 @@
+"""Validation helpers: the one home of the checks every package makes on its inputs.
+
+Each check raises ``error`` (default :class:`robolobes.core.errors.BadInput`; packages pass their own
+subclass, e.g. ``MillingError``) with a message naming the value and what would be valid.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import BadInput
+
+__all__ = ["readonly", "finite", "finite_array", "integer"]
+
+
+def readonly(a, dtype=float, shape: tuple | None = None, name: str = "array", error=BadInput) -> np.ndarray:
+    """A read-only copy of ``a`` as ``dtype`` (``None`` keeps the dtype); ``shape`` is checked if given."""
+    arr = np.array(a, dtype=dtype, copy=True)
+    if shape is not None and arr.shape != tuple(shape):
+        raise error(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
+    arr.setflags(write=False)
+    return arr
+
+
+def finite(name: str, value, *, positive: bool = False, nonneg: bool = False, error=BadInput) -> float:
+    """``value`` as a finite float; ``positive``: > 0, ``nonneg``: >= 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise error(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise error(f"{name} must be finite, got {v}")
+    if positive and v <= 0:
+        raise error(f"{name} must be > 0, got {v}")
+    if nonneg and v < 0:
+        raise error(f"{name} must be >= 0, got {v}")
+    return v
+
+
+def finite_array(name: str, x, shape: tuple | None = None, *, ndim: int | None = None, error=BadInput,
+                 contiguous: bool = False) -> np.ndarray:
+    """``x`` as a float64 array (a copy) whose entries are all finite; ``shape`` / ``ndim`` checked if given.
+
+    ``contiguous=True`` returns a C-contiguous array (for compiled kernels)."""
+    a = np.array(x, dtype=np.float64, copy=True)
+    if contiguous:
+        a = np.ascontiguousarray(a)
+    if shape is not None and a.shape != tuple(shape):
+        raise error(f"{name} must have shape {tuple(shape)}, got {a.shape}")
+    if ndim is not None and a.ndim != ndim:
+        raise error(f"{name} must be a {ndim}-D array, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise error(f"{name} must be finite, got non-finite entries")
+    return a
+
+
+def integer(name: str, value, *, minimum: int | None = None, maximum: int | None = None, error=BadInput) -> int:
+    """``value`` as an int in ``[minimum, maximum]`` (bounds that are None are open)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise error(f"{name} must be an integer, got {value!r}")
+    v = int(value)
+    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
+        lo = "-inf" if minimum is None else minimum
+        hi = "inf" if maximum is None else maximum
+        raise error(f"{name} must be an integer in [{lo}, {hi}], got {v}")
+    return v
