@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import robolobes.identify.study as study
+import robolobes.study.study as study
 from robolobes.main import main as robolobes_main
 
 

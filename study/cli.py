@@ -1,4 +1,4 @@
-"""``robolobes study``: the main job (see :mod:`identify.study`)."""
+"""``robolobes study``: the main job (see :mod:`robolobes.study`)."""
 
 from __future__ import annotations
 
