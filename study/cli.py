@@ -10,7 +10,7 @@ __all__ = ["register", "run_study_cli"]
 
 
 def run_study_cli(args) -> int:
-    from .study import run_study
+    from .run import run_study
 
     bar = Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet)
     try:
@@ -20,13 +20,11 @@ def run_study_cli(args) -> int:
         return 130
     bar.done()
     ex = res["explanation"]
-    al, st = ex["aluminium"], ex["steel"]
-    print(f"aluminium {al['spindle_rpm']:.0f} rpm, ap {al['depth_m'] * 1e3:.1f} mm: lobes limit "
-          f"{al['local_limit_m'] * 1e3:.2f} mm (margin {al['local_margin']:+.2f}), time domain "
-          f"{'stable' if al['time_domain_stable_basic'] else 'unstable' if al['time_domain_stable_basic'] is False else 'no verdict'}")
-    print(f"steel     {st['spindle_rpm']:.0f} rpm, ap {st['depth_m'] * 1e3:.1f} mm: lobes limit "
-          f"{st['local_limit_m'] * 1e3:.2f} mm (margin {st['local_margin']:+.2f}), time domain "
-          f"{'stable' if st['time_domain_stable_basic'] else 'unstable' if st['time_domain_stable_basic'] is False else 'no verdict'}")
+    for mat in ("aluminium", "steel"):
+        f = ex[mat]
+        limit = "none below the bound" if f["local_limit_m"] is None else f"{f['local_limit_m'] * 1e3:.2f} mm"
+        print(f"{mat:9s} {f['spindle_rpm']:.0f} rpm, ap {f['depth_m'] * 1e3:.1f} mm: lobes {f['lobes_verdict']} "
+              f"(limit {limit}), time domain {f['time_domain_verdict_basic']}")
     print(f"report: {args.out}/report.md, numbers: {args.out}/results.json")
     return 0
 
