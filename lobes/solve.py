@@ -381,7 +381,7 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
         eng = SDMEngine(problem, method, depth_max)
         stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
                      axial_slices=eng.plan.slices, monodromy_size=eng.n_red,
-                     principal_period=("tooth" if eng.plan.period_rad < 2 * math.pi - 1e-12 else "revolution"),
+                     principal_period=eng.plan.period_name,
                      engaged_steps=len(eng.cand))
         total = len(rpm) * (2 if method.richardson else 1)
         depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
