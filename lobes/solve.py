@@ -10,6 +10,7 @@ from typing import Callable, Literal, Union
 import numpy as np
 
 from robolobes.core.numerics import richardson
+from robolobes.core.threads import blas_single_threaded
 
 from ._errors import LobeError
 from .problem import LobeProblem
@@ -329,6 +330,7 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     return depth, freq, bif
 
 
+@blas_single_threaded
 def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *, depth_max_m: float = 0.01,
           coarse_points: int = 16, rtol: float = 1e-3, progress: ProgressCallback | None = None,
           chunk: int = 50) -> LobeResult:
@@ -401,6 +403,7 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
                       chatter_freq_hz=freq, bifurcation=bif, depth_error_m=err, stats=stats)
 
 
+@blas_single_threaded
 def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m: float | None = None,
               adaptive: bool = True, m_max: int = 640, rtol: float = 1e-7, coarse_points: int = 24) -> StabilityPoint:
     """Stability of the problem's own cut (``cut.spindle_rpm``, ``cut.ap_m``), decided robustly.
