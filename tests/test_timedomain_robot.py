@@ -12,7 +12,7 @@ from robolobes import cases
 import robolobes.linearize as L
 from robolobes.linearize.model import assemble
 from robolobes.timedomain.newmark import NewmarkOptions, integrate
-from robolobes.timedomain.simulate import robot_equations
+from robolobes.timedomain.equations import robot_equations
 
 SPEC = cases.load_robot("tx200")
 TAB7 = SPEC.pose("tab7")

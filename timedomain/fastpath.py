@@ -2,9 +2,9 @@
 
 What it integrates
 ------------------
-Exactly the equations of :class:`timedomain.simulate.LinearSystemData` (read its
+Exactly the equations of :class:`timedomain.equations.LinearSystemData` (read its
 ``residual(dq, v, a, t, f_cut_tool)`` and ``center(dq, t)``): the robot linearized at the start
-pose, the nonlinear milling force of :class:`timedomain.cutting.MillingForce` on the eroded
+pose, the nonlinear milling force of :class:`timedomain.workpiece_force.MillingForce` on the eroded
 :class:`timedomain.workpiece.Workpiece`, and the backlash dead zone of the motion springs::
 
     r(dq, v, a, t) = M a + C v + K_rest dq - J^T R_c^T F_tool(c(dq, t), Omega t) + f_nom(t)
@@ -22,7 +22,7 @@ Nothing of the physics is defined here. The compiled loop calls
 
 The time integration is the compiled form of ``newmark.integrate(residual, 0, 0, h_s=h,
 constant_tangent=(K, C, M), options=NewmarkOptions(atol=1e-11, rtol=1e-8, max_iter=20))`` for this
-system, i.e. of the Python reference ``simulate._run_linearized_python``: average acceleration
+system, i.e. of the Python reference ``drivers.run_linearized_python``: average acceleration
 (gamma = 1/2, beta = 1/4, :mod:`timedomain.newmark`), Newton on ``q1`` from the
 constant-acceleration predictor with the effective matrix ``S = K + 2/h C + 4/h^2 M`` factorized
 once (modified Newton: the true tangent differs from ``S`` only by the cutting stiffness,
@@ -80,7 +80,7 @@ from numba import njit
 import robolobes.cases.milling as _milling
 import robolobes.linearize.model as _model
 from . import workpiece as _workpiece
-from .cutting import MillingForce
+from .workpiece_force import MillingForce
 from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats, integrate,
                       effective_matrix, initial_acceleration)
 from .workpiece import _chip_kernel, _remove_kernel
@@ -88,7 +88,7 @@ from .workpiece import _chip_kernel, _remove_kernel
 __all__ = ["FastPathError", "FastPathConvergenceError", "LinearRun", "run_linear_milling", "DEFAULT_ATOL_M",
            "DEFAULT_RTOL", "DEFAULT_MAX_ITER", "MAX_CHUNK_STEPS"]
 
-#: Newton tolerances of the reference path (``simulate._run_newmark``): absolute on the increment
+#: Newton tolerances of the reference path (``drivers._run_newmark``): absolute on the increment
 #: of every coordinate (rad or m), relative to the step's change of that coordinate.
 DEFAULT_ATOL_M = 1e-11
 DEFAULT_RTOL = 1e-8
@@ -434,7 +434,7 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
 
     Parameters
     ----------
-    data : timedomain.simulate.LinearSystemData
+    data : timedomain.equations.LinearSystemData
         The equations (n DOF).
     milling : MillingForce
         Force law, tool and part; its workpiece is eroded in place, step by step.
@@ -474,7 +474,7 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
         the workpiece is eroded up to it.
     """
     if not isinstance(milling, MillingForce):
-        raise FastPathError(f"milling must be a timedomain.cutting.MillingForce, got {type(milling).__name__}")
+        raise FastPathError(f"milling must be a timedomain.workpiece_force.MillingForce, got {type(milling).__name__}")
     try:
         h = float(h_s)
         omega = float(omega_rad_s)
