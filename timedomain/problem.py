@@ -156,10 +156,15 @@ class SimulationProblem:
 
     @property
     def pass_duration_s(self) -> float:
-        """Duration of the whole pass (S-curve feed over the path), s."""
-        from robolobes.linearize.path import Pass
+        """Duration of the whole pass (S-curve feed over the path), s (the feed profile of
+        :class:`linearize.path.Pass`, without its inverse kinematics)."""
+        from robolobes.linearize.path import FeedProfile
 
-        return float(Pass.from_case(self.case).duration_s)
+        c = self.case
+        feed = c.cut.feed_rate_m_per_s(c.tool)
+        if not feed > 0:
+            raise SimulationError(f"case {c.name!r}: the feed rate is {feed} m/s; a pass needs a feed rate > 0")
+        return float(FeedProfile(travel_m=c.path.travel_m(c.tool), feed_m_per_s=feed, ramp_s=c.path.ramp_s).duration_s)
 
     @property
     def end_time_s(self) -> float:
