@@ -357,7 +357,7 @@ def test_sigint_during_hook_is_deferred_until_the_hook_returns():
         (dict(h_s=float("nan")), "step size h_s must be finite"),
         (dict(n_steps=0), "n_steps must be an integer >= 1, got 0"),
         (dict(q0=[float("nan")]), "q0 must be finite"),
-        (dict(v0=[0.0, 1.0]), "v0 must be a 1-D array of length 1"),
+        (dict(v0=[0.0, 1.0]), "v0 must have shape (1,), got (2,)"),
     ],
 )
 def test_bad_input_is_named(kw, match):

@@ -70,6 +70,8 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.linalg.lapack import dgetrs as _getrs
 
+from robolobes.core.validate import finite_array, readonly
+
 __all__ = [
     "NewmarkError",
     "NewmarkConvergenceError",
@@ -120,12 +122,6 @@ class NewmarkInterrupted(KeyboardInterrupt):
     def __init__(self, result: "NewmarkResult"):
         super().__init__(f"integration interrupted at t = {result.t_s:.9g} s after {result.stats.accepted} steps")
         self.result = result
-
-
-def _ro(a) -> np.ndarray:
-    a = np.array(a, dtype=float, copy=True)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
@@ -291,7 +287,7 @@ class LinearSystem:
             if m.shape != (n, n) or not np.all(np.isfinite(m)):
                 raise NewmarkError(f"{name} must be a finite square matrix like M {mats[0].shape}, got {m.shape}")
         for name, m in zip("MCK", mats):
-            object.__setattr__(self, name, _ro(m))
+            object.__setattr__(self, name, readonly(m))
 
     def residual(self, q, v, a, t) -> np.ndarray:
         return self.M @ a + self.C @ v + self.K @ q - np.asarray(self.force(t), dtype=float)
@@ -351,12 +347,8 @@ class _InterruptGuard:
 
 
 def _vec(name, x, n=None) -> np.ndarray:
-    a = np.array(x, dtype=float, copy=True)
-    if a.ndim != 1 or (n is not None and a.shape != (n,)):
-        raise NewmarkError(f"{name} must be a 1-D array" + (f" of length {n}" if n is not None else "") + f", got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise NewmarkError(f"{name} must be finite, got {a}")
-    return a
+    """A finite 1-D float copy of ``x`` (of length n if given)."""
+    return finite_array(name, x, None if n is None else (n,), ndim=1, error=NewmarkError)
 
 
 def initial_acceleration(
@@ -398,7 +390,7 @@ def initial_acceleration(
         return a
     raise NewmarkConvergenceError(
         f"initial acceleration did not converge in {max_iter} iterations (last |da| = {np.abs(da).max():.3g})",
-        NewmarkResult(float(t0_s), _ro(q), _ro(v), _ro(a), NewmarkStats(), False),
+        NewmarkResult(float(t0_s), readonly(q), readonly(v), readonly(a), NewmarkStats(), False),
     )
 
 
@@ -640,7 +632,7 @@ def integrate(
     next_progress = opt.progress_every
 
     def result(done: bool) -> NewmarkResult:
-        return NewmarkResult(t_n, _ro(q_n), _ro(v_n), _ro(a_n), NewmarkStats(**stats), done)
+        return NewmarkResult(t_n, readonly(q_n), readonly(v_n), readonly(a_n), NewmarkStats(**stats), done)
 
     a_n = np.array(a_n, dtype=float)
     _frozen(q_n, v_n, a_n)
