@@ -254,7 +254,8 @@ def linear_system_data(S: PassSetup) -> LinearSystemData:
     thdd = np.gradient(thd, S.dt_tab, axis=0)
     f_nom = (thdd @ (M @ P).T) + (thd @ (C @ P).T) + ((th - th[0]) @ (G @ P).T)
     return LinearSystemData(
-        M=readonly(M), C=readonly(C), K=readonly(K), K_rest=readonly(K - K_ms), motion_dofs=readonly(idx, dtype=None), k_motion=readonly(k),
+        M=readonly(M), C=readonly(C), K=readonly(K), K_rest=readonly(K - K_ms), motion_dofs=readonly(idx, dtype=None),
+        k_motion=readonly(k),
         backlash_rad=float(robot.backlash_rad), d0=readonly(np.asarray(lin.q)[idx] - np.asarray(lin.theta)),
         Jc=readonly(S.Rc[:2] @ J), JtRt=readonly(J.T @ S.Rc.T), c_off=readonly(S.center_of(np.asarray(lin.p_tcp))),
         t_tab=readonly(S.t_tab), s_tab=readonly(S.pas.s(S.t_tab)), f_nom_tab=readonly(f_nom))

@@ -137,7 +137,8 @@ class SimulationProblem:
             raise SimulationError(f"robot must be a linearize.FlexibleRobot (linearize.build_model(...)), "
                                   f"got {type(self.robot).__name__}")
         if not isinstance(self.case, MillingCase):
-            raise SimulationError(f"case must be a cases.MillingCase (cases.load_case(...)), got {type(self.case).__name__}")
+            raise SimulationError(f"case must be a cases.MillingCase (cases.load_case(...)), "
+                                  f"got {type(self.case).__name__}")
         if self.t_end_s is not None:
             t = finite("t_end_s", self.t_end_s, positive=True, error=SimulationError)
             duration = self.pass_duration_s

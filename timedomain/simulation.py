@@ -52,7 +52,8 @@ def _deviation(S: PassSetup, rec: Records) -> np.ndarray:
 def _result(problem, method, S: PassSetup, rec: Records, stats: dict) -> SimulationResult:
     t = rec.t_s
     wall = S.workpiece.wall_profile()
-    return SimulationResult(problem=problem, method=method, t_s=readonly(t), force_workpiece_n=readonly(-rec.force_tool_n),
+    return SimulationResult(problem=problem, method=method, t_s=readonly(t),
+                            force_workpiece_n=readonly(-rec.force_tool_n),
                             tcp_deviation_m=readonly(_deviation(S, rec)), spindle_angle_rad=readonly(S.omega * t),
                             wall_x_m=readonly(wall.x_m), wall_y_m=readonly(wall.y_m), steady_window_s=S.steady,
                             stats=stats)

@@ -74,8 +74,8 @@ def _damping_scale(robot) -> float | None:
 def _describe(obj):
     """A JSON-able description of a (nested) dataclass for the provenance hash."""
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {"type": type(obj).__name__,
-                **{f.name: _describe(getattr(obj, f.name)) for f in dataclasses.fields(obj) if not f.name.startswith("_")}}
+        return {"type": type(obj).__name__, **{f.name: _describe(getattr(obj, f.name))
+                                                for f in dataclasses.fields(obj) if not f.name.startswith("_")}}
     if isinstance(obj, dict):
         return {str(k): _describe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):

@@ -233,7 +233,8 @@ class MillingForce:
         """Force on the tool and on the workpiece, tangent, chips and angles (copies)."""
         a, c = self._state(spindle_angle_rad, center_m)
         f, d, h, phi = self._evaluate(a, c, self.tangent)
-        return CutForce(tool_n=readonly(f), workpiece_n=readonly(-f), dtool_dcenter_n_per_m=readonly(d), chip_m=readonly(h), phi_rad=readonly(phi))
+        return CutForce(tool_n=readonly(f), workpiece_n=readonly(-f), dtool_dcenter_n_per_m=readonly(d),
+                        chip_m=readonly(h), phi_rad=readonly(phi))
 
     def commit(self, spindle_angle0_rad: float, center0_m, spindle_angle1_rad: float, center1_m) -> int:
         """Erode the workpiece along the tooth tips' paths of one accepted step (t0 -> t1).
