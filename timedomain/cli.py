@@ -14,19 +14,23 @@ __all__ = ["register", "run_simulate"]
 
 
 def run_simulate(args) -> int:
+    from robolobes.linearize.model import build_model
+
     from .newmark import NewmarkInterrupted
     from .output import save_result, summary_dict
-    from .simulate import SimulationProblem, simulate
+    from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
+    from .simulation import simulate
 
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise ValueError(f"--duration must be a simulated time > 0 s, got {args.duration}")
     case = load_case(args.case)
-    problem = SimulationProblem(case=case, variant=args.variant, damping_scale=args.damping_scale,
-                                t_end_s=args.duration, linearized=args.linearized, deg_per_step=args.deg_per_step)
+    method = (LinearizedNewmark if args.linearized else NonlinearNewmark)(deg_per_step=args.deg_per_step)
+    robot = build_model(case.robot, args.variant, damping_scale=args.damping_scale)
+    problem = SimulationProblem(robot, case, t_end_s=args.duration)
     bar = Progress(f"simulate {case.name} [{args.variant}{', linearized' if args.linearized else ''}]",
                    enabled=not args.quiet)
     try:
-        result = simulate(problem, progress=bar)
+        result = simulate(problem, method, progress=bar)
     except NewmarkInterrupted as e:
         print(f"\nrobolobes simulate: interrupted at t = {e.result.t_s:.4f} s; nothing written", file=sys.stderr)
         return 130
