@@ -70,7 +70,7 @@ from .io import provenance as _provenance
 from .io import provenance_text, to_jsonable
 
 __all__ = ["MARKER", "OutputRefused", "OutputDir", "check_output_file", "read_provenance", "provenance_text",
-           "user_path_errors"]
+           "user_path_errors", "cli_inputs", "file_sha256"]
 
 MARKER = ".robolobes.json"
 _SNIFF_BYTES = 65536
@@ -160,15 +160,62 @@ def check_output_file(path: str | os.PathLike, suffixes: Iterable[str], inputs, 
     return p
 
 
+def _chained(e: BaseException, kinds) -> BaseException | None:
+    """The first exception of type ``kinds`` in ``e``'s cause/context chain (``e`` included)."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, kinds):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
 @contextlib.contextmanager
 def user_path_errors(path: str | os.PathLike, action: str = "write") -> Iterator[None]:
-    """Turn any ``OSError`` in the block into one :class:`BadInput` line naming the user's ``path``."""
+    """Turn any ``OSError`` in the block into one :class:`BadInput` line naming the user's ``path``.
+
+    Libraries that wrap every exception in a bare ``except:`` (pyuff raises ``Exception("Error
+    writing data-set #58")`` for a Ctrl-C or a full disk) are unwrapped: a ``KeyboardInterrupt``
+    in the chain is raised again as one (exit 130), an ``OSError`` becomes the one line."""
     try:
         yield
     except BadInput:
         raise
-    except OSError as e:
-        raise BadInput(f"cannot {action} {path}: {e.strerror or e}") from e
+    except Exception as e:
+        cause = _chained(e, (KeyboardInterrupt, OSError))
+        if isinstance(cause, KeyboardInterrupt):
+            raise KeyboardInterrupt() from e
+        if isinstance(cause, OSError):
+            raise BadInput(f"cannot {action} {path}: {cause.strerror or cause}") from e
+        raise
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes (an input file's identity in ``inputs``)."""
+    import hashlib
+
+    with user_path_errors(path, "read"):
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def cli_inputs(args, *, case=None, files: dict | None = None,
+               drop: Iterable[str] = ("run", "quiet", "json", "out")) -> dict:
+    """The inputs of one command run, for :func:`robolobes.core.io.provenance` and the markers.
+
+    ``args``: the parsed options (those in ``drop`` do not change the results); ``case``: the
+    loaded case (a dataclass: every parsed value, so an edited case file changes the hash);
+    ``files``: ``{name: path}`` of other input files, recorded by content (:func:`file_sha256`).
+    """
+    import dataclasses
+
+    opts = {k: v for k, v in sorted(vars(args).items()) if k not in set(drop) and not callable(v)}
+    out = {"command": getattr(args, "command", None), "options": to_jsonable(opts)}
+    if case is not None:
+        out["case"] = to_jsonable(dataclasses.asdict(case))
+    if files:
+        out["files_sha256"] = {k: file_sha256(v) for k, v in files.items()}
+    return out
 
 
 def _files_under(root: Path) -> list[str]:
@@ -225,6 +272,7 @@ class OutputDir:
         self._shown = f"{name} {path}"
         self.path: Path | None = None
         self.resumed = False
+        self._open = False
         self.check()
 
     # -- checks ---------------------------------------------------------------------------------
@@ -280,7 +328,11 @@ class OutputDir:
     def _write_marker(self, d: Path, complete: bool) -> None:
         (d / MARKER).write_text(json.dumps(self._marker(_files_under(d), complete), indent=2) + "\n")
 
-    def __enter__(self) -> "OutputDir":
+    def open(self) -> Path:
+        """Re-check the target and create the staging directory (reused with ``resume``); returns it.
+
+        Prefer ``with out:``; ``open`` / ``commit`` / ``discard`` are for code whose ``try`` block
+        already exists (``discard`` in its ``finally`` is a no-op after ``commit``)."""
         self.check()  # the target may have changed while the work ran
         with user_path_errors(self.target, "create the staging directory for"):
             if self.resume:
@@ -295,17 +347,18 @@ class OutputDir:
                 self._write_marker(self.path, complete=False)
             else:
                 self.path = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-stage-", dir=self.target.parent))
+        self._open = True
+        return self.path
+
+    def __enter__(self) -> "OutputDir":
+        self.open()
         return self
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if exc_type is None:
-            try:
-                self._commit()
-                return False
-            except BaseException:
-                self._discard()
-                raise
-        self._discard()
+            self.commit()
+            return False
+        self.discard()
         if isinstance(exc, OSError) and self._about_output(exc):
             raise BadInput(f"cannot write {self.target}: {exc.strerror or exc}") from exc
         return False
@@ -316,33 +369,43 @@ class OutputDir:
         staging = str(self.path) if self.path else None
         return any(staging and str(f).startswith(staging) for f in (e.filename, e.filename2) if f)
 
-    def _discard(self) -> None:
-        if self.path is None:
+    def discard(self) -> None:
+        """Drop the staging directory (kept, marked incomplete, with ``resume``); the target is untouched."""
+        if not self._open:
             return
+        self._open = False
         if self.resume:
             with contextlib.suppress(OSError):
                 self._write_marker(self.path, complete=False)
         else:
             shutil.rmtree(self.path, ignore_errors=True)  # the staging directory is entirely ours
 
-    def _commit(self) -> None:
-        with user_path_errors(self.target):
-            self._write_marker(self.path, complete=True)
-            self.check()
-            old = None
-            if self.target.exists():
-                old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-", dir=self.target.parent))
-                old.rmdir()
-                os.rename(self.target, old)
-            try:
-                os.rename(self.path, self.target)
-            except BaseException:
-                if old is not None:
-                    os.rename(old, self.target)
-                raise
-            self.path = self.target
-            if old is not None:
-                _remove_listed(old)
+    def commit(self) -> None:
+        """Write the marker, re-check the target and swap the staging directory in; ``path`` becomes the target."""
+        if not self._open:
+            raise RuntimeError("OutputDir.commit() without open()")
+        try:
+            with user_path_errors(self.target):
+                self._write_marker(self.path, complete=True)
+                self.check()
+                old = None
+                if self.target.exists():
+                    old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-", dir=self.target.parent))
+                    old.rmdir()
+                    os.rename(self.target, old)
+                try:
+                    os.rename(self.path, self.target)
+                except BaseException:
+                    if old is not None:
+                        os.rename(old, self.target)
+                    raise
+        except BaseException:
+            self.discard()
+            raise
+        self._open = False
+        self.path = self.target
+        if old is not None:
+            _remove_listed(old)
 
 
 def _remove_listed(old: Path) -> None:
