@@ -15,14 +15,7 @@ from robolobes.core.io import provenance
 from robolobes.core.outdir import MARKER, cli_inputs, read_provenance
 from robolobes.main import build_parser, main as robolobes_main
 
-MODAL = """
-[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [1, 0]
-"""
-TOOL = ["--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5", "--down", "--ktc-mpa", "600", "--krc-mpa", "200"]
+from test_lobes_cli import MODAL, TOOLARGS as TOOL  # the symmetric 2-DOF benchmark modal file
 
 
 def run(capsys, *argv):
