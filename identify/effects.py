@@ -120,6 +120,9 @@ class ModelState:
         Measurement-chain stages (not part of the machine; reported, not written to the TOML).
     case_ref : str
         The case's built-in name or file path (the model TOML refers to its robot the same way).
+    overrides : tuple of (table, key, value)
+        Keys of the case TOML that cutting-law effects change (``("material", "kte_n_per_mm", 12.0)``),
+        in the file's units; ``case`` already holds the SI values.
     """
 
     case: MillingCase
@@ -127,12 +130,17 @@ class ModelState:
     elements: tuple = ()
     chain: tuple = ()
     case_ref: str = ""
+    overrides: tuple = ()
 
     def with_element(self, spec: ElementSpec) -> "ModelState":
         return replace(self, elements=self.elements + (spec,))
 
     def with_chain(self, name: str, params: Mapping[str, float]) -> "ModelState":
         return replace(self, chain=self.chain + ((name, dict(params)),))
+
+    def with_override(self, table: str, key: str, value, case: MillingCase) -> "ModelState":
+        """A cutting-law change: the new ``case`` (SI) and the TOML key it corresponds to (file units)."""
+        return replace(self, case=case, overrides=self.overrides + ((table, key, value),))
 
     def robot(self, **kw):
         """The :class:`FlexibleRobot` of this state (variant + case elements + added elements)."""

@@ -123,3 +123,25 @@ def test_element_tables_round_trip_and_strict_keys():
         element_from_spec(ElementSpec("spindle", {}))
     with pytest.raises(BadInput, match="freq_hz"):
         element_from_spec(ElementSpec("tcp_mode", {"freq_hz": -1.0, "damping_ratio": 0.1, "stiffness_n_per_m": 1.0}))
+
+
+def test_model_toml_loads_and_builds_the_identified_robot(tmp_path):
+    # the written case loads (a case file, robot by built-in name) and its robot carries the elements
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.model_toml import model_toml
+    state = ModelState(case=CASE, variant="basic", case_ref="tx200-aluminium",
+                       elements=(ElementSpec("tcp_mode", {"freq_hz": 900.0, "damping_ratio": 0.03,
+                                                          "stiffness_n_per_m": 2e7, "direction": [1.0, 0, 0]}),
+                                 ElementSpec("joint_correction", {"joint": 2, "stiffness_scale": 0.8,
+                                                                  "damping_scale": 1.0})))
+    p = tmp_path / "model.toml"
+    p.write_text(model_toml(state))
+    case = load_case(str(p))
+    assert case.name == "tx200-aluminium-identified"
+    assert [e.type for e in case.robot.elements] == ["tcp_mode", "joint_correction"]
+    ref = build_model(CASE.robot, "basic", extra_elements=(TcpMode(900.0, 0.03, 2e7, (1, 0, 0)),
+                                                            JointCorrection(2, 0.8, 1.0)))
+    a, b = linearize(build_model(case.robot, "basic"), TAB7), linearize(ref, TAB7)
+    assert_allclose(a.K, b.K, rtol=1e-12)
+    assert_allclose(a.M, b.M, rtol=1e-12)
+    assert case.law == CASE.law and case.cut == CASE.cut
