@@ -20,7 +20,7 @@ import numpy as np
 from robolobes.core.errors import BadInput
 
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
-from .spec import Assumption, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
+from .spec import Assumption, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
 __all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE"]
 
@@ -226,6 +226,27 @@ def _apply_assumptions(path: Path, data: dict) -> list[Assumption]:
     return out
 
 
+def _elements(path: Path, data: dict) -> tuple[ElementSpec, ...]:
+    """``[[elements]]`` tables: a string ``type`` and number / array keys (the element checks its keys
+    when the model is built: :func:`robolobes.linearize.extra_elements.element_from_spec`)."""
+    if "elements" not in data:
+        return ()
+    out = []
+    for i, er in enumerate(_Reader(path, data).tables("elements")):
+        kind = er.text("type")
+        params = {}
+        for k, v in er.t.items():
+            if k == "type":
+                continue
+            ok = (isinstance(v, (int, float)) and not isinstance(v, bool)) or (
+                isinstance(v, list) and v and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v))
+            if not ok:
+                raise er._err(k, "a number or an array of numbers", v)
+            params[k] = v
+        out.append(ElementSpec(type=kind, params=params))
+    return tuple(out)
+
+
 def _parse_robot(path: Path, data: dict) -> RobotSpec:
     assumptions = _apply_assumptions(path, data)
     r = _Reader(path, data)
@@ -278,10 +299,11 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         orthogonal_stiffness_n_m_per_rad=orth.num("stiffness_n_m_per_rad", positive=True),
         orthogonal_damping_n_m_s_per_rad=orth.num("damping_n_m_s_per_rad", nonneg=True),
         backlash_half_width_rad=back.num("half_width_rad", nonneg=True),
-        poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""))
+        poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""),
+        elements=_elements(path, data))
     orth.finish()
     back.finish()
-    r.allow("kind", "assumption")
+    r.allow("kind", "assumption", "elements")
     r.finish()
     return spec
 
@@ -305,6 +327,9 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
     except CaseError as e:
         raise CaseError(f"{path}: key 'robot' = {robot_ref!r}: {e}") from None
     robot = _parse_robot(rpath, rdata)
+    if "elements" in data:  # the case's [[elements]] add to the robot's
+        from dataclasses import replace
+        robot = replace(robot, elements=robot.elements + _elements(path, data))
 
     tr = r.table("tool")
     try:
@@ -352,7 +377,7 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
     pr.finish()
     case = MillingCase(name=r.text("name", path.stem), robot=robot, tool=tool, law=law, cut=cut,
                        path=path_spec, source=r.text("source", ""))
-    r.allow("kind")
+    r.allow("kind", "elements")
     r.finish()
     return case
 
