@@ -31,7 +31,7 @@ from robolobes.lobes.problem import LobeProblem
 from robolobes.lobes.sdm import SemiDiscretization
 from robolobes.lobes.solve import stability
 from robolobes.lobes.structure import PhysicalStructure
-from robolobes.timedomain.simulate import principal_period
+from robolobes.timedomain.summary import principal_period
 
 
 def lobes_line(steel, theta, scale, m):
@@ -46,29 +46,29 @@ def lobes_line(steel, theta, scale, m):
 
 
 def td_line(steel, scale, knob, t_end):
-    from robolobes.timedomain.simulate import SimulationProblem, simulate
-    case = steel
-    kw = dict(case=case, variant="basic", damping_scale=scale, t_end_s=t_end, linearized=True)
-    companion = True
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+    from robolobes.timedomain.workpiece import default_disc_count
+    case, method, companion = steel, LinearizedNewmark(), True
     if knob == "dps1":
-        kw["deg_per_step"] = 1.0
+        method = LinearizedNewmark(deg_per_step=1.0)
     elif knob == "discs2":
-        from robolobes.timedomain.workpiece import default_disc_count
-        kw["n_discs"] = 2 * default_disc_count(case.tool, case.cut.ap_m)
+        method = LinearizedNewmark(n_discs=2 * default_disc_count(case.tool, case.cut.ap_m))
     elif knob == "norunout":
-        kw["case"] = replace(case, tool=replace(case.tool, runout_m=(0.0,) * case.tool.teeth))
+        case = replace(case, tool=replace(case.tool, runout_m=(0.0,) * case.tool.teeth))
     elif knob == "nocompanion":
         companion = False
     elif knob == "long":
-        kw["t_end_s"] = 2 * t_end
+        t_end = 2 * t_end
+    robot = build_model(case.robot, "basic", damping_scale=scale)
     t0 = time.perf_counter()
-    r = simulate(SimulationProblem(**kw), verdict_companion=companion)
-    s = r.summary
+    r = simulate(SimulationProblem(robot, case, t_end_s=t_end), method, verdict_companion=companion)
+    s = r.summary.to_json()
     st = s.get("stability") or {}
     tr, se = st.get("trend_per_s"), st.get("trend_se_per_s")
     trend = f"{tr:+.3f} +- {2 * se:.3f}" if tr is not None and se is not None else "n/a"
-    return (f"td {knob:11s}: stable={s.get('stable')!s:5s} trend {trend} 1/s, ratio {st.get('ratio', float('nan')):.3g}, "
-            f"basis: {s.get('verdict_basis', '')[:40]} ({time.perf_counter() - t0:.0f} s)")
+    return (f"td {knob:11s}: verdict {s.get('verdict', s.get('stable'))!s:9s} rate {trend} 1/s (+- 2 SE), "
+            f"ratio {st.get('ratio', float('nan')):.3g}, basis: {s.get('verdict_basis', '')[:40]} "
+            f"({time.perf_counter() - t0:.0f} s)")
 
 
 def main():

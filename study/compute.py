@@ -240,14 +240,14 @@ def _slowest_decay(lin) -> float:
 
 
 def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Progress = _quiet,
-                           cache: dict | None = None) -> DampingSearch:
+                           cache: dict | None = None, lins: Linearizations | None = None) -> DampingSearch:
     """Damping bracket by the time-domain verdict of the steel pass (always the linearized fast
     path: a bisection takes about nine passes)."""
     fast = replace(settings, td_linearized=True)
     n = [0]
 
     def check(scale):
-        run = simulate_run(steel, "steel", variant, fast, settings.steel_t_end_s, scale, cache=cache)
+        run = simulate_run(steel, "steel", variant, fast, settings.steel_t_end_s, scale, cache=cache, lins=lins)
         n[0] += 1
         progress(min(1.0, n[0] / 9))
         s = run.summary
@@ -264,7 +264,7 @@ _TD_KEYS = ("stable", "verdict", "verdict_reason", "chatter_freq_hz", "nonsynchr
 
 
 def simulate_run(case, material, variant, settings, t_end, damping_scale=1.0, stats_window=None,
-                 progress=None, cache: dict | None = None) -> TimeDomainRun:
+                 progress=None, cache: dict | None = None, lins: Linearizations | None = None) -> TimeDomainRun:
     """One pass of ``case`` (``settings.td_linearized``: the linearized fast path). ``cache``: runs
     already simulated, by (material, variant, damping scale, path, duration, window); a run asked
     for twice (steel at x1 and at the stabilizing scale, by the damping search and the time-domain
@@ -272,26 +272,30 @@ def simulate_run(case, material, variant, settings, t_end, damping_scale=1.0, st
     key = (material, variant, float(damping_scale), settings.td_linearized, t_end, stats_window)
     if cache is not None and key in cache:
         return cache[key]
-    run = _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress)
+    run = _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
+                        Linearizations() if lins is None else lins)
     if cache is not None:
         cache[key] = run
     return run
 
 
-def _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress) -> TimeDomainRun:
-    from robolobes.timedomain.simulate import SimulationProblem, simulate
-    pb = SimulationProblem(case=case, variant=variant, damping_scale=damping_scale, t_end_s=t_end,
-                           linearized=settings.td_linearized, stats_window_s=stats_window)
-    r = simulate(pb, progress=progress)
-    s = r.summary
-    summary = {k: s[k] for k in _TD_KEYS if k in s}
+def _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
+                  lins: Linearizations) -> TimeDomainRun:
+    from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
+    robot = lins.robot(case.robot, variant, damping_scale)
+    pb = SimulationProblem(robot, case, t_end_s=t_end, stats_window_s=stats_window)
+    r = simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(), progress=progress)
+    s = r.summary.to_json()
+    summary = {k: s[k] for k in _TD_KEYS if s.get(k) is not None}
     verdict = as_verdict(s.get("verdict", s.get("stable")), s.get("verdict_reason") or s.get("note") or "")
     return TimeDomainRun(material, variant, float(damping_scale), verdict, s.get("chatter_freq_hz"),
-                         float(r.t_s[-1]), float(r.stats["wall_time_s"]), int(r.stats["steps"]), summary, r)
+                         float(r.t_s[-1]), float(s.get("wall_s") or r.stats.get("wall_time_s", 0.0)),
+                         int(r.stats["steps"]), summary, r)
 
 
 def compute_time_domain(settings, cs, paper, damping_scale_extra: float | None = None,
-                        progress: Progress = _quiet, cache: dict | None = None) -> tuple:
+                        progress: Progress = _quiet, cache: dict | None = None,
+                        lins: Linearizations | None = None) -> tuple:
     """Aluminium and steel passes, four variants, nominal damping (aluminium's force statistics
     over the Tab. 10 window); then steel (basic) at ``damping_scale_extra`` if given."""
     win = tuple(paper["aluminium"]["tab10"]["window_s"])
@@ -300,10 +304,11 @@ def compute_time_domain(settings, cs, paper, damping_scale_extra: float | None =
     for i, (mat, variant) in enumerate(jobs):
         al = mat == "aluminium"
         out.append(simulate_run(cs[mat], mat, variant, settings, settings.al_t_end_s if al else settings.steel_t_end_s,
-                                1.0, win if al else None, progress=lambda f: progress((i + f) / len(jobs)), cache=cache))
+                                1.0, win if al else None, progress=lambda f: progress((i + f) / len(jobs)), cache=cache,
+                                lins=lins))
     if damping_scale_extra is not None:
         out.append(simulate_run(cs["steel"], "steel", "basic", settings, settings.steel_t_end_s, damping_scale_extra,
-                                cache=cache))
+                                cache=cache, lins=lins))
     return tuple(out)
 
 
@@ -380,8 +385,9 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
     diagrams = compute_diagrams(settings, lins, cs, poses, _sub(progress, 0.2, 0.38))
     absolute = compute_absolute_limits(lins, cs, poses)
     d_lobes = damping_by_lobes(settings, lins, cs["steel"], poses["start"])
-    d_td = damping_by_time_domain(settings, cs["steel"], progress=_sub(progress, 0.42, 0.6), cache=runs_cache)
-    runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache)
+    d_td = damping_by_time_domain(settings, cs["steel"], progress=_sub(progress, 0.42, 0.6), cache=runs_cache,
+                                  lins=lins)
+    runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache, lins)
     facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
                                                       == (mat, "basic", "start")),
                                  next(a for a in absolute if a.material == mat),

@@ -1,11 +1,9 @@
 """Render a :class:`StudyResult`: ``results.json`` (:func:`to_json`), the report, the figures and
-the FRF files, written into a directory that replaces the target only when complete."""
+the FRF files, written into one directory."""
 
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 from dataclasses import asdict, fields, is_dataclass
 from pathlib import Path
 
@@ -92,37 +90,16 @@ def _write_frfs(res: StudyResult, work: Path) -> None:
         write_frf(m.frf, work / m.frf_file)
 
 
-def _swap_in(work: Path, target: Path) -> None:
-    """Replace ``target`` by the finished ``work`` directory (the old one is removed after)."""
-    old = None
-    if target.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=target.parent))
-        old.rmdir()
-        target.rename(old)
-    work.rename(target)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
-
-
-def write_study(res: StudyResult, out_dir: str | os.PathLike) -> Path:
-    """Write ``report.md``, ``results.json``, the figures and the FRF CSVs into ``out_dir``.
-
-    Everything is written into a fresh directory beside the target, which replaces the target only
-    when complete: an error or Ctrl-C leaves the previous output as it was.
-    """
+def write_study(res: StudyResult, directory: str | os.PathLike) -> Path:
+    """Write ``report.md``, ``results.json``, the figures and the FRF CSVs into ``directory``
+    (which must exist; :func:`robolobes.study.run.run_study` gives it a staging directory that
+    replaces the target only when complete)."""
     from .figures import write_figures
     from .report import render_report
 
-    target = Path(out_dir).resolve()
-    work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
-        _write_frfs(res, work)
-        write_figures(res, work)
-        data = to_json(res)
-        write_json(work / "results.json", data)
-        write_text(work / "report.md", render_report(res))
-        _swap_in(work, target)
-        return target
-    finally:
-        if work.exists():
-            shutil.rmtree(work, ignore_errors=True)
+    work = Path(directory)
+    _write_frfs(res, work)
+    write_figures(res, work)
+    write_json(work / "results.json", to_json(res))
+    write_text(work / "report.md", render_report(res))
+    return work

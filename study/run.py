@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
-from .compute import compute_study
+from .compute import compute_study, load_inputs, study_inputs
 from .output import to_json, write_study
 from .settings import StudySettings
 
@@ -15,10 +14,15 @@ __all__ = ["run_study"]
 def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = False, progress=None) -> dict:
     """Run the study and write ``report.md``, ``results.json``, figures and FRFs into ``out_dir``.
 
+    The target is checked before any work (:class:`robolobes.core.outdir.OutputDir`: an existing
+    file, or a directory robolobes did not write from these inputs, is refused with
+    :class:`~robolobes.core.outdir.OutputRefused`), written into a staging directory and swapped in
+    only when complete.
+
     Parameters
     ----------
     out_dir : path
-        Target directory, replaced only when the study completes (its parent must exist).
+        Target directory (its parent must exist).
     quick : bool
         Coarser grids and shorter runs (:meth:`StudySettings.make`).
     progress : callable ``(fraction, note)``, optional
@@ -28,11 +32,15 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
     dict
         ``results.json``'s content.
     """
+    from robolobes.core.outdir import OutputDir
+
     prog = progress or (lambda f, note="": None)
-    target = Path(out_dir).resolve()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    res = compute_study(StudySettings.make(quick), lambda f: prog(0.97 * f))
+    settings = StudySettings.make(quick)
+    cs, _, paper = load_inputs()
+    out = OutputDir(out_dir, "study", study_inputs(settings, cs, paper))
+    res = compute_study(settings, lambda f: prog(0.97 * f))
     prog(0.97, "report")
-    write_study(res, target)
+    with out:
+        write_study(res, out.path)
     prog(1.0, "done")
     return to_json(res)

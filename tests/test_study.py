@@ -217,10 +217,18 @@ def test_one_linearization_per_variant_damping_and_pose(quick):
     assert res["linearize_calls"] == 12 + n_scales
 
 
+def _previous_output(out):
+    """A robolobes study output from the quick study's inputs (as an earlier run would leave)."""
+    from robolobes.core.outdir import OutputDir
+    from robolobes.study.settings import StudySettings
+    cs, _, paper = compute.load_inputs()
+    with OutputDir(out, "study", compute.study_inputs(StudySettings.make(True), cs, paper)) as o:
+        (o.path / "report.md").write_text("previous report")
+
+
 def test_interrupted_study_leaves_the_previous_report(tmp_path, monkeypatch):
     out = tmp_path / "robolobes-study"
-    out.mkdir()
-    (out / "report.md").write_text("previous report")
+    _previous_output(out)
 
     def boom(*a, **k):
         raise KeyboardInterrupt
@@ -229,4 +237,19 @@ def test_interrupted_study_leaves_the_previous_report(tmp_path, monkeypatch):
     rc = robolobes_main(["study", "--quick", "--quiet", "--out", str(out)])
     assert rc == 130
     assert (out / "report.md").read_text() == "previous report"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["robolobes-study"]
+    assert [p.name for p in tmp_path.iterdir()] == ["robolobes-study"]
+
+
+def test_study_refuses_a_users_directory_before_any_work(tmp_path, monkeypatch, capsys):
+    # issue 9: `study --out mydata` deleted the user's file; now one line, exit 2, nothing computed
+    out = tmp_path / "mydata"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+
+    def never(*a, **k):
+        raise AssertionError("the study started before checking --out")
+
+    monkeypatch.setattr(compute, "compute_modes", never)
+    assert robolobes_main(["study", "--quick", "--quiet", "--out", str(out)]) == 2
+    assert (out / "notes.txt").read_text() == "mine" and [p.name for p in out.iterdir()] == ["notes.txt"]
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
