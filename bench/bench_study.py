@@ -23,9 +23,10 @@ from robolobes.study.settings import StudySettings
 
 def _warm_up() -> None:
     from robolobes import cases
-    from robolobes.timedomain.simulate import SimulationProblem, simulate
+    from robolobes.linearize.model import build_model
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
     case = cases.load_case("tx200-steel")
-    simulate(SimulationProblem(case=case, variant="basic", t_end_s=0.05, linearized=True))
+    simulate(SimulationProblem(build_model(case.robot, "basic"), case, t_end_s=0.05), LinearizedNewmark())
 
 
 def _timed(share: bool):

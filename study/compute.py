@@ -131,7 +131,8 @@ def _dominant_mode(lin, case, freq_hz: float) -> DominantMode | None:
     contrib = mode_contributions(lin, case, freq_hz)
     r = int(np.argmax(contrib))
     modes = lin.modes()
-    return DominantMode(r + 1, float(modes.freq_hz[r]), float(modes.damping_ratio[r]), float(contrib[r] / contrib.sum()))
+    return DominantMode(r + 1, float(modes.freq_hz[r]), float(modes.damping_ratio[r]),
+                        float(contrib[r] / contrib.sum()))
 
 
 def _lobe_problem(st, case):
@@ -352,7 +353,8 @@ def material_facts(case, modes, op: OperatingPoint, absolute: AbsoluteLimit, run
     f18 = next(m for m in modes if (m.variant, m.pose) == ("orthogonal", "start")).freq_hz
     return MaterialFacts(
         spindle_rpm=case.cut.spindle_rpm, tooth_passing_hz=f_tp, lowest_mode_hz=float(f6[0]), n_modes_basic=len(f6),
-        modes_below_tooth_passing_basic=int(np.sum(f6 < f_tp)), modes_below_tooth_passing_orthogonal=int(np.sum(f18 < f_tp)),
+        modes_below_tooth_passing_basic=int(np.sum(f6 < f_tp)),
+        modes_below_tooth_passing_orthogonal=int(np.sum(f18 < f_tp)),
         ktc_pa=case.law.ktc_pa, krc_pa=case.law.krc_pa, depth_m=case.cut.ap_m, lobes_verdict=op.verdict,
         local_limit_m=op.depth_limit_m, local_margin=op.margin, bifurcation=op.limit_bifurcation,
         chatter_freq_hz_lobes=op.limit_chatter_freq_hz, dominant_mode=op.dominant_mode,
@@ -391,7 +393,8 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
     facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
                                                       == (mat, "basic", "start")),
                                  next(a for a in absolute if a.material == mat),
-                                 next(r for r in runs if (r.material, r.variant, r.damping_scale) == (mat, "basic", 1.0)))
+                                 next(r for r in runs if (r.material, r.variant, r.damping_scale)
+                                      == (mat, "basic", 1.0)))
              for mat in cs}
     return StudyResult(
         settings=settings, provenance=provenance(study_inputs(settings, cs, paper)),

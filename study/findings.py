@@ -32,7 +32,8 @@ def variants_verdicts(data: dict, mat: str) -> str:
 
 def _op_cell(op: dict) -> str:
     lim = op["depth_limit_m"]
-    s = f"{_mm(lim)}, margin {op['margin']:+.2f}, {op['verdict']}" if lim is not None else f"{_mm(lim)}, {op['verdict']}"
+    s = (f"{_mm(lim)}, margin {op['margin']:+.2f}, {op['verdict']}" if lim is not None
+         else f"{_mm(lim)}, {op['verdict']}")
     if op["verdict"] == "unstable" and op.get("limit_bifurcation") not in (None, "none"):
         s += f" ({op['limit_bifurcation']}, {op['limit_chatter_freq_hz']:.1f} Hz)"
     return s
@@ -88,11 +89,13 @@ def _why_aluminium(ex: dict) -> str:
 
 def _why_steel(ex: dict) -> str:
     st = ex["steel"]
-    return (f"**Steel.** {prose.limit_scaling(ex['ktc_ratio_steel_over_aluminium'], ex['absolute_limit_ratio_aluminium_over_steel'], ex['local_limit_ratio_aluminium_over_steel'])} "
-            f"Its teeth pass at {st['tooth_passing_hz']:.1f} Hz, {st['tooth_passing_over_lowest_mode']:.1f} times "
-            f"the lowest mode; {prose.modes_below(st['modes_below_tooth_passing_basic'], st['n_modes_basic'], '6-DOF model')}. "
-            f"Its limit at {st['spindle_rpm']:.0f} rpm is {prose.limit_against_cut(st['local_limit_m'], st['depth_m'])}: the lobes "
-            f"verdict is {st['lobes_verdict']}.")
+    scaling = prose.limit_scaling(ex["ktc_ratio_steel_over_aluminium"], ex["absolute_limit_ratio_aluminium_over_steel"],
+                                  ex["local_limit_ratio_aluminium_over_steel"])
+    below = prose.modes_below(st["modes_below_tooth_passing_basic"], st["n_modes_basic"], "6-DOF model")
+    limit = prose.limit_against_cut(st["local_limit_m"], st["depth_m"])
+    return (f"**Steel.** {scaling} Its teeth pass at {st['tooth_passing_hz']:.1f} Hz, "
+            f"{st['tooth_passing_over_lowest_mode']:.1f} times the lowest mode; {below}. Its limit at "
+            f"{st['spindle_rpm']:.0f} rpm is {limit}: the lobes verdict is {st['lobes_verdict']}.")
 
 
 def _how_steel_chatters(ex: dict) -> str | None:
@@ -102,7 +105,8 @@ def _how_steel_chatters(ex: dict) -> str | None:
         return None
     s = (f"**How steel chatters.** The lobes' critical solution is a {st['bifurcation']} at "
          f"{st['chatter_freq_hz_lobes']:.1f} Hz; mode {dm['index']} ({dm['freq_hz']:.1f} Hz, "
-         f"{100 * dm['damping_ratio']:.1f} % damping) carries {100 * dm['share']:.0f} % of the normal receptance there.")
+         f"{100 * dm['damping_ratio']:.1f} % damping) carries {100 * dm['share']:.0f} % of the normal receptance "
+         "there.")
     if st.get("chatter_freq_hz_time_domain") is not None:
         s += " " + prose.relative_agreement("The time domain (basic) finds", st["chatter_freq_hz_time_domain"],
                                             st["chatter_freq_hz_lobes"], "Hz", ref_label="the lobes'") + "."

@@ -11,7 +11,11 @@ from robolobes.core.io import to_jsonable, write_json, write_text
 
 from .result import DampingSearch, MaterialFacts, StudyResult
 
-__all__ = ["to_json", "write_study", "damping_json", "facts_json"]
+__all__ = ["to_json", "write_study", "damping_json", "facts_json", "SOURCE"]
+
+#: What ``results.json`` is: computed here, except the entries that say they are the paper's.
+SOURCE = ("computed by robolobes (robolobes study); only the entries named 'paper ...' and "
+          "steel_damping.paper_scale are the paper's published values")
 
 
 def _plain(obj, skip=()) -> dict:
@@ -53,7 +57,8 @@ def to_json(res: StudyResult) -> dict:
                                                    "frf_file": m.frf_file}
     lobes: dict = {}
     for o in res.operating_points:
-        lobes.setdefault(o.material, {}).setdefault(o.variant, {})[o.pose] = {"operating_point": _operating_point_json(o)}
+        point = {"operating_point": _operating_point_json(o)}
+        lobes.setdefault(o.material, {}).setdefault(o.variant, {})[o.pose] = point
     for d in res.diagrams:
         lobes[d.material][d.variant][d.pose]["diagram"] = {
             "rpm": d.spindle_rpm, "depth_limit_m": d.depth_limit_m, "chatter_freq_hz": d.chatter_freq_hz,
@@ -70,7 +75,8 @@ def to_json(res: StudyResult) -> dict:
         absolute_limit_ratio_aluminium_over_steel=al.absolute_limit_zoa_m / st.absolute_limit_zoa_m,
         local_limit_ratio_aluminium_over_steel=al.local_limit_m / st.local_limit_m)
     return to_jsonable({
-        "provenance": res.provenance, "settings": _plain(res.settings), "cases": res.cases, "notes": list(res.notes),
+        "source": SOURCE, "provenance": res.provenance, "settings": _plain(res.settings), "cases": res.cases,
+        "notes": list(res.notes),
         "modes": modes, "lobes": lobes,
         "time_domain": {"linearized": res.td_linearized, "runs": runs, "steel_damped": damped},
         "steel_damping": {"lobes": damping_json(res.damping_lobes),

@@ -79,13 +79,15 @@ def _operating_points_table(res: StudyResult) -> list[str]:
 def _time_domain_table(res: StudyResult) -> list[str]:
     out = ["\n## Time domain\n",
            f"Path: {'linearized fast path' if res.td_linearized else 'full nonlinear model'}.\n",
-           "| run | damping | verdict | chatter (Hz) | Fy min (N) | Fy rms (N) | Ra / Rt (um) | simulated (s) | wall (s) |",
+           "| run | damping | verdict | chatter (Hz) | Fy min (N) | Fy rms (N) | Ra / Rt (um) | simulated (s) "
+           "| wall (s) |",
            "|---|---|---|---|---|---|---|---|---|"]
     for r in res.time_domain:
         fs = (r.summary.get("force_stats_paper_axes") or {}).get("y", {})
         ru = r.summary.get("roughness_um") or {}
         out.append(f"| {r.key} | x{r.damping_scale:g} | {r.verdict.status} | {_fmt(r.chatter_freq_hz, 1)} | "
-                   f"{_fmt(fs.get('min'), 1)} | {_fmt(fs.get('rms'), 1)} | {_fmt(ru.get('Ra'))} / {_fmt(ru.get('Rt'))} | "
+                   f"{_fmt(fs.get('min'), 1)} | {_fmt(fs.get('rms'), 1)} | "
+                   f"{_fmt(ru.get('Ra'))} / {_fmt(ru.get('Rt'))} | "
                    f"{r.t_end_s:.2f} | {r.wall_s:.1f} |")
     for r in res.time_domain:
         if r.verdict.status == "undetermined":
