@@ -21,10 +21,12 @@ __all__ = ["ModeSet", "DominantMode", "OperatingPoint", "LobeDiagram", "Absolute
 
 
 def as_verdict(v, reason: str = "") -> Verdict:
-    """A :class:`Verdict` from a Verdict, a status string (the lobes' older "marginal" is
+    """A :class:`Verdict` from a Verdict, its JSON, a status string (the lobes' older "marginal" is
     "undetermined") or True / False / None."""
     if isinstance(v, Verdict):
         return v
+    if isinstance(v, dict):  # a Verdict.to_json()
+        return Verdict(v["verdict"], v.get("verdict_reason") or reason)
     if v is None or isinstance(v, bool):
         return Verdict.from_stable(v, reason)
     if v == "marginal":

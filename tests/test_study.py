@@ -83,6 +83,14 @@ def test_tab10_deviation_on_known_rows():
     assert_allclose(tab10_deviation(ours, paper), (5.0, 3.0), rtol=1e-12)
 
 
+def test_verdicts_of_every_source_map_onto_the_one_verdict():
+    from robolobes.study.result import as_verdict
+    assert as_verdict("marginal").status == "undetermined"  # the lobes' discretization-error band
+    assert as_verdict(None).status == "undetermined" and as_verdict(False).status == "unstable"
+    v = as_verdict({"verdict": "unstable", "stable": False, "verdict_reason": "grows"})
+    assert (v.status, v.reason) == ("unstable", "grows")
+
+
 # ---------------------------------------------------------------- the damping bracket search
 @pytest.mark.parametrize("critical", [12.3, 10.0, 1.0])
 def test_bracket_search_brackets_a_known_critical_scale(critical):
