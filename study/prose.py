@@ -100,7 +100,8 @@ def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float) -> 
             return "not enough"
         return "inside the bracket"
     pl, pt = verdict_on_paper(lobes), verdict_on_paper(time_domain)
-    both = (f"The paper's x{paper_scale:g} is {pl} by both methods" if pl == pt
+    both = (f"The paper's x{paper_scale:g} is not enough by either method" if pl == pt == "not enough"
+            else f"The paper's x{paper_scale:g} is {pl} by both methods" if pl == pt
             else f"The paper's x{paper_scale:g} is {pl} by the lobes and {pt} by the time domain")
     return (f"The smallest joint-damping scale that stabilizes steel lies in {bracket_text(*lobes)} by the lobes "
             f"and in {bracket_text(*time_domain)} by the time domain ([largest unstable, smallest stable] "

@@ -63,7 +63,7 @@ def test_limit_against_cut_ratio_and_side():
 def test_damping_comparison_brackets_overlap_and_paper_scale():
     s = prose.damping_comparison((12.1875, 12.34375), (11.25, 11.875), 10)
     assert "[x12.19, x12.34] by the lobes" in s and "[x11.25, x11.88] by the time domain" in s
-    assert "the brackets are disjoint" in s and "x10 is not enough by both methods" in s
+    assert "the brackets are disjoint" in s and "x10 is not enough by either method" in s
     s = prose.damping_comparison((9.0, 11.0), (10.5, 12.0), 10)
     assert "the brackets overlap" in s
     assert "x10 is inside the bracket by the lobes and not enough by the time domain" in s
