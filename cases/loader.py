@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from robolobes.core.errors import BadInput
+
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
 from .spec import Assumption, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
@@ -25,7 +27,7 @@ __all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_ca
 DEFAULT_CASE = "tx200-aluminium"
 
 
-class CaseError(ValueError):
+class CaseError(BadInput):
     """A case or robot file that cannot be read: names the file, the key and what is expected."""
 
 

@@ -22,12 +22,15 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
+from robolobes.core.errors import BadInput
 from robolobes.core.threads import blas_single_threaded
+from robolobes.core.validate import readonly
 
 from .model import FlexibleRobot, element_forces, element_tangents, rigid_q, tcp_jacobian, tcp_pose
 
@@ -51,14 +54,11 @@ __all__ = [
 FrameName = Literal["base", "cut"]
 
 
-class SingularConfigurationError(ValueError):
+_ro = partial(readonly, dtype=None)  # a read-only copy, dtype kept (complex modes)
+
+
+class SingularConfigurationError(BadInput):
     """The TCP Jacobian or the stiffness is singular at this configuration."""
-
-
-def _ro(a):
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
 
 
 # ----------------------------------------------------------------------------------------------

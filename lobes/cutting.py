@@ -25,6 +25,8 @@ import numpy as np
 from robolobes.cases.milling import (ANGLE_TOL_RAD, CuttingLaw, Cut, PeriodName, Tool, directional_matrix, engagement_rad,
                                      in_cut, principal_period, regeneration)
 
+from robolobes.core.validate import readonly
+
 from ._errors import LobeError
 
 __all__ = ["CuttingPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
@@ -135,11 +137,10 @@ class CuttingPlan:
                 )
             rs.append(r)
             fs.append(f)
-        ro = lambda a: (a.setflags(write=False), a)[1]
         return cls(tool=tool, cut=cut, law=law, period_rad=period_rad, period_name=name, m=int(m), quadrature=int(quadrature),
-                   slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=ro(angles),
-                   tooth_group=ro(np.array(grp, dtype=int)), group_delay_rad=ro(np.array(gd)),
-                   group_r=ro(np.array(rs, dtype=int)), group_f=ro(np.array(fs)), k_force=int(k_force), rule=rule)
+                   slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=readonly(angles),
+                   tooth_group=readonly(grp, int), group_delay_rad=readonly(gd),
+                   group_r=readonly(rs, int), group_f=readonly(fs), k_force=int(k_force), rule=rule)
 
     @property
     def n_groups(self) -> int:

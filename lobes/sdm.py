@@ -32,6 +32,8 @@ from typing import Literal
 import numpy as np
 from scipy.linalg import expm
 
+from robolobes.core.validate import integer
+
 from ._errors import LobeError
 from .cutting import CuttingPlan, PeriodChoice, QuadratureRule
 from .problem import LobeProblem
@@ -41,12 +43,6 @@ __all__ = ["SemiDiscretization", "Bifurcation", "Scheme", "classify_multiplier"]
 
 Bifurcation = Literal["hopf", "flip", "fold", "none"]
 Scheme = Literal["sdm", "free-exact"]
-
-
-def _int_param(name: str, v, lo: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise LobeError(f"{name} must be an integer >= {lo}, got {v!r}")
-    return int(v)
 
 
 @dataclass(frozen=True)
@@ -104,10 +100,10 @@ class SemiDiscretization:
     prescan: bool | None = None
 
     def __post_init__(self) -> None:
-        _int_param("SemiDiscretization m (steps per principal period)", self.m, 2)
-        _int_param("SemiDiscretization quadrature (points per step)", self.quadrature, 1)
+        integer("SemiDiscretization m (steps per principal period)", self.m, minimum=2, error=LobeError)
+        integer("SemiDiscretization quadrature (points per step)", self.quadrature, minimum=1, error=LobeError)
         if self.axial_slices is not None:
-            _int_param("SemiDiscretization axial_slices", self.axial_slices, 1)
+            integer("SemiDiscretization axial_slices", self.axial_slices, minimum=1, error=LobeError)
         a = self.angle_tol_rad
         if not (isinstance(a, (int, float)) and math.isfinite(a) and 0 <= a < math.pi / 2):
             raise LobeError(f"angle_tol_rad must be in [0, pi/2), got {a!r}")

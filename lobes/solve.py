@@ -11,6 +11,7 @@ import numpy as np
 
 from robolobes.core.numerics import richardson
 from robolobes.core.threads import blas_single_threaded
+from robolobes.core.validate import finite, readonly
 
 from ._errors import LobeError
 from .problem import LobeProblem
@@ -22,12 +23,6 @@ __all__ = ["Method", "LobeResult", "StabilityPoint", "solve", "stability", "Verd
 Method = Union[SemiDiscretization, ZeroOrder]
 Verdict = Literal["stable", "unstable", "marginal"]
 ProgressCallback = Callable[[int, int], None]
-
-
-def _ro(a, dtype=None):
-    a = np.array(a, dtype=dtype, copy=True)
-    a.setflags(write=False)
-    return a
 
 
 def _check_method(method) -> None:
@@ -49,13 +44,7 @@ def _check_speeds(speeds_rpm) -> np.ndarray:
 
 
 def _check_depth(name: str, v) -> float:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise LobeError(f"{name} must be a depth in m, got {v!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise LobeError(f"{name} must be a finite depth > 0 m, got {x}")
-    return x
+    return finite(f"{name} (depth, m)", v, positive=True, error=LobeError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,8 +136,8 @@ class LobeResult:
 
     def __post_init__(self) -> None:
         for k in ("spindle_rpm", "depth_limit_m", "chatter_freq_hz", "depth_error_m"):
-            object.__setattr__(self, k, _ro(getattr(self, k), float))
-        object.__setattr__(self, "bifurcation", _ro(getattr(self, "bifurcation"), "<U4"))
+            object.__setattr__(self, k, readonly(getattr(self, k), float))
+        object.__setattr__(self, "bifurcation", readonly(getattr(self, "bifurcation"), "<U4"))
 
     def evaluate(self, spindle_rpm: float, depth_m: float, **kw) -> StabilityPoint:
         """Stability at ``(spindle_rpm, depth_m)`` with this result's problem and method."""

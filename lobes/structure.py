@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Sequence, Union
 
 import numpy as np
 
 from robolobes.cases.milling import cut_frame
+from robolobes.core.validate import finite, finite_array, readonly
 
 from ._errors import LobeError
 
@@ -32,24 +34,8 @@ __all__ = [
 ]
 
 
-def _ro(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, copy=True)
-    a.setflags(write=False)
-    return a
-
-
-def _real_matrix(name: str, value) -> np.ndarray:
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise LobeError(f"{name} must be a real matrix, got {value!r}") from None
-    if a.ndim != 2:
-        raise LobeError(f"{name} must be a 2-D matrix, got an array of shape {a.shape}")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        raise LobeError(f"{name} must be finite; entry [{i}, {j}] is {a[i, j]}")
-    return a
+_ro = partial(readonly, dtype=None)
+_real_matrix = partial(finite_array, ndim=2, error=LobeError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -322,18 +308,8 @@ class Mode:
     direction: tuple[float, float]
 
     def __post_init__(self) -> None:
-        def num(name, v):
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                raise LobeError(f"mode {name} must be a number, got {v!r}") from None
-            if not math.isfinite(x):
-                raise LobeError(f"mode {name} must be finite, got {x}")
-            return x
-
-        f = num("freq_hz", self.freq_hz)
-        z = num("damping_ratio", self.damping_ratio)
-        k = num("stiffness_n_per_m", self.stiffness_n_per_m)
+        f, z, k = (finite(f"mode {name}", getattr(self, name), error=LobeError)
+                   for name in ("freq_hz", "damping_ratio", "stiffness_n_per_m"))
         if f <= 0:
             raise LobeError(f"mode freq_hz must be > 0 Hz, got {f}")
         if not 0.0 < z < 1.0:

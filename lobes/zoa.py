@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robolobes.cases.milling import regeneration
+from robolobes.core.validate import integer
 
 from ._errors import LobeError
 from .cutting import average_directional_matrix
@@ -58,9 +59,7 @@ class ZeroOrder:
 
     def __post_init__(self) -> None:
         for k in ("points_per_tooth_band", "points_per_mode"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 8:
-                raise LobeError(f"ZeroOrder {k} must be an integer >= 8, got {v!r}")
+            integer(f"ZeroOrder {k}", getattr(self, k), minimum=8, error=LobeError)
         if self.freq_range_hz is not None:
             lo, hi = self.freq_range_hz
             if not (0 < lo < hi and math.isfinite(hi)):
