@@ -165,7 +165,7 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
         lin, st = _cut_frame_structure(robot, poses[pose], case)
         problem = LobeProblem(st, case.tool, case.cut, case.law)
         op = stability(problem, method)
-        entry = {"verdict": op.verdict, "margin": op.margin, "margin_error": op.margin_error,
+        entry = {"verdict": op.verdict.status, "margin": op.margin, "margin_error": op.margin_error,
                  "depth_m": op.depth_m, "depth_limit_m": op.depth_limit_m,
                  "depth_limit_error_m": op.depth_limit_error_m, "spectral_radius": op.spectral_radius,
                  "bifurcation": op.bifurcation, "chatter_freq_hz": op.chatter_freq_hz,
@@ -244,7 +244,7 @@ def smallest_stable_scale(check, scales, tol) -> dict:
 
 def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
     """Smallest motion-axis damping scale for which the SDM limit at 3100 rpm exceeds ap = 1.6 mm
-    (a "marginal" verdict counts as not stable)."""
+    (an "undetermined" verdict counts as not stable)."""
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
     from robolobes.lobes.solve import stability
@@ -256,7 +256,7 @@ def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
         robot = build_model(steel.robot, variant, damping_scale=scale)
         _, st = _cut_frame_structure(robot, theta, steel)
         op = stability(LobeProblem(st, steel.tool, steel.cut, steel.law), method)
-        return op.verdict == "stable", {"verdict": op.verdict, "depth_limit_m": op.depth_limit_m, "margin": op.margin,
+        return op.verdict.status == "stable", {"verdict": op.verdict.status, "depth_limit_m": op.depth_limit_m, "margin": op.margin,
                                         "bifurcation": op.limit_bifurcation,
                                         "chatter_freq_hz": op.limit_chatter_freq_hz}
 
@@ -409,9 +409,9 @@ def _plot_main(results, lobes_out, sims, path):
             d = np.asarray(res.depth_limit_m) * 1e3
             ax.plot(res.spindle_rpm, np.where(np.isfinite(d), d, np.nan), "k", lw=1.2, label="SDM limit [basic]")
         if op is not None:
-            col = "tab:green" if op.verdict == "stable" else "tab:red"
-            ax.plot([op.spindle_rpm], [op.depth_m * 1e3], "o" if op.verdict == "stable" else "X", color=col, ms=10,
-                    mec="k", label=f"cut: {op.verdict}, limit {op.depth_limit_m * 1e3:.2f} mm")
+            col = "tab:green" if op.verdict.status == "stable" else "tab:red"
+            ax.plot([op.spindle_rpm], [op.depth_m * 1e3], "o" if op.verdict.status == "stable" else "X", color=col, ms=10,
+                    mec="k", label=f"cut: {op.verdict.status}, limit {op.depth_limit_m * 1e3:.2f} mm")
         ax.set_ylim(0, 10)
         ax.set_xlabel("spindle speed (rpm)")
         ax.set_ylabel("axial depth (mm)")

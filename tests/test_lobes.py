@@ -412,17 +412,20 @@ def test_stability_point_margin_and_verdicts():
     blim = limit(p, meth, 10126.0)
     lo = stability(replace(p, cut=replace(p.cut, ap_m=0.5 * blim)), meth, adaptive=False)
     hi = stability(replace(p, cut=replace(p.cut, ap_m=2.0 * blim)), meth, adaptive=False)
-    assert lo.verdict == "stable" and lo.stable and lo.spectral_radius < 1
-    assert hi.verdict == "unstable" and not hi.stable and hi.spectral_radius > 1
+    assert lo.verdict.status == "stable" and lo.stable is True and lo.spectral_radius < 1
+    assert hi.verdict.status == "unstable" and hi.stable is False and hi.spectral_radius > 1
+    assert "below the limit" in lo.verdict.reason and "above the limit" in hi.verdict.reason
     # margin = depth_limit / depth - 1 with the Richardson limit (0.31636 mm converged, m = 40/80)
     assert_allclose(lo.depth_limit_m, 0.3163574e-3, rtol=5e-4)
     assert_allclose(lo.margin, lo.depth_limit_m / lo.depth_m - 1, rtol=1e-12)
     assert_allclose(hi.margin, hi.depth_limit_m / hi.depth_m - 1, rtol=1e-12)
     assert lo.margin_error < 0.05
     assert_allclose(lo.radius_margin, 1 - lo.spectral_radius, rtol=1e-12)
-    # a point inside the discretization error band is "marginal", refined while adaptive
+    # a point inside the discretization error band is "undetermined" (refined while adaptive)
     at = replace(p, cut=replace(p.cut, ap_m=0.3168e-3))
-    assert stability(at, meth, adaptive=False).verdict == "marginal"
+    v = stability(at, meth, adaptive=False).verdict
+    assert v.status == "undetermined" and "discretization error bound" in v.reason
+    assert v.to_json()["stable"] is None and v.to_json()["verdict"] == "undetermined"
     # evaluate() on a result is stability() at that point
     res = solve(p, meth, [10126.0])
     pt = res.evaluate(10126.0, 0.5 * blim, adaptive=False)
@@ -483,10 +486,10 @@ def test_adaptive_refinement_decides_a_marginal_point():
     (bound |b80 - b40| = 4.4e-3 mm > 2.1e-3 mm), m = 80/160 can (bound 1.1e-3 mm)."""
     p = problem(1.0, rpm=10126.0, depth=0.3185e-3)
     fixed = stability(p, SemiDiscretization(m=40), adaptive=False)
-    assert fixed.verdict == "marginal" and not fixed.stable
+    assert fixed.verdict.status == "undetermined" and fixed.stable is None
     assert fixed.depth_limit_error_m > abs(fixed.depth_m - fixed.depth_limit_m)
     ad = stability(p, SemiDiscretization(m=40), adaptive=True, m_max=160)
-    assert ad.verdict == "unstable" and [h["m"] for h in ad.history] == [40, 80, 160]
+    assert ad.verdict.status == "unstable" and [h["m"] for h in ad.history] == [40, 80, 160]
     assert_allclose(ad.depth_limit_m, 0.3163574e-3, rtol=2e-4)
 
 

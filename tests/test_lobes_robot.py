@@ -65,7 +65,7 @@ def test_tx200_verdict_margin_and_m_convergence(variant, casename):
     print(f"\n{variant} {casename}: {pt.verdict}, margin {pt.margin:+.5f} +- {pt.margin_error:.2g}, "
           f"limit {pt.depth_limit_m * 1e3:.5f} mm, |mu| = {pt.spectral_radius:.7f}, {pt.bifurcation} "
           f"{pt.chatter_freq_hz:.3f} Hz; limit: {pt.limit_bifurcation} {pt.limit_chatter_freq_hz:.2f} Hz")
-    assert pt.verdict == verdict
+    assert pt.verdict.status == verdict
     # the decision is far outside the discretization bound (margin error < 1e-2, |margin| > 0.5)
     assert abs(pt.margin) > 50 * pt.margin_error
     # regression anchor: limit within 0.5 % of the table (Richardson m = 40/80, two schemes)
@@ -129,4 +129,4 @@ def test_modal_truncation_of_the_18dof_model_reports_its_error():
     b_red = solve(replace(p, structure=red), meth, [3100.0], rtol=1e-7).depth_limit_m[0]
     b_full = solve(p, meth, [3100.0], rtol=1e-7).depth_limit_m[0]
     assert_allclose(b_red, b_full, rtol=1e-2)
-    assert stability(replace(p, structure=red), meth, depth_max_m=0.02).verdict == "unstable"
+    assert stability(replace(p, structure=red), meth, depth_max_m=0.02).verdict.status == "unstable"
