@@ -88,8 +88,8 @@ class ZOAEngine:
         self.pole_zeta = np.where(np.abs(lam) > 0, -lam.real / np.maximum(np.abs(lam), 1e-300), 1.0)
 
     def _X(self, freq_hz: np.ndarray) -> np.ndarray:
-        H = self.ss.frf(freq_hz)  # (F, 3, 3)
-        return H[:, :2, : self.k] @ self.a0[None]  # (F, 2, 2)
+        H = self.ss.receptance(2 * np.pi * np.asarray(freq_hz, dtype=float))  # (3, 3, F), m/N
+        return np.einsum("ikf,kj->fij", H[:2, : self.k], self.a0)  # (F, 2, 2)
 
     def grid(self, rpm_min: float) -> np.ndarray:
         osc = self.pole_f[self.pole_f > 0]

@@ -368,15 +368,18 @@ def test_physical_and_modal_structures():
     # ModalStructure FRF = sum d d^T / (k (1 - r^2 + 2 i zeta r)) (closed form)
     modes = (Mode(500, 0.03, 2e6, (1, 0)), Mode(800, 0.05, 5e6, (0.6, 0.8)))
     s = ModalStructure(modes)
+    # FRF convention (core.frf): H (n_out, n_in, F) in m/N, omega in rad/s, frame "cut"
     f = np.array([0.0, 300.0, 500.0, 1000.0])
-    H = s.frf(f)
-    ref = np.zeros((4, 3, 3), complex)
+    frf = s.frf(2 * np.pi * f)
+    assert frf.frame == "cut" and frf.H.shape == (3, 3, 4) and frf.labels == ("feed", "normal", "axial")
+    assert_allclose(frf.freq_hz, f, rtol=1e-15)
+    ref = np.zeros((3, 3, 4), complex)
     for md in modes:
         r = f / md.freq_hz
         d = np.array([*md.direction, 0.0])
-        ref += np.einsum("f,ij->fij", 1 / (md.stiffness_n_per_m * (1 - r**2 + 2j * md.damping_ratio * r)), np.outer(d, d))
-    assert_allclose(H, ref, rtol=1e-12, atol=1e-22)
-    assert_allclose(s.state_space().frf(f), ref, rtol=1e-9, atol=1e-20)
+        ref += np.einsum("f,ij->ijf", 1 / (md.stiffness_n_per_m * (1 - r**2 + 2j * md.damping_ratio * r)), np.outer(d, d))
+    assert_allclose(frf.H, ref, rtol=1e-12, atol=1e-22)
+    assert_allclose(s.state_space().frf(2 * np.pi * f).H, ref, rtol=1e-9, atol=1e-20)
     # truncation of a diagonal structure along x: the static compliance error is exactly the
     # dropped mode's share 1/k_3 / sum(1/k_i); keeping all modes is exact
     st = PhysicalStructure(np.diag([1.0, 2.0, 3.0]), np.diag([20.0, 30.0, 80.0]), np.diag([1e6, 4e6, 3e7]),

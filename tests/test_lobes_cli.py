@@ -111,9 +111,6 @@ def test_dispatcher_reports_bad_input(tmp_path, capsys):
 
 
 def test_robot_pose_operating_point(capsys):
-    linearize = pytest.importorskip("linearize")
-    if not hasattr(linearize, "linearize"):
-        pytest.skip("linearize not ready")
     args = parser().parse_args(["lobes", "--case", "tx200-aluminium", "--variant", "basic", "--pose", "tab7",
                                 "--rpm-min", "18000", "--rpm-max", "19000", "--n-rpm", "3", "--json", "--quiet"])
     assert run(args) == 0
