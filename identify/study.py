@@ -147,7 +147,7 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
     from robolobes.lobes.plot import plot_lobes
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import solve, stability
+    from robolobes.lobes import solve, stability
     from robolobes.lobes.zoa import ZeroOrder
 
     method = SemiDiscretization(m=settings.sdm_m)
@@ -247,7 +247,7 @@ def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
     (an "undetermined" verdict counts as not stable)."""
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import stability
+    from robolobes.lobes import stability
 
     theta = _poses(pas)["start"]
     method = SemiDiscretization(m=settings.sdm_m)

@@ -30,7 +30,7 @@ from .problem import LobeProblem
 from robolobes.linearize.cli import add_pose_arguments
 
 from .sdm import SemiDiscretization
-from .solve import solve, stability
+from .solver import solve, stability
 from .structure import Mode, ModalStructure, PhysicalStructure
 from .zoa import ZeroOrder
 

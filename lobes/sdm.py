@@ -1,11 +1,11 @@
 """First-order semi-discretization (Insperger & Stepan 2004, Int. J. Numer. Meth. Eng. 61:117-141).
 
-The linearized milling dynamics (cut frame, see :mod:`lobes.cutting`)::
+The linearized milling dynamics (cut frame, see :mod:`lobes.directional`)::
 
     dy/dt = (A + B W(t) S2) y(t) - B sum_g W_g(t) S2 y(t - tau_g)
 
 are discretized over the principal period ``T`` in ``m`` steps ``dt = T / m``. On step ``i`` the
-periodic coefficient is replaced by its average ``Wbar_i`` (:meth:`CuttingPlan.wbar`),
+periodic coefficient is replaced by its average ``Wbar_i`` (:meth:`DirectionalPlan.wbar`),
 the delayed displacement ``r(t - tau_g)`` by the straight line through its values at the step ends,
 each obtained by linear interpolation between the mesh nodes (``tau_g = (r_g + f_g) dt``; for
 ``f_g = 0`` this is exactly the first-order SDM), and the resulting linear ODE is solved exactly::
@@ -35,7 +35,7 @@ from scipy.linalg import expm
 from robolobes.core.validate import integer
 
 from ._errors import LobeError
-from .cutting import CuttingPlan, PeriodChoice, QuadratureRule
+from .directional import DirectionalPlan, PeriodChoice, QuadratureRule
 from .problem import LobeProblem
 from .structure import StateSpace
 
@@ -155,7 +155,7 @@ class SDMEngine:
         slices = method.axial_slices or (16 if problem.tool.helix_rad > 0 else 1)
         if problem.tool.helix_rad == 0:
             slices = 1
-        self.plan = CuttingPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
+        self.plan = DirectionalPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
                                       slices=slices, period=method.period, k_force=k, rule=method.rule)
         self.k = k
         self.ns = ss.n_states

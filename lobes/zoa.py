@@ -1,7 +1,7 @@
 """Zero-order approximation (Altintas & Budak 1995, CIRP Annals 44:357-362).
 
 The directional matrix is replaced by its time average over a revolution; with ``a0`` the average
-of one tooth per unit depth (:func:`lobes.cutting.average_directional_matrix`, 3 x 2) and
+of one tooth per unit depth (:func:`lobes.directional.average_directional_matrix`, 3 x 2) and
 ``G(iw) = S2 (iw - A)^-1 B`` the tool-tip receptance (2 x 3, cut frame), a harmonic chatter
 ``r = r0 exp(iwt)`` exists at depth ``b`` when::
 
@@ -33,7 +33,7 @@ from robolobes.cases.milling import regeneration
 from robolobes.core.validate import integer
 
 from ._errors import LobeError
-from .cutting import average_directional_matrix
+from .directional import average_directional_matrix
 from .problem import LobeProblem
 
 __all__ = ["ZeroOrder"]

@@ -16,7 +16,7 @@ from robolobes import cases
 import robolobes.linearize as L
 from robolobes.lobes.problem import LobeProblem
 from robolobes.lobes.sdm import SemiDiscretization
-from robolobes.lobes.solve import stability
+from robolobes.lobes import stability
 from robolobes.lobes.structure import PhysicalStructure
 from robolobes.timedomain.simulate import SimulationProblem, principal_period, simulate
 

@@ -1,4 +1,5 @@
-"""The linearized cutting force of a :class:`LobeProblem`: regeneration pattern and directional matrices.
+"""The time-discretized directional plan of a :class:`LobeProblem`: regeneration pattern and the
+step-averaged directional matrices of the linearized force (the force law itself is :mod:`cases.milling`).
 
 Linearized about the static cut, the force on the tool (cut frame, N) is::
 
@@ -29,7 +30,7 @@ from robolobes.core.validate import readonly
 
 from ._errors import LobeError
 
-__all__ = ["CuttingPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
+__all__ = ["DirectionalPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
 
 PeriodChoice = Literal["auto", "revolution"]
 QuadratureRule = Literal["gauss", "midpoint"]
@@ -49,7 +50,7 @@ def average_directional_matrix(tool: Tool, cut: Cut, law: CuttingLaw, nodes: int
 
 
 @dataclass(frozen=True, eq=False)
-class CuttingPlan:
+class DirectionalPlan:
     """Time discretization of the cutting force over one principal period (depth-independent data).
 
     Attributes
@@ -97,7 +98,7 @@ class CuttingPlan:
     @classmethod
     def build(cls, tool: Tool, cut: Cut, law: CuttingLaw, *, m: int, quadrature: int, slices: int,
               period: PeriodChoice = "auto", k_force: int = 3,
-              rule: QuadratureRule = "gauss") -> "CuttingPlan":
+              rule: QuadratureRule = "gauss") -> "DirectionalPlan":
         st, ex = engagement_rad(tool, cut)
         regs = regeneration(tool, cut)
         cutting = [r for r in regs if r.cuts]
