@@ -30,7 +30,7 @@ import numpy as np
 
 from robolobes import cases
 from robolobes.core.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
-from robolobes.linearize.cli import modes_summary
+from robolobes.linearize.summary import modes_summary
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.linear import linearize
 from robolobes.linearize.model import VARIANTS, build_model

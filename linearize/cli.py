@@ -12,8 +12,9 @@ import numpy as np
 from robolobes.cases import DEFAULT_CASE, load_case
 from robolobes.core.io import to_jsonable
 from .model import VARIANTS, FlexibleRobot, build_model
+from .summary import modes_summary
 
-__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "modes_summary"]
+__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf"]
 
 
 def add_pose_arguments(p: argparse.ArgumentParser) -> None:
@@ -70,34 +71,6 @@ def resolve_pose(args: argparse.Namespace):
             label = f"pose {names[0]}"
         check_limits(case.robot, theta)
     return case, robot, np.asarray(theta, dtype=float), label
-
-
-def modes_summary(robot: FlexibleRobot, theta: np.ndarray, case=None) -> dict:
-    """The numbers ``robolobes modes --json`` prints (and the study reuses): SI units, base frame."""
-    from .linear import equilibrium, linearize
-
-    lin = linearize(robot, theta)
-    modes = lin.modes()
-    eq = equilibrium(robot, theta) if robot.has_gravity else None
-    out = {
-        "case": getattr(case, "name", None),
-        "variant": robot.variant,
-        "n_dof": robot.nv,
-        "q_deg": np.degrees(lin.theta),
-        "q_equilibrium_deg": np.degrees(lin.q),
-        "tcp_position_m": lin.p_tcp,
-        "tool_axis": lin.tool_axis,
-        "tcp_gravity_deflection_m": eq.tcp_deflection if eq is not None else np.zeros(3),
-        "freq_hz": modes.freq_hz,
-        "damped_freq_hz": modes.damped_freq_hz,
-        "damping_ratio": modes.damping_ratio,
-        "modal_stiffness_n_per_m": modes.modal_stiffness_n_per_m,
-        "tcp_static_stiffness_n_per_m": lin.stiffness("base"),
-        "tcp_static_compliance_m_per_n": lin.compliance("base"),
-        "frame": "base",
-        "notes": list(lin.notes),
-    }
-    return out
 
 
 def run_modes(args) -> int:
