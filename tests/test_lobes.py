@@ -7,8 +7,14 @@ Benchmark (Insperger & Stepan 2004, IJNME 61:117; Insperger, Mann, Stepan & Bayl
 Kn sin phi_j) sin phi_j`` -- in our cut frame that is a Mode with direction [1, 0] (x_c = feed):
 ``D_xx = -(Kt cos phi + Kr sin phi) sin phi`` from cases.milling.directional_matrix.
 
-Converged reference values (Richardson extrapolation of m = 160/320/640, Gauss averaging; see
-tests/test_lobes_reference.py, marked slow, and tests/data/lobes_reference.json):
+Reference values COMPUTED HERE, not published: the converged values below are this code's own
+Richardson extrapolations (m = 160/320/640, Gauss averaging; tests/test_lobes_reference.py, marked
+slow, and tests/data/lobes_reference.json). The benchmark's parameters are Insperger & Stepan's,
+but no printed number for these minima or this spectral radius was located (the 2004 paper shows
+stability charts); they are regression anchors of a converged computation. The independent checks
+are: the plain SDM below, written from the paper's formulas (same discretization: equal to
+rounding); the zero-order closed form of the lobe minimum (Altintas & Budak 1995), asserted to
+1e-7; and the second-order convergence of the SDM.
 
 * 1-DOF, a/D = 0.05 down: global minimum is a flip lobe, 1.0777 mm at 18190 rpm (1.0980 mm at
   18186 rpm for m = 40);
@@ -60,7 +66,7 @@ def limit(p, meth, rpm, rtol=1e-10):
 # an independent, plain first-order SDM for a 1-DOF structure (original coordinates, the
 # inverse-A formulas of Insperger & Stepan 2004 instead of our Van Loan exponential, dense
 # (m + 2)-dimensional monodromy), written directly from the paper.
-def plain_sdm_1dof(rpm, depth, aD, m, q=20, order=1, offset=0.5, coef=None, k=K, mt=MT, zeta=ZETA):
+def plain_sdm_1dof(rpm, depth, aD, m, q=20, coef=None, k=K, mt=MT, zeta=ZETA):
     """Spectral radius; ``coef(phi)`` is the scalar force coefficient (default D_xx)."""
     N = 2
     st, ex = math.acos(2 * aD - 1), math.pi  # down-milling
@@ -69,7 +75,7 @@ def plain_sdm_1dof(rpm, depth, aD, m, q=20, order=1, offset=0.5, coef=None, k=K,
     h = np.zeros(m)
     for i in range(m):
         for j in range(N):
-            phi = (i + (np.arange(q) + offset) / q) * dphi + j * 2 * math.pi / N
+            phi = (i + (np.arange(q) + 0.5) / q) * dphi + j * 2 * math.pi / N
             pm = np.mod(phi, 2 * math.pi)
             h[i] += np.sum(((pm >= st) & (pm <= ex)) * coef(phi)) / q
     wn = math.sqrt(k / mt)
@@ -88,12 +94,9 @@ def plain_sdm_1dof(rpm, depth, aD, m, q=20, order=1, offset=0.5, coef=None, k=K,
         D[2, 0] = 1.0
         for r in range(3, m + 2):
             D[r, r - 1] = 1.0
-        if order == 1:  # x(t - tau) linear between x_{i-m} (weight 1 - s/dt) and x_{i-m+1}
-            D[:2, m + 1] += (P2 / dt @ B)[:, 0]
-            D[:2, m] += ((P1 - P2 / dt) @ B)[:, 0]
-        else:  # zeroth order: the mean of x_{i-m} and x_{i-m+1}, constant over the step
-            D[:2, m] += 0.5 * (P1 @ B)[:, 0]
-            D[:2, m + 1] += 0.5 * (P1 @ B)[:, 0]
+        # first order: x(t - tau) linear between x_{i-m} (weight 1 - s/dt) and x_{i-m+1}
+        D[:2, m + 1] += (P2 / dt @ B)[:, 0]
+        D[:2, m] += ((P1 - P2 / dt) @ B)[:, 0]
         Phi = D @ Phi
     return float(np.max(np.abs(np.linalg.eigvals(Phi))))
 
@@ -107,10 +110,9 @@ def test_spectral_radius_benchmark_and_independent_implementation():
     assert_allclose(r_mid, 0.7065806260, rtol=1e-9)  # value of both codes, kept as a regression anchor
     # default: exact step averages (Gauss points on the engaged part of each step)
     assert_allclose(radius(p, SemiDiscretization(m=40)), 0.7068862713, rtol=1e-9)
-    # The 0.70944 quoted for "m = 40, 20-point averaging" is the ZEROTH-order SDM (Insperger &
-    # Stepan 2002) with the classic Matlab sample points (i + l/q) dt, l = 1..q:
-    assert_allclose(plain_sdm_1dof(10000, 1e-3, 0.05, 40, order=0, offset=1.0), 0.70944, atol=5e-6)
-    # converged value (m -> infinity): 0.704893 (Richardson of m = 320/640, slow study); m = 320
+    # (The 0.70944 quoted in the issue for "m = 40, 20-point averaging" was reproduced once by a
+    # zeroth-order SDM; that checks a helper, not robolobes, and is not a test.)
+    # converged value (m -> infinity), computed here: 0.704893 (Richardson of m = 320/640, slow study); m = 320
     # is within 4e-5 of it (error ~ 1/m^2: 2e-3 at m = 40 / 64)
     assert_allclose(radius(p, SemiDiscretization(m=320)), 0.704893, atol=4e-5)
 
