@@ -194,56 +194,58 @@ class DirectionalPlan:
         """
         b = np.asarray(depth_m, dtype=float).reshape(-1)
         steps = np.asarray(steps, dtype=int)
-        q, ns, k = self.quadrature, self.slices, self.k_force
-        G = self.n_groups
-        out = np.zeros((len(b), len(steps), G, k, 2))
+        out = np.zeros((len(b), len(steps), self.n_groups, self.k_force, 2))
         if len(steps) == 0 or len(b) == 0:
             return out
-        dphi = self.step_rad
-        a0 = steps * dphi  # (P,)
-        zfrac = (np.arange(ns) + 0.5) / ns  # (ns,)
-        helix = self.tool.helix_rad > 0
-        if self.rule == "midpoint":
-            nodes = (np.arange(q) + 0.5) / q  # fraction of the step
-            wts = np.full(q, 1.0 / q)
-        else:
-            x, w = np.polynomial.legendre.leggauss(q)
-            nodes, wts = (x + 1) / 2, w / 2
-
-        def unit_avg(start):
-            """start: (..., P) angle of the step start for a tooth/slice -> (..., P, k, 2) average of g D."""
-            if self.rule == "midpoint":
-                phi = start[..., None] + nodes * dphi  # (..., P, q)
-                D = directional_matrix(phi, self.law)[..., :k, :]
-                D = D * in_cut(phi, self.phi_st, self.phi_ex)[..., None, None]
-                return np.einsum("...qij,q->...ij", D, wts)
-            s0 = np.mod(start, 2 * math.pi)
-            s1 = s0 + dphi
-            acc = np.zeros(start.shape + (k, 2))
-            for shift in (0.0, 2 * math.pi):
-                lo = np.maximum(s0, self.phi_st + shift)
-                ln = np.minimum(s1, self.phi_ex + shift) - lo
-                sel = ln > 0
-                if not sel.any():
-                    continue
-                phi = lo[sel][:, None] + nodes[None, :] * ln[sel][:, None]  # (n_sel, q)
-                D = directional_matrix(phi, self.law)[..., :k, :]
-                acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
-            return acc
-
-        if not helix:
+        a0 = steps * self.step_rad  # (P,) angle of each step's start
+        if self.tool.helix_rad == 0:
             # W is linear in the depth: compute per unit depth once
-            unit = np.zeros((len(steps), G, k, 2))
+            unit = np.zeros((len(steps), self.n_groups, self.k_force, 2))
             for th, g in zip(self.tooth_angle_rad, self.tooth_group):
-                unit[:, g] += unit_avg(a0 + th)
+                unit[:, g] += self._step_average(a0 + th)
             return b[:, None, None, None, None] * unit[None]
         # helix: the lag of each slice depends on the depth; chunk over depths to bound memory
-        chunk = max(1, int(2e6 // max(1, len(steps) * q * ns)))
+        ns = self.slices
+        zfrac = (np.arange(ns) + 0.5) / ns  # (ns,) slice mid-heights as fractions of the depth
+        chunk = max(1, int(2e6 // max(1, len(steps) * self.quadrature * ns)))
         for c0 in range(0, len(b), chunk):
             bc = b[c0:c0 + chunk]
             psi = self.tool.lag_rad(bc[:, None] * zfrac[None, :])  # (Bc, ns)
             for th, g in zip(self.tooth_angle_rad, self.tooth_group):
                 start = a0[None, None, :] + th - psi[:, :, None]  # (Bc, ns, P)
-                avg = unit_avg(start).sum(axis=1)  # (Bc, P, k, 2)
+                avg = self._step_average(start).sum(axis=1)  # (Bc, P, k, 2)
                 out[c0:c0 + chunk, :, g] += avg * (bc / ns)[:, None, None, None]
         return out
+
+    def _nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Quadrature nodes (fractions of the interval) and weights (summing to 1) of ``rule``."""
+        q = self.quadrature
+        if self.rule == "midpoint":
+            return (np.arange(q) + 0.5) / q, np.full(q, 1.0 / q)
+        x, w = np.polynomial.legendre.leggauss(q)
+        return (x + 1) / 2, w / 2
+
+    def _step_average(self, start: np.ndarray) -> np.ndarray:
+        """Average of ``g(phi) D(phi)`` over one step for an edge whose angle at the step start is
+        ``start`` (array (..., P), rad): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`)."""
+        k, dphi = self.k_force, self.step_rad
+        nodes, wts = self._nodes()
+        if self.rule == "midpoint":
+            phi = start[..., None] + nodes * dphi  # (..., P, q)
+            D = directional_matrix(phi, self.law)[..., :k, :]
+            D = D * in_cut(phi, self.phi_st, self.phi_ex)[..., None, None]
+            return np.einsum("...qij,q->...ij", D, wts)
+        # Gauss: integrate only over the engaged part of the step (smooth integrand there)
+        s0 = np.mod(start, 2 * math.pi)
+        s1 = s0 + dphi
+        acc = np.zeros(start.shape + (k, 2))
+        for shift in (0.0, 2 * math.pi):
+            lo = np.maximum(s0, self.phi_st + shift)
+            ln = np.minimum(s1, self.phi_ex + shift) - lo
+            sel = ln > 0
+            if not sel.any():
+                continue
+            phi = lo[sel][:, None] + nodes[None, :] * ln[sel][:, None]  # (n_sel, q)
+            D = directional_matrix(phi, self.law)[..., :k, :]
+            acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
+        return acc

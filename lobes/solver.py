@@ -12,7 +12,7 @@ import numpy as np
 from robolobes.core.numerics import richardson
 from robolobes.core.threads import blas_single_threaded
 from robolobes.core.verdict import Verdict
-from robolobes.core.validate import finite, readonly
+from robolobes.core.validate import finite, integer, readonly
 
 from ._errors import LobeError
 from .problem import LobeProblem
@@ -359,39 +359,48 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
         raise LobeError("give speeds_rpm, e.g. numpy.linspace(5000, 25000, 200)")
     rpm = _check_speeds(speeds_rpm)
     depth_max = _check_depth("depth_max_m", depth_max_m)
-    if isinstance(coarse_points, bool) or not isinstance(coarse_points, (int, np.integer)) or coarse_points < 2:
-        raise LobeError(f"coarse_points must be an integer >= 2, got {coarse_points!r}")
+    integer("coarse_points", coarse_points, minimum=2, error=LobeError)
     if not (isinstance(rtol, (int, float)) and 0 < rtol < 0.5):
         raise LobeError(f"rtol must be in (0, 0.5), got {rtol!r}")
     t0 = time.perf_counter()
     stats: dict = {"evaluations": 0, "rounds": 0, "depth_max_m": depth_max, "method": method.name}
-    err = np.full(len(rpm), np.nan)
     if isinstance(method, ZeroOrder):
-        eng = ZOAEngine(problem, method)
-        depth, freq = eng.limits(rpm)
-        bif = np.where(np.isfinite(depth), "hopf", "none")
-        depth = np.where(depth <= depth_max, depth, np.inf)
-        if progress is not None:
-            progress(len(rpm), len(rpm))
+        depth, freq, bif, err = _zoa_diagram(problem, method, rpm, depth_max, progress)
     else:
-        eng = SDMEngine(problem, method, depth_max)
-        stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
-                     axial_slices=eng.plan.slices, monodromy_size=eng.n_red,
-                     principal_period=eng.plan.period_name,
-                     engaged_steps=len(eng.cand))
-        total = len(rpm) * (2 if method.richardson else 1)
-        depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
-        if method.richardson:
-            m2 = replace(method, m=2 * method.m, richardson=False)
-            eng2 = SDMEngine(problem, m2, depth_max)
-            d2, f2, b2 = _sdm_limits(eng2, rpm, depth_max, coarse_points, rtol, stats, progress, chunk,
-                                     len(rpm), total)
-            depth, err = richardson(depth, d2)
-            freq, bif = f2, b2
-            stats["m_richardson"] = 2 * method.m
+        depth, freq, bif, err = _sdm_diagram(problem, method, rpm, depth_max, coarse_points, rtol, stats, progress,
+                                             chunk)
     stats["wall_s"] = time.perf_counter() - t0
     return LobeResult(problem=problem, method=method, spindle_rpm=rpm, depth_limit_m=depth,
                       chatter_freq_hz=freq, bifurcation=bif, depth_error_m=err, stats=stats)
+
+
+def _zoa_diagram(problem: LobeProblem, method: ZeroOrder, rpm: np.ndarray, depth_max: float, progress):
+    """Zero-order limits (m), chatter frequencies (Hz), bifurcations and NaN errors at ``rpm`` (S,)."""
+    depth, freq = ZOAEngine(problem, method).limits(rpm)
+    bif = np.where(np.isfinite(depth), "hopf", "none")
+    depth = np.where(depth <= depth_max, depth, np.inf)
+    if progress is not None:
+        progress(len(rpm), len(rpm))
+    return depth, freq, bif, np.full(len(rpm), np.nan)
+
+
+def _sdm_diagram(problem: LobeProblem, method: SemiDiscretization, rpm: np.ndarray, depth_max: float,
+                 coarse_points: int, rtol: float, stats: dict, progress, chunk: int):
+    """SDM limits (m), chatter frequencies (Hz), bifurcations and Richardson error bounds (m; NaN
+    without ``method.richardson``) at ``rpm`` (S,); fills ``stats``."""
+    eng = SDMEngine(problem, method, depth_max)
+    stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
+                 axial_slices=eng.plan.slices, monodromy_size=eng.n_red, principal_period=eng.plan.period_name,
+                 engaged_steps=len(eng.cand))
+    total = len(rpm) * (2 if method.richardson else 1)
+    depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
+    if not method.richardson:
+        return depth, freq, bif, np.full(len(rpm), np.nan)
+    eng2 = SDMEngine(problem, replace(method, m=2 * method.m, richardson=False), depth_max)
+    d2, f2, b2 = _sdm_limits(eng2, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, len(rpm), total)
+    stats["m_richardson"] = 2 * method.m
+    depth, err = richardson(depth, d2)
+    return depth, f2, b2, err
 
 
 @blas_single_threaded
