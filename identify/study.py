@@ -30,7 +30,7 @@ import numpy as np
 
 from robolobes import cases
 from robolobes.core.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
-from robolobes.linearize.cli import modes_summary
+from robolobes.linearize.summary import modes_summary
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.linear import linearize
 from robolobes.linearize.model import VARIANTS, build_model
@@ -147,7 +147,7 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
     from robolobes.lobes.plot import plot_lobes
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import solve, stability
+    from robolobes.lobes import solve, stability
     from robolobes.lobes.zoa import ZeroOrder
 
     method = SemiDiscretization(m=settings.sdm_m)
@@ -165,7 +165,7 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
         lin, st = _cut_frame_structure(robot, poses[pose], case)
         problem = LobeProblem(st, case.tool, case.cut, case.law)
         op = stability(problem, method)
-        entry = {"verdict": op.verdict, "margin": op.margin, "margin_error": op.margin_error,
+        entry = {"verdict": op.verdict.status, "margin": op.margin, "margin_error": op.margin_error,
                  "depth_m": op.depth_m, "depth_limit_m": op.depth_limit_m,
                  "depth_limit_error_m": op.depth_limit_error_m, "spectral_radius": op.spectral_radius,
                  "bifurcation": op.bifurcation, "chatter_freq_hz": op.chatter_freq_hz,
@@ -244,10 +244,10 @@ def smallest_stable_scale(check, scales, tol) -> dict:
 
 def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
     """Smallest motion-axis damping scale for which the SDM limit at 3100 rpm exceeds ap = 1.6 mm
-    (a "marginal" verdict counts as not stable)."""
+    (an "undetermined" verdict counts as not stable)."""
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import stability
+    from robolobes.lobes import stability
 
     theta = _poses(pas)["start"]
     method = SemiDiscretization(m=settings.sdm_m)
@@ -256,7 +256,7 @@ def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
         robot = build_model(steel.robot, variant, damping_scale=scale)
         _, st = _cut_frame_structure(robot, theta, steel)
         op = stability(LobeProblem(st, steel.tool, steel.cut, steel.law), method)
-        return op.verdict == "stable", {"verdict": op.verdict, "depth_limit_m": op.depth_limit_m, "margin": op.margin,
+        return op.verdict.status == "stable", {"verdict": op.verdict.status, "depth_limit_m": op.depth_limit_m, "margin": op.margin,
                                         "bifurcation": op.limit_bifurcation,
                                         "chatter_freq_hz": op.limit_chatter_freq_hz}
 
@@ -410,9 +410,9 @@ def _plot_main(results, lobes_out, sims, path):
             d = np.asarray(res.depth_limit_m) * 1e3
             ax.plot(res.spindle_rpm, np.where(np.isfinite(d), d, np.nan), "k", lw=1.2, label="SDM limit [basic]")
         if op is not None:
-            col = "tab:green" if op.verdict == "stable" else "tab:red"
-            ax.plot([op.spindle_rpm], [op.depth_m * 1e3], "o" if op.verdict == "stable" else "X", color=col, ms=10,
-                    mec="k", label=f"cut: {op.verdict}, limit {op.depth_limit_m * 1e3:.2f} mm")
+            col = "tab:green" if op.verdict.status == "stable" else "tab:red"
+            ax.plot([op.spindle_rpm], [op.depth_m * 1e3], "o" if op.verdict.status == "stable" else "X", color=col, ms=10,
+                    mec="k", label=f"cut: {op.verdict.status}, limit {op.depth_limit_m * 1e3:.2f} mm")
         ax.set_ylim(0, 10)
         ax.set_xlabel("spindle speed (rpm)")
         ax.set_ylabel("axial depth (mm)")
