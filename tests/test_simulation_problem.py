@@ -11,7 +11,7 @@ import pytest
 
 from robolobes import cases
 from robolobes.core.errors import BadInput
-from robolobes.linearize import JointLimitWarning, build_model
+from robolobes.linearize import JointLimitWarning, Payload, build_model
 from robolobes.timedomain import (LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem,
                                   SimulationSummary, simulate)
 from robolobes.timedomain.output import save_result
@@ -100,9 +100,14 @@ def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(
 
 
 def test_summary_records_the_robot_it_simulated():
-    robot = build_model(ALU.robot, "basic", damping_scale=3.0)
+    # the problem takes any built robot: a damping scale and an extra element are simulated and
+    # recorded (the free vibration of such a robot is checked against its modes in
+    # test_timedomain_robot.py)
+    extra = Payload(dataclasses.replace(ALU.robot.payload, mass_kg=5.0), name="extra mass")
+    robot = build_model(ALU.robot, "basic", damping_scale=3.0, extra_elements=(extra,))
     s = simulate(SimulationProblem(robot, ALU, t_end_s=0.01), LinearizedNewmark()).summary
     assert s.variant == "basic+" and s.damping_scale == pytest.approx(3.0)
+    assert s.elements == ("payload", "motion springs", "extra mass")
 
 
 def test_save_result_into_an_earlier_run_removes_its_stale_outputs_only(short_runs, tmp_path):
