@@ -9,8 +9,10 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Callable
 
+from robolobes.cases.milling import principal_period
+
 from .result import SimulationSummary
-from .summary import has_runout, principal_period
+from .summary import has_runout
 
 __all__ = ["needs_companion", "companion_problem", "with_companion_verdict", "VERDICT_FIELDS"]
 

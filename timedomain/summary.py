@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import replace
 
 import numpy as np
 
+from robolobes.cases.milling import principal_period
 from robolobes.core.io import provenance
 from robolobes.linearize.model import MotionSprings
 
@@ -30,7 +30,7 @@ from .result import SimulationResult, SimulationSummary
 from .signals import chatter_frequency, force_stats, stability
 from .workpiece import Workpiece
 
-__all__ = ["summarize", "stability_verdict", "principal_period", "has_runout", "DECAY_LIMIT", "MIN_STEADY_PERIODS",
+__all__ = ["summarize", "stability_verdict", "has_runout", "DECAY_LIMIT", "MIN_STEADY_PERIODS",
            "simulation_inputs"]
 
 #: The window must be long enough for the slowest free robot mode to lose at least 20 % of its
@@ -40,20 +40,6 @@ DECAY_LIMIT = 0.8
 MIN_STEADY_PERIODS = 15
 #: The finished wall must exceed the 0.8 mm cutoff's run-in and run-out plus a sampling length.
 MIN_WALL_M = 2.5e-3
-
-
-def principal_period(tool, cut) -> tuple[float, str]:
-    """Period of the cut's linear dynamics and its name: the tooth period ``T / N`` when every tooth
-    cuts and regenerates on the surface of its predecessor one equal pitch earlier (uniform pitch,
-    runout too small to make a tooth skip), else the spindle revolution ``T`` (variable pitch,
-    skipped teeth). The lobes (:mod:`lobes`) use the same principal period; a flip bifurcation is a
-    period doubling of it, which a once-per-revolution section cannot see when N = 2."""
-    from robolobes.cases.milling import regeneration
-    reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
-    pitch = 2 * math.pi / tool.teeth
-    if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):
-        return cut.spindle_period_s / tool.teeth, "tooth"
-    return cut.spindle_period_s, "revolution"
 
 
 def has_runout(tool) -> bool:
@@ -123,8 +109,8 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float],
     ``stable``, ``stability``, ``chatter_freq_hz``, ``nonsynchronous_peak_hz``,
     ``nonsynchronous_ratio``, ``note``).
 
-    Once-per-principal-period samples (:func:`principal_period`: tooth period for a uniform pitch,
-    else the revolution) of the TCP deviation (x, y) over the steady ``window``
+    Once-per-principal-period samples (:func:`cases.milling.principal_period`: tooth period for a
+    uniform pitch, else the revolution) of the TCP deviation (x, y) over the steady ``window``
     (:func:`timedomain.signals.stability`, ``rule="trend"``): unstable when the non-synchronous
     motion exceeds 5 % of the forced peak-to-peak and does not decay significantly (log-linear fit
     over 6 segments: dying out iff slope + 2 standard errors < -sigma/4, a quarter of the slowest
