@@ -69,7 +69,8 @@ def _check_ranges(s: dict):
             assert s[key][1] > s[key][0], (key, s[key])
 
 
-FIELDS = {f.name for f in dataclasses.fields(SimulationSummary)}
+# every dataclass field; the verdict is written as "verdict", "stable" and "verdict_reason"
+FIELDS = {f.name for f in dataclasses.fields(SimulationSummary)} | {"stable", "verdict_reason"}
 
 
 @pytest.fixture(scope="module")
@@ -82,6 +83,7 @@ def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(
     before = short_runs[0.05].summary.to_json()
     assert set(before) == FIELDS  # every field, always
     assert before["steady_window_s"] is None and before["stable"] is None and before["force_stats"] is None
+    assert before["verdict"] == "undetermined" and before["verdict_reason"] == before["note"]
     assert "before the steady cut starts (0.228 s)" in before["note"]
     assert before["roughness_um"] is None and "too short" in before["roughness_note"]
     _check_ranges(before)
@@ -90,6 +92,7 @@ def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(
     t0, t1 = inside["steady_window_s"]
     assert t0 == pytest.approx(0.228, abs=1e-3) and t1 == pytest.approx(0.25)
     assert inside["stable"] is None and inside["force_stats"] is None and "fewer than 15 revolutions" in inside["note"]
+    assert inside["verdict"] == "undetermined" and "fewer than 15 revolutions" in inside["verdict_reason"]
     _check_ranges(inside)
     for r in short_runs.values():
         assert r.summary.variant == "basic" and r.summary.elements == ("payload", "motion springs")

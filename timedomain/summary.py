@@ -23,6 +23,7 @@ import numpy as np
 
 from robolobes.cases.milling import principal_period
 from robolobes.core.io import provenance
+from robolobes.core.verdict import Verdict
 from robolobes.linearize.model import MotionSprings
 
 from .problem import LinearizedNewmark, SimulationProblem
@@ -106,7 +107,7 @@ def _force_fields(result: SimulationResult, window: tuple[float, float]) -> dict
 def stability_verdict(result: SimulationResult, window: tuple[float, float],
                       slowest_decay_per_s: float | None) -> dict:
     """The time-domain stability verdict (the one policy; summary fields ``verdict_section``,
-    ``stable``, ``stability``, ``chatter_freq_hz``, ``nonsynchronous_peak_hz``,
+    ``verdict``, ``stability``, ``chatter_freq_hz``, ``nonsynchronous_peak_hz``,
     ``nonsynchronous_ratio``, ``note``).
 
     Once-per-principal-period samples (:func:`cases.milling.principal_period`: tooth period for a
@@ -130,9 +131,9 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float],
     n_sec = int((t1 - t0) / Tp + 1e-9)
     if n_sec < 30:
         # the trend rule needs 6 segments of >= 5 sections
-        out.update(stable=None, chatter_freq_hz=None,
-                   note=f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
-                        f"verdict needs 30: simulate longer")
+        note = (f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
+                f"verdict needs 30: simulate longer")
+        out.update(verdict=Verdict("undetermined", note), chatter_freq_hz=None, note=note)
         return out
     # a transient must decay at least at a quarter of the slowest free robot mode's rate
     # (cutting slows the decay near the boundary; slower than that is, over a window of a few
@@ -145,14 +146,17 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float],
                            t_start_s=t0, t_end_s=t1)
     ringing = None if slowest_decay_per_s is None else math.exp(-slowest_decay_per_s * (t1 - t0) * 2 / 3)
     stable = verdict.stable
+    reason = (f"trend rule on once-per-{pname}-period samples: non-synchronous motion {verdict.ratio:.3g} of the "
+              f"forced peak-to-peak (threshold {verdict.threshold:g}), trend {verdict.trend_per_s:+.3g} "
+              f"+- {2 * verdict.trend_se_per_s:.2g} 1/s (2 SE), required decay {min_decay:.3g} 1/s")
     if not stable and ringing is not None and ringing > DECAY_LIMIT:
         # a free robot mode would itself lose less than the required 20 % over this window (and
         # close modes beat): ringing after the entry cannot be told from chatter
         stable = None
-        out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
-                       f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two thirds "
-                       f"of the {t1 - t0:.2f} s steady window; simulate longer")
-    out["stable"] = stable
+        reason = out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
+                                f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two "
+                                f"thirds of the {t1 - t0:.2f} s steady window; simulate longer")
+    out["verdict"] = Verdict.from_stable(stable, reason)
     out["stability"] = {"ratio": verdict.ratio, "decay": verdict.decay, "threshold": verdict.threshold,
                         "trend_per_s": verdict.trend_per_s, "trend_se_per_s": verdict.trend_se_per_s,
                         "slowest_mode_decay_over_window": ringing}
@@ -169,12 +173,14 @@ def _steady_fields(result: SimulationResult, slowest_decay_per_s: float | None) 
     t0, t1 = result.steady_window_s
     t1 = min(t1, float(t[-1]))
     if t1 <= t0:
-        return {"note": f"the run ends at {t[-1]:.3f} s, before the steady cut starts ({t0:.3f} s): no verdict, "
-                        f"no statistics (simulate longer)"}
+        note = (f"the run ends at {t[-1]:.3f} s, before the steady cut starts ({t0:.3f} s): no verdict, "
+                f"no statistics (simulate longer)")
+        return {"note": note, "verdict": Verdict("undetermined", note)}
     out: dict = {"steady_window_s": (t0, t1)}
     if t1 - t0 < MIN_STEADY_PERIODS * T:
         out["note"] = (f"steady window {t0:.3f}-{t1:.3f} s holds fewer than {MIN_STEADY_PERIODS} revolutions: "
                        f"no verdict, no statistics (simulate longer)")
+        out["verdict"] = Verdict("undetermined", out["note"])
         return out
     out.update(_force_fields(result, (t0, t1)))
     out.update(stability_verdict(result, (t0, t1), slowest_decay_per_s))
