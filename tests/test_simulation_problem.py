@@ -131,3 +131,15 @@ def test_save_result_into_an_earlier_run_removes_its_stale_outputs_only(short_ru
     (other / "series.csv").write_text("a user's own file")
     save_result(r, other, series="npz")
     assert (other / "series.csv").read_text() == "a user's own file"
+
+
+def test_the_nonlinear_method_runs_through_simulate_with_its_options():
+    # 0.02 s of the approach (no cut yet): the full path records the axial TCP deviation, which the
+    # linearized path does not have (NaN there), and uses the method's Newton options
+    pb = SimulationProblem(BASIC, ALU, t_end_s=0.02)
+    full = simulate(pb, NonlinearNewmark(max_iter=30))
+    lin = simulate(pb, LinearizedNewmark())
+    assert full.summary.linearized is False and lin.summary.linearized is True
+    assert np.all(np.isfinite(full.tcp_deviation_m)) and np.all(np.isnan(lin.tcp_deviation_m[:, 2]))
+    assert full.stats["steps"] == lin.stats["steps"] == len(full.t_s) - 1
+    assert full.summary.provenance != lin.summary.provenance  # the method is an input
