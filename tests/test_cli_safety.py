@@ -44,7 +44,7 @@ def no_work(monkeypatch):
         raise AssertionError("work started before the output was checked")
 
     for module, name in (("robolobes.linearize.linear", "linearize"), ("robolobes.lobes.cli", "solve"),
-                         ("robolobes.timedomain.simulate", "simulate")):
+                         ("robolobes.timedomain.simulation", "simulate")):
         monkeypatch.setattr(importlib.import_module(module), name, boom)
 
 
