@@ -19,7 +19,7 @@ from robolobes.lobes.sdm import SemiDiscretization
 from robolobes.lobes import stability
 from robolobes.lobes.structure import PhysicalStructure
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
-from robolobes.timedomain.summary import principal_period
+from robolobes.cases.milling import principal_period
 
 warnings.filterwarnings("ignore", category=L.JointLimitWarning)  # Tab. 7's A3, accepted and tested elsewhere
 STEEL = cases.load_case("tx200-steel")
