@@ -98,6 +98,22 @@ def test_simulate_refuses_a_users_directory_and_file_before_work(capsys, tmp_pat
     assert rc == 2 and "not a directory" in err and f.read_text() == "mine"
 
 
+def test_study_refuses_a_users_directory_and_file_before_work(capsys, tmp_path):
+    # on the base commit: the user's file in mydata/ was deleted, existing.txt became a directory
+    # (after a full study; here the refusal comes first, in about a second)
+    d = tmp_path / "mydata"
+    d.mkdir()
+    (d / "thesis.tex").write_text("years of work")
+    rc, out, err = run(capsys, "study", "--quick", "--quiet", "--out", d)
+    assert rc == 2 and one_line(err) and "robolobes did not write" in err
+    assert (d / "thesis.tex").read_text() == "years of work" and len(list(d.iterdir())) == 1
+    f = tmp_path / "existing.txt"
+    f.write_text("mine")
+    rc, out, err = run(capsys, "study", "--quick", "--quiet", "--out", f)
+    assert rc == 2 and one_line(err) and "not a directory" in err and f.read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["existing.txt", "mydata"]
+
+
 def test_frf_rerun_replaces_its_own_file_and_records_provenance(capsys, tmp_path):
     out = tmp_path / "tcp.csv"
     argv = ["frf", "--n", "20", "--fmax-hz", "50", "--out", out]
