@@ -6,7 +6,7 @@ import sys
 
 from robolobes.core.io import Progress
 
-__all__ = ["register", "run_study_cli"]
+__all__ = ["register", "run_study_cli", "run_identify_cli"]
 
 
 def run_study_cli(args) -> int:
@@ -39,3 +39,113 @@ def register(sub) -> None:
     p.add_argument("--out", default="robolobes-study", help="output directory (default ./robolobes-study)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run_study_cli)
+    _register_identify(sub)
+
+
+# ------------------------------------------------------------------------------------------------
+# robolobes identify
+
+
+def _files_digest(path) -> dict:
+    """SHA-256 of every file of the measurement set (for provenance)."""
+    import hashlib
+    from pathlib import Path
+
+    p = Path(path)
+    files = [p] if p.is_file() else sorted(x for x in p.iterdir() if x.is_file())
+    return {x.name: hashlib.sha256(x.read_bytes()).hexdigest() for x in files}
+
+
+def _report_dir(path):
+    """The --report directory, checked before any work: it must not exist (nothing is overwritten)."""
+    from pathlib import Path
+
+    from robolobes.core.errors import BadInput
+
+    d = Path(path)
+    if d.exists():
+        raise BadInput(f"--report {path}: exists; give a new directory (robolobes never overwrites a user's files)")
+    if not d.parent.is_dir():
+        raise BadInput(f"--report {path}: parent directory {d.parent} does not exist")
+    return d
+
+
+def _write_report(d, result, measurement, state, provenance):
+    import os
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from .effects import REGISTRY
+    from .frf import prepare
+    from .report import write_frf_report
+
+    tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", dir=d.parent))
+    try:
+        poses = prepare(measurement, state)
+        effects = [(REGISTRY[e.name], e.params) for e in result.effects]
+        write_frf_report(tmp, result, poses, effects, provenance)
+        os.rename(tmp, d)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def run_identify_cli(args) -> int:
+    import json
+
+    from robolobes.core.io import provenance, to_jsonable
+
+    from .api import identify, model_state, read_measurement
+
+    report = _report_dir(args.report) if args.report else None
+    measurement = read_measurement(args.measured)
+    state, notes = model_state(measurement, args.case, args.variant)
+    for n in notes:
+        print(f"robolobes identify: note: {n}", file=sys.stderr)
+    state.robot()  # builds the model: bad [[elements]] fail here, before any work
+    inputs = {"command": "identify", "measured": _files_digest(measurement.path), "case": state.case_ref,
+              "variant": state.variant, "alpha": args.alpha, "max_effects": args.max_effects}
+    prov = provenance(inputs)
+    bar = Progress("identify", enabled=not args.quiet)
+    steps = [0]
+
+    def progress(msg):
+        steps[0] += 1
+        bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
+
+    result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress)
+    bar.done()
+    out = {**result.to_json(), "provenance": prov}
+    if report is not None and result.kind == "frf":
+        _write_report(report, result, measurement, state, prov)
+    if args.json:
+        print(json.dumps(to_jsonable(out), indent=2))
+        return 0
+    print(f"{result.kind} set {measurement.path}: {len(result.effects)} effect(s); held-out error "
+          f"{result.error_before:.4g} -> {result.error_after:.4g} (noise floor {result.noise_floor:.3g})")
+    for e in result.effects:
+        ps = ", ".join(f"{k} = {v:.5g} +- {e.uncertainty.get(k, float('nan')):.2g}" for k, v in e.params.items())
+        print(f"  {e.name}: {ps}")
+    print(f"metric: {result.metric}")
+    if report is not None:
+        print(f"report: {report}/report.md")
+    return 0
+
+
+def _register_identify(sub) -> None:
+    p = sub.add_parser("identify", help="fit the model to measured data: find the missing effect, report the error "
+                                        "before and after",
+                       description="Reads a measurement set (tool-tip FRFs: poses.csv + <pose>.uff|.unv|.csv), "
+                                   "finds the effects the model lacks by held-out error, and prints them with "
+                                   "the updated model.")
+    p.add_argument("--measured", required=True, help="the measurement set's directory or one of its files")
+    p.add_argument("--case", default=None, help="case name or TOML (overrides the case named in the files)")
+    p.add_argument("--variant", default=None, help="model variant: basic (default), gravity, orthogonal, backlash")
+    p.add_argument("--alpha", type=float, default=0.01,
+                   help="family-wise false-positive rate of the selection over the library (default 0.01)")
+    p.add_argument("--max-effects", type=int, default=3, help="at most this many effects (default 3)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--report", default=None, help="write report.md and figures into this new directory")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(run=run_identify_cli)

@@ -197,7 +197,7 @@ def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dic
     for start in starts:
         x0 = np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span)
         res = least_squares(lambda x: _whitened(poses, fixed + _from_x(layout, x)), x0, bounds=(lo, hi),
-                            x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=60 * (len(x0) + 1))
+                            x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
         if best is None or res.cost < best.cost:
             best = res
     chi2 = 2 * best.cost
@@ -230,7 +230,7 @@ def diagnose(poses: list[PoseData], effects: list) -> dict:
     measured / model magnitude ratio, averaged over poses and pairs, is largest) and its size."""
     fmin = min(pd.omega.min() for pd in poses) / (2 * math.pi)
     fmax = max(pd.omega.max() for pd in poses) / (2 * math.pi)
-    edges = np.geomspace(max(fmin, 0.1), fmax * (1 + 1e-9), 121)
+    edges = np.geomspace(max(fmin, 0.1), fmax * (1 + 1e-9), 241)
     acc = np.zeros(len(edges) - 1)
     cnt = np.zeros(len(edges) - 1)
     per_pose = []
@@ -250,7 +250,38 @@ def diagnose(poses: list[PoseData], effects: list) -> dict:
     f_peak = float(math.sqrt(edges[k] * edges[k + 1]))
     every_pose = bool(all(pp[k] > math.log(1.5) for pp in per_pose))
     return {"extra_peak_hz": f_peak, "extra_peak_m_per_n": float(amp[k]),
-            "extra_peak_log_ratio": float(mean[k]), "extra_peak_in_every_pose": every_pose}
+            "extra_peak_log_ratio": float(mean[k]), "extra_peak_in_every_pose": every_pose,
+            "extra_peak_direction_tcp": _peak_direction(poses, effects, f_peak)}
+
+
+def _peak_direction(poses: list[PoseData], effects: list, f_hz: float):
+    """Direction (TCP frame) of a rank-one residual ``d d^T g(w)`` near ``f_hz``, from the first pose
+    with the three direct pairs: ``|d_k| = sqrt|r_kk|``, relative signs from the cross pairs."""
+    for pd in poses:
+        r = predict(pd, effects) - pd.H
+        f = pd.omega[pd.index] / (2 * math.pi)
+        near = np.abs(f / f_hz - 1) < 0.03
+        R = np.full((3, 3), np.nan, dtype=complex)
+        for k in np.unique(pd.pair):
+            s = (pd.pair == k) & near
+            o, i = np.argmax(np.abs(pd.pair_out[k])), np.argmax(np.abs(pd.pair_in[k]))
+            if s.any() and np.isclose(abs(pd.pair_out[k][o]), 1) and np.isclose(abs(pd.pair_in[k][i]), 1):
+                v = r[s][np.argmax(np.abs(r[s]))] * np.sign(pd.pair_out[k][o]) * np.sign(pd.pair_in[k][i])
+                R[o, i] = R[i, o] = v
+        diag = np.diagonal(R)
+        if np.any(np.isnan(diag)):
+            continue
+        ref = diag[np.argmax(np.abs(diag))]
+        d = np.sqrt(np.abs(diag))
+        j = int(np.argmax(d))
+        for k in range(3):
+            if k != j and not np.isnan(R[j, k]) and (R[j, k] / ref).real < 0:
+                d[k] = -d[k]
+        if np.linalg.norm(d) == 0:
+            continue
+        d_tcp = pd.pm.R_tcp.T @ (d / np.linalg.norm(d))
+        return [float(x) for x in d_tcp]
+    return None
 
 
 # ----------------------------------------------------------------------------------------------

@@ -6,7 +6,8 @@ fitting, each also perturbs the linearized matrices of a pose directly (:meth:`p
 costs a few microseconds instead of rebuilding and re-linearizing the pinocchio model:
 
 * ``tcp_mode``: one coordinate ``u`` more, the mass ``m = k / w0^2`` at the TCP moving ``J dq + d u``
-  (``d`` the mode direction in base axes): ``M' = [[M + m J^T J, m J^T d], [m d^T J, m]]``,
+  (``d`` the mode direction in base axes), taken from the payload at the TCP (moving ``J dq``):
+  ``M' = [[M, m J^T d], [m d^T J, m]]``,
   ``K' = diag(K, k)``, ``C' = diag(C, c)``, TCP output ``[J, d]`` (exact to first order: the
   element's pinocchio model gives the same M, C, K up to the gravity load of the small mass);
 * ``joint_correction_aN``: ``K[i, i] += (s_k - 1) k_N``, ``C[i, i] += (s_d - 1) d_N`` (exact);
@@ -117,7 +118,7 @@ class TcpModeEffect(StructuralEffect):
     parameters = (
         Parameter("freq_hz", 20.0, 3000.0, None, None, log=True, doc="natural frequency on a fixed base"),
         Parameter("damping_ratio", 0.003, 0.3, None, None, log=True),
-        Parameter("stiffness_n_per_m", 1e5, 1e9, None, None, log=True,
+        Parameter("stiffness_n_per_m", 1e4, 1e9, None, None, log=True,
                   doc="detectable when 1 / (2 zeta k) exceeds the robot's receptance at freq_hz by the noise"),
         Parameter("polar_rad", 0.0, math.pi, doc="direction: angle from the tool axis (TCP z)"),
         Parameter("azimuth_rad", -math.pi, math.pi, doc="direction: angle about the tool axis from TCP x"),
@@ -140,7 +141,7 @@ class TcpModeEffect(StructuralEffect):
         n = pm.M.shape[0]
         Jd = pm.J.T @ d
         M = np.zeros((n + 1, n + 1))
-        M[:n, :n] = pm.M + m * pm.J.T @ pm.J
+        M[:n, :n] = pm.M                     # + m J^T J (mode body) - m J^T J (taken from the payload)
         M[:n, n] = M[n, :n] = m * Jd
         M[n, n] = m
         C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = c
@@ -155,8 +156,12 @@ class TcpModeEffect(StructuralEffect):
             return []
         f = float(np.clip(f, self.parameters[0].lower, self.parameters[0].upper))
         zeta = 0.03
-        k = float(np.clip(1.0 / (2 * zeta * amp), 1e5, 1e9)) if amp else 1e7
-        starts = [(0.5 * math.pi, 0.0), (0.5 * math.pi, 0.5 * math.pi), (0.0, 0.0)]   # TCP x, y, z
+        k = float(np.clip(1.0 / (2 * zeta * amp), 1e4, 1e9)) if amp else 1e6
+        d = diagnosis.get("extra_peak_direction_tcp")
+        if d is not None:     # from the residual's rank-one shape at the peak
+            starts = [(math.acos(max(-1.0, min(1.0, d[2]))), math.atan2(d[1], d[0]))]
+        else:
+            starts = [(0.5 * math.pi, 0.0), (0.5 * math.pi, 0.5 * math.pi), (0.0, 0.0)]   # TCP x, y, z
         return [{"freq_hz": f, "damping_ratio": zeta, "stiffness_n_per_m": k, "polar_rad": p, "azimuth_rad": a}
                 for p, a in starts]
 

@@ -1,0 +1,80 @@
+"""``robolobes identify --report DIR``: Markdown + plots of what identification found.
+
+Figures: per pose, measured receptance against the model before and after (magnitude of each
+measured pair); the residual spectra |H_model - H_measured| before and after against the noise
+estimated from the data.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from robolobes.core.io import pyplot, save_figure, write_text
+
+__all__ = ["write_frf_report"]
+
+
+def _fig_pose(pd, before, after, path, provenance):
+    plt = pyplot()
+    pairs = np.unique(pd.pair)
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    for k in pairs:
+        s = pd.pair == k
+        f = pd.omega[pd.index[s]] / (2 * math.pi)
+        lab = f"pair {k}"
+        axes[0].semilogy(f, np.abs(pd.H[s]) * 1e6, ".", ms=2, label=f"{lab} measured")
+        axes[0].semilogy(f, np.abs(before[s]) * 1e6, ":", lw=1, label=f"{lab} model before")
+        axes[0].semilogy(f, np.abs(after[s]) * 1e6, "-", lw=1, label=f"{lab} model after")
+        axes[1].semilogy(f, np.abs(before[s] - pd.H[s]) * 1e6, ":", lw=1, label=f"{lab} before")
+        axes[1].semilogy(f, np.abs(after[s] - pd.H[s]) * 1e6, "-", lw=1, label=f"{lab} after")
+        axes[1].semilogy(f, pd.sigma[s] * 1e6, "k-", lw=0.5, alpha=0.5)
+    axes[0].set_ylabel("|H| (um/N)")
+    axes[0].legend(fontsize=6, ncol=3)
+    axes[1].set_ylabel("|residual| (um/N); black: noise")
+    axes[1].set_xlabel("frequency (Hz)")
+    axes[0].set_title(f"pose {pd.name}: measured and model, before and after")
+    for a in axes:
+        a.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    try:
+        save_figure(fig, path, dpi=110, provenance=provenance)
+    except TypeError:  # save_figure without provenance (older core.io)
+        save_figure(fig, path, dpi=110)
+    plt.close(fig)
+
+
+def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict) -> None:
+    """Write ``report.md`` and one figure per pose into ``directory`` (which exists and is empty)."""
+    from .frf import predict
+
+    lines = [f"# robolobes identify: tool-tip FRF set", "",
+             f"- metric: {result.metric}",
+             f"- error before: {result.error_before:.4g}; after: {result.error_after:.4g}; "
+             f"noise floor (from the data): {result.noise_floor:.4g}",
+             f"- provenance: robolobes {provenance.get('robolobes_version')}, inputs sha256 "
+             f"{provenance.get('inputs_sha256')}", ""]
+    if result.effects:
+        lines += ["## Effects found (best first)", "", "| effect | parameter | value | 1 sigma |", "|---|---|---|---|"]
+        for e in result.effects:
+            for k, v in e.params.items():
+                lines.append(f"| {e.name} | {k} | {v:.6g} | {e.uncertainty.get(k, float('nan')):.3g} |")
+        lines.append("")
+    else:
+        lines += ["No effect lowers the held-out error significantly: the model explains the data "
+                  "within its noise (`effects: []`).", ""]
+    lines += ["## Selection steps", "", "| step | kept | z | threshold | error before | error after |",
+              "|---|---|---|---|---|---|"]
+    for i, s in enumerate(result.steps, 1):
+        lines.append(f"| {i} | {s.kept or '-'} | {s.statistic:.3g} | {s.threshold:.3g} | {s.error_before:.4g} | "
+                     f"{s.error_after:.4g} |")
+    lines += ["", "## Poses", ""]
+    for pd in poses:
+        before, after = predict(pd, []), predict(pd, list(effects_state))
+        name = f"pose_{pd.name}.png"
+        _fig_pose(pd, before, after, directory / name, provenance)
+        lines += [f"![pose {pd.name}]({name})", ""]
+    lines += ["## Model (case TOML)", "", "```toml", result.model_toml.rstrip(), "```", ""]
+    write_text(directory / "report.md", "\n".join(lines))
