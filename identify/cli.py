@@ -114,7 +114,8 @@ def run_identify_cli(args) -> int:
         steps[0] += 1
         bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
 
-    result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress)
+    kw = {"poles": False} if args.no_poles else {}
+    result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
     bar.done()
     out = {**result.to_json(), "provenance": prov}
     if report is not None and result.kind == "frf":
@@ -147,5 +148,7 @@ def _register_identify(sub) -> None:
     p.add_argument("--max-effects", type=int, default=3, help="at most this many effects (default 3)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--report", default=None, help="write report.md and figures into this new directory")
+    p.add_argument("--no-poles", action="store_true",
+                   help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run_identify_cli)

@@ -396,8 +396,12 @@ def _splits(poses):
 
 
 def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
-                 progress: Callable[[str], None] | None = None) -> Identification:
-    """Identify structural effects from a tool-tip FRF set (see the module doc)."""
+                 progress: Callable[[str], None] | None = None, poles: bool = True) -> Identification:
+    """Identify structural effects from a tool-tip FRF set (see the module doc).
+
+    ``poles``: also fit the measurement's poles (LSCF/LSFD, :mod:`identify.modal`) and set them beside
+    the model's, before and after (a few seconds per pose).
+    """
     from robolobes.core.errors import BadInput
 
     from .model_toml import model_toml
@@ -416,5 +420,11 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     extra = {"n_poses": len(poses), "n_lines": int(sum(len(pd.H) for pd in poses)),
              "correlation_before": correlation(poses, []), "correlation_after": correlation(poses, list(sel.state)),
              "diagnosis": diagnose(poses, []), "n_candidates": len(candidates)}
+    if poles:
+        from .modal import compare_poles
+        if progress:
+            progress("modal fit (LSCF/LSFD)")
+        got = compare_poles(poses, {"before": [], "after": list(sel.state)}, extra["diagnosis"]["extra_peak_hz"])
+        extra["poles_before"], extra["poles_after"] = got["before"], got["after"]
     return Identification(kind="frf", effects=sel.effects, error_before=sel.error_before, error_after=sel.error_after,
                           metric=METRIC, noise_floor=noise, steps=sel.steps, model_toml=model_toml(state), extra=extra)

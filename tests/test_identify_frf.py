@@ -114,13 +114,14 @@ def _draw(kind, rng):
     return None, None
 
 
-def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400):
+def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=False):
     rng = np.random.default_rng(seed)
     name, el = _draw(kind, rng)
     d = tmp_path / f"set_{kind}_{seed}"
     t = synthetic_frf_set(d, CASE, elements=(el,) if el else (), n_poses=n_poses, f_hz=np.linspace(2, 300, n_lines),
                           rel_noise=rng.uniform(0.01, 0.03), add_noise=rng.uniform(0.01, 0.03), seed=seed)
-    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet"], capsys)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet"] + ([] if poles else ["--no-poles"]),
+                            capsys)
     assert rc == 0, err
     return name, json.loads(out), t
 
@@ -161,3 +162,25 @@ def test_no_effect_in_at_least_19_of_20_seeds(tmp_path, capsys):
     seeds = list(range(100, 120))
     good = [_correct(*_identify_draw(tmp_path, capsys, None, s)) for s in seeds]
     assert sum(good) >= 19, good
+
+
+def test_cli_report_and_measured_poles(tmp_path, capsys):
+    # a tool-holder mode at 200 Hz: the measured poles (LSCF) show an extra pole there, absent from
+    # the model before (no model pole within 5 %) and matched after; the report has its figures
+    el = TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
+    d = tmp_path / "set"
+    synthetic_frf_set(d, CASE, elements=(el,), n_poses=2, f_hz=np.linspace(2, 300, 300), rel_noise=0.01,
+                      add_noise=0.01, seed=5)
+    rep = tmp_path / "rep"
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--report", str(rep)], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    assert res["effects"][0]["name"] == "tcp_mode"
+    extra = [f for p in res["poles_before"]["per_pose"].values() for f in p.get("extra_poles_hz", [])]
+    assert any(abs(f / 200.0 - 1) < 0.03 for f in extra), res["poles_before"]
+    after = [f for p in res["poles_after"]["per_pose"].values() for f in p.get("extra_poles_hz", [])]
+    assert not any(abs(f / 200.0 - 1) < 0.03 for f in after)
+    assert (rep / "report.md").is_file() and len(list(rep.glob("pose_*.png"))) == 2
+    # an existing report directory is refused before any work, and left as it was
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--report", str(rep)], capsys)
+    assert rc == 2 and "exists" in err and (rep / "report.md").is_file()
