@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from robolobes.core.errors import BadInput
-from robolobes.core.io import atomic_path, pyplot, save_figure
+from robolobes.core.io import atomic_path, provenance_text, pyplot, save_figure
 from .linear import FRF
 
 __all__ = ["write_frf", "read_frf", "plot_bode", "MeasuredPair", "PoseFRF", "FRFSet", "read_frf_set",
@@ -57,8 +57,11 @@ def _fmt(path: Path) -> str:
         raise ValueError(f"FRF file {path} must end in .csv, .uff or .unv (UFF58)") from None
 
 
-def write_frf(frf: FRF, path: str | Path) -> Path:
-    """Write an FRF to ``path`` (format from the suffix), atomically. Returns the path."""
+def write_frf(frf: FRF, path: str | Path, provenance: dict | None = None) -> Path:
+    """Write an FRF to ``path`` (format from the suffix), atomically. Returns the path.
+
+    ``provenance`` (``core.io.provenance(inputs)``) is recorded in the CSV's first header line or
+    in the UFF58 id4 / id5 lines (80 characters each)."""
     path = Path(path)
     fmt = _fmt(path)
     H = np.asarray(frf.H)
@@ -72,7 +75,8 @@ def write_frf(frf: FRF, path: str | Path) -> Path:
                     cols += [H[i, j].real, H[i, j].imag]
                     names += [f"H_{frf.labels[i]}_{frf.labels[j]}_re_m_per_n", f"H_{frf.labels[i]}_{frf.labels[j]}_im_m_per_n"]
             header = f"# tool-tip receptance (m/N), frame {frf.frame}, axes rows (base coords): " + \
-                     "; ".join(" ".join(f"{v:.12g}" for v in row) for row in np.asarray(frf.axes)) + "\n" + ",".join(names)
+                     "; ".join(" ".join(f"{v:.12g}" for v in row) for row in np.asarray(frf.axes)) + \
+                     (f"; {provenance_text(provenance)}" if provenance else "") + "\n" + ",".join(names)
             np.savetxt(tmp, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.12e")
         else:
             import pyuff
@@ -90,7 +94,7 @@ def write_frf(frf: FRF, path: str | Path) -> Path:
                 for j in range(n_in):
                     sets.append(pyuff.prepare_58(
                         binary=0, id1=f"robolobes receptance H_{frf.labels[i]}_{frf.labels[j]}",
-                        id2=f"frame {frf.frame}", func_type=4, ordinate_axis_units_lab="m",
+                        id2=f"frame {frf.frame}", func_type=4, **_uff_ids(provenance), ordinate_axis_units_lab="m",
                         orddenom_axis_units_lab="N", rsp_node=1, rsp_dir=i + 1, ref_node=1,
                         ref_dir=j + 1, ord_data_type=6, num_pts=nf, abscissa_spacing=1,
                         abscissa_min=float(f[0]), abscissa_inc=float(df[0]), abscissa_spec_data_type=18,
@@ -98,6 +102,13 @@ def write_frf(frf: FRF, path: str | Path) -> Path:
                         data=np.ascontiguousarray(H[i, j], dtype=np.complex128), x=f))
             uff.write_sets(sets, mode="add")
     return path
+
+
+def _uff_ids(provenance: dict | None) -> dict:
+    if not provenance:
+        return {}
+    return {"id4": f"robolobes_version={provenance['robolobes_version']}",
+            "id5": f"inputs_sha256={provenance['inputs_sha256']}"}
 
 
 def read_frf(path: str | Path, frame: str | None = None) -> FRF:
@@ -418,7 +429,7 @@ def write_frf_set(directory: str | Path, poses_deg: dict, frfs: dict, *, fmt: st
     return d
 
 
-def plot_bode(frf: FRF, path: str | Path, title: str = "") -> Path:
+def plot_bode(frf: FRF, path: str | Path, title: str = "", provenance: dict | None = None) -> Path:
     """Bode plot (magnitude in um/N, phase in deg) of the direct and cross terms, saved atomically."""
     plt = pyplot()
 
@@ -440,6 +451,6 @@ def plot_bode(frf: FRF, path: str | Path, title: str = "") -> Path:
     ax2.grid(True, alpha=0.3)
     ax1.set_title(title or f"tool-tip receptance, {frf.frame} frame")
     fig.tight_layout()
-    save_figure(fig, path, dpi=120)
+    save_figure(fig, path, provenance=provenance, dpi=120)
     plt.close(fig)
     return Path(path)
