@@ -46,67 +46,43 @@ def register(sub) -> None:
 # robolobes identify
 
 
-def _files_digest(path) -> dict:
-    """SHA-256 of every file of the measurement set (for provenance)."""
-    import hashlib
+def _measured_files(path) -> dict:
+    """Every file of the measurement set, for provenance (recorded by content)."""
     from pathlib import Path
 
     p = Path(path)
     files = [p] if p.is_file() else sorted(x for x in p.iterdir() if x.is_file())
-    return {x.name: hashlib.sha256(x.read_bytes()).hexdigest() for x in files}
+    return {x.name: x for x in files}
 
 
-def _report_dir(path):
-    """The --report directory, checked before any work: it must not exist (nothing is overwritten)."""
-    from pathlib import Path
-
-    from robolobes.core.errors import BadInput
-
-    d = Path(path)
-    if d.exists():
-        raise BadInput(f"--report {path}: exists; give a new directory (robolobes never overwrites a user's files)")
-    if not d.parent.is_dir():
-        raise BadInput(f"--report {path}: parent directory {d.parent} does not exist")
-    return d
-
-
-def _write_report(d, result, measurement, state, provenance):
-    import os
-    import shutil
-    import tempfile
-    from pathlib import Path
-
+def _write_report(out, result, measurement, state):
     from .effects import REGISTRY
     from .frf import prepare
     from .report import write_frf_report
 
-    tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", dir=d.parent))
-    try:
-        poses = prepare(measurement, state)
-        effects = [(REGISTRY[e.name], e.params) for e in result.effects]
-        write_frf_report(tmp, result, poses, effects, provenance)
-        os.rename(tmp, d)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    poses = prepare(measurement, state)
+    effects = [(REGISTRY[e.name], e.params) for e in result.effects]
+    with out:
+        write_frf_report(out.path, result, poses, effects, out.provenance)
 
 
 def run_identify_cli(args) -> int:
     import json
 
     from robolobes.core.io import provenance, to_jsonable
+    from robolobes.core.outdir import OutputDir, cli_inputs
 
     from .api import identify, model_state, read_measurement
 
-    report = _report_dir(args.report) if args.report else None
     measurement = read_measurement(args.measured)
     state, notes = model_state(measurement, args.case, args.variant)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
     state.robot()  # builds the model: bad [[elements]] fail here, before any work
-    inputs = {"command": "identify", "measured": _files_digest(measurement.path), "case": state.case_ref,
-              "variant": state.variant, "alpha": args.alpha, "max_effects": args.max_effects}
+    inputs = cli_inputs(args, case=state.case, files=_measured_files(measurement.path),
+                        drop=("run", "quiet", "json", "report"))
     prov = provenance(inputs)
+    report = OutputDir(args.report, "identify", inputs) if args.report else None   # checked before work
     bar = Progress("identify", enabled=not args.quiet)
     steps = [0]
 
@@ -119,7 +95,7 @@ def run_identify_cli(args) -> int:
     bar.done()
     out = {**result.to_json(), "provenance": prov}
     if report is not None and result.kind == "frf":
-        _write_report(report, result, measurement, state, prov)
+        _write_report(report, result, measurement, state)
     if args.json:
         print(json.dumps(to_jsonable(out), indent=2))
         return 0
@@ -147,7 +123,8 @@ def _register_identify(sub) -> None:
                    help="family-wise false-positive rate of the selection over the library (default 0.01)")
     p.add_argument("--max-effects", type=int, default=3, help="at most this many effects (default 3)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
-    p.add_argument("--report", default=None, help="write report.md and figures into this new directory")
+    p.add_argument("--report", default=None, help="write report.md and figures into this directory (never "
+                                                    "replaces a user's files)")
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")

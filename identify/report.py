@@ -39,15 +39,12 @@ def _fig_pose(pd, before, after, path, provenance):
     for a in axes:
         a.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    try:
-        save_figure(fig, path, dpi=110, provenance=provenance)
-    except TypeError:  # save_figure without provenance (older core.io)
-        save_figure(fig, path, dpi=110)
+    save_figure(fig, path, provenance=provenance, dpi=110)
     plt.close(fig)
 
 
 def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict) -> None:
-    """Write ``report.md`` and one figure per pose into ``directory`` (which exists and is empty)."""
+    """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
     from .frf import predict
 
     lines = [f"# robolobes identify: tool-tip FRF set", "",
@@ -77,4 +74,6 @@ def write_frf_report(directory: Path, result, poses, effects_state, provenance: 
         _fig_pose(pd, before, after, directory / name, provenance)
         lines += [f"![pose {pd.name}]({name})", ""]
     lines += ["## Model (case TOML)", "", "```toml", result.model_toml.rstrip(), "```", ""]
+    lines += ["", f"<!-- robolobes_version {provenance.get('robolobes_version')} inputs_sha256 "
+                  f"{provenance.get('inputs_sha256')} -->"]
     write_text(directory / "report.md", "\n".join(lines))

@@ -181,6 +181,8 @@ def test_cli_report_and_measured_poles(tmp_path, capsys):
     after = [f for p in res["poles_after"]["per_pose"].values() for f in p.get("extra_poles_hz", [])]
     assert not any(abs(f / 200.0 - 1) < 0.03 for f in after)
     assert (rep / "report.md").is_file() and len(list(rep.glob("pose_*.png"))) == 2
-    # an existing report directory is refused before any work, and left as it was
-    rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--report", str(rep)], capsys)
-    assert rc == 2 and "exists" in err and (rep / "report.md").is_file()
+    # a report from other inputs is not replaced: refused before any work, left as it was
+    before = (rep / "report.md").read_text()
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--alpha", "0.02", "--report", str(rep)],
+                            capsys)
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and (rep / "report.md").read_text() == before
