@@ -46,7 +46,8 @@ def main(n_poses: int = 6, n_lines: int = 1200):
             res = identify(m, state, poles=poles)
             wall = time.perf_counter() - t0
             print(f"identify, {n_poses} poses x 4 pairs x {n_lines} lines, modal fit {'on ' if poles else 'off'}: "
-                  f"{wall:.1f} s (target < 120 s: {'met' if wall < 120 else 'NOT met'})")
+                  f"{wall:.1f} s (target < 120 s: {'met' if wall < 120 else 'NOT met'}); "
+                  f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
         e = res.effects[0] if res.effects else None
         print(f"  found: {[x.name for x in res.effects]}; held-out error {res.error_before:.4f} -> {res.error_after:.4f}"
               f" (noise floor {res.noise_floor:.4f})")

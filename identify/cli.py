@@ -63,7 +63,8 @@ def _write_report(out, result, measurement, state):
     poses = prepare(measurement, state)
     effects = [(REGISTRY[e.name], e.params) for e in result.effects]
     with out:
-        write_frf_report(out.path, result, poses, effects, out.provenance)
+        write_frf_report(out.path, result, poses, effects, out.provenance, model=state,
+                         theta=measurement.poses[0].theta)
 
 
 def run_identify_cli(args) -> int:

@@ -43,7 +43,8 @@ def _fig_pose(pd, before, after, path, provenance):
     plt.close(fig)
 
 
-def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict) -> None:
+def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict, model=None,
+                     theta=None) -> None:
     """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
     from .frf import predict
 
@@ -73,7 +74,66 @@ def write_frf_report(directory: Path, result, poses, effects_state, provenance: 
         name = f"pose_{pd.name}.png"
         _fig_pose(pd, before, after, directory / name, provenance)
         lines += [f"![pose {pd.name}]({name})", ""]
+    if model is not None and theta is not None:
+        name = lobe_figure(directory, model, result.effects, theta, provenance)
+        lines += ["## Stability lobes at the first measured pose, before and after", "",
+                  "SDM (m = 30) for the case's tool, cut and cutting law; the band moves every fitted "
+                  "parameter by one standard deviation (both signs).", "", f"![lobes]({name})", ""]
     lines += ["## Model (case TOML)", "", "```toml", result.model_toml.rstrip(), "```", ""]
     lines += ["", f"<!-- robolobes_version {provenance.get('robolobes_version')} inputs_sha256 "
                   f"{provenance.get('inputs_sha256')} -->"]
     write_text(directory / "report.md", "\n".join(lines))
+
+
+def _shifted(eff, params, unc, sign):
+    """Parameters moved by ``sign`` x one standard deviation, inside the bounds."""
+    out = {}
+    for p in eff.parameters:
+        v = params[p.name] + sign * unc.get(p.name, 0.0)
+        out[p.name] = float(min(max(v, p.lower), p.upper))
+    return out
+
+
+def lobe_figure(directory: Path, model, fits, theta, provenance, n_speeds: int = 60) -> str:
+    """Stability lobes at pose ``theta`` (rad) before and after, with the band of +-1 sigma of the
+    fitted parameters (all moved together, both signs). Returns the figure's file name."""
+    from robolobes.linearize import linearize
+    from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
+
+    from .effects import REGISTRY
+
+    case = model.case
+    rpm = np.linspace(0.5, 1.5, n_speeds) * case.cut.spindle_rpm
+
+    def limits(state):
+        lin = linearize(state.robot(), theta)
+        prob = LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
+        return np.asarray(solve(prob, SemiDiscretization(m=30), speeds_rpm=rpm).depth_limit_m, dtype=float)
+
+    def state_with(sign):
+        s = model
+        for f in fits:
+            eff = REGISTRY[f.name]
+            s = eff.apply(s, f.params if sign == 0 else _shifted(eff, f.params, f.uncertainty, sign))
+        return s
+
+    before, after = limits(model), limits(state_with(0))
+    band = [limits(state_with(s)) for s in (-1, 1)] if fits else []
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    ax.plot(rpm, before * 1e3, "k:", label="model before")
+    ax.plot(rpm, after * 1e3, "b-", label="model after (identified)")
+    if band:
+        ax.fill_between(rpm, np.minimum(*band) * 1e3, np.maximum(*band) * 1e3, color="b", alpha=0.2,
+                        label="after, parameters +-1 sigma")
+    ax.axvline(case.cut.spindle_rpm, color="0.5", lw=0.8)
+    ax.plot([case.cut.spindle_rpm], [case.cut.ap_m * 1e3], "r*", label="the case's cut")
+    ax.set_xlabel("spindle speed (rpm)")
+    ax.set_ylabel("depth limit (mm)")
+    ax.set_title("stability lobes at the first measured pose")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, directory / "lobes.png", provenance=provenance, dpi=110)
+    plt.close(fig)
+    return "lobes.png"

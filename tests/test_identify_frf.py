@@ -111,17 +111,21 @@ def _draw(kind, rng):
     if kind == "payload_mass":
         s = rng.uniform(1.1, 1.3) if rng.random() < 0.5 else rng.uniform(0.75, 0.9)
         return "payload_mass", PayloadMass((s - 1) * CASE.robot.payload.mass_kg)
+    if kind == "orthogonal_correction":   # 18-DOF variant: virtual-joint stiffness x0.4-0.7 or x1.5-2.5
+        s = rng.uniform(1.5, 2.5) if rng.random() < 0.5 else rng.uniform(0.4, 0.7)
+        return "orthogonal_correction", OrthogonalCorrection(s, rng.uniform(0.8, 1.25))
     return None, None
 
 
-def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=False):
+def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=False, variant="basic"):
     rng = np.random.default_rng(seed)
     name, el = _draw(kind, rng)
     d = tmp_path / f"set_{kind}_{seed}"
-    t = synthetic_frf_set(d, CASE, elements=(el,) if el else (), n_poses=n_poses, f_hz=np.linspace(2, 300, n_lines),
-                          rel_noise=rng.uniform(0.01, 0.03), add_noise=rng.uniform(0.01, 0.03), seed=seed)
-    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet"] + ([] if poles else ["--no-poles"]),
-                            capsys)
+    t = synthetic_frf_set(d, CASE, variant=variant, elements=(el,) if el else (), n_poses=n_poses,
+                          f_hz=np.linspace(2, 300, n_lines), rel_noise=rng.uniform(0.01, 0.03),
+                          add_noise=rng.uniform(0.01, 0.03), seed=seed)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--variant", variant]
+                            + ([] if poles else ["--no-poles"]), capsys)
     assert rc == 0, err
     return name, json.loads(out), t
 
@@ -158,21 +162,33 @@ def test_each_effect_found_in_at_least_4_of_5_draws(tmp_path, capsys, kind):
 
 
 @pytest.mark.slow
+def test_orthogonal_correction_found_in_at_least_4_of_5_draws(tmp_path, capsys):
+    seeds = [21, 22, 23, 24, 25]
+    good = [_correct(*_identify_draw(tmp_path, capsys, "orthogonal_correction", s, variant="orthogonal"))
+            for s in seeds]
+    assert sum(good) >= 4, good
+
+
+@pytest.mark.slow
 def test_no_effect_in_at_least_19_of_20_seeds(tmp_path, capsys):
     seeds = list(range(100, 120))
     good = [_correct(*_identify_draw(tmp_path, capsys, None, s)) for s in seeds]
     assert sum(good) >= 19, good
 
 
-def test_cli_report_and_measured_poles(tmp_path, capsys):
-    # a tool-holder mode at 200 Hz: the measured poles (LSCF) show an extra pole there, absent from
-    # the model before (no model pole within 5 %) and matched after; the report has its figures
+def _mode_set(tmp_path):
     el = TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
     d = tmp_path / "set"
     synthetic_frf_set(d, CASE, elements=(el,), n_poses=2, f_hz=np.linspace(2, 300, 300), rel_noise=0.01,
                       add_noise=0.01, seed=5)
-    rep = tmp_path / "rep"
-    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--report", str(rep)], capsys)
+    return d
+
+
+def test_cli_measured_poles(tmp_path, capsys):
+    # a tool-holder mode at 200 Hz: the measured poles (LSCF) show an extra pole there, absent from
+    # the model before (no model pole within 5 %) and matched after
+    d = _mode_set(tmp_path)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet"], capsys)
     assert rc == 0, err
     res = json.loads(out)
     assert res["effects"][0]["name"] == "tcp_mode"
@@ -180,7 +196,17 @@ def test_cli_report_and_measured_poles(tmp_path, capsys):
     assert any(abs(f / 200.0 - 1) < 0.03 for f in extra), res["poles_before"]
     after = [f for p in res["poles_after"]["per_pose"].values() for f in p.get("extra_poles_hz", [])]
     assert not any(abs(f / 200.0 - 1) < 0.03 for f in after)
+
+
+@pytest.mark.slow
+def test_cli_report(tmp_path, capsys):
+    # report.md, one figure per pose and the lobes before/after with the uncertainty band
+    d = _mode_set(tmp_path)
+    rep = tmp_path / "rep"
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--no-poles", "--report", str(rep)], capsys)
+    assert rc == 0, err
     assert (rep / "report.md").is_file() and len(list(rep.glob("pose_*.png"))) == 2
+    assert (rep / "lobes.png").is_file() and "lobes.png" in (rep / "report.md").read_text()
     # a report from other inputs is not replaced: refused before any work, left as it was
     before = (rep / "report.md").read_text()
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--alpha", "0.02", "--report", str(rep)],
