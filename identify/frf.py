@@ -16,9 +16,10 @@ near a sharp peak, where the FRF's own curvature enters ``d``, are a minority of
 the median ignores them; any bias left makes ``sigma`` larger, i.e. the selection more cautious.
 
 Selection is leave-one-pose-out (:mod:`identify.selection`); each candidate is first fitted on
-all the data and only the ``SHORTLIST`` best by that training fit are fitted fold by fold (the
-others keep the current model's held-out residual, so they cannot be chosen). The significance
-threshold still counts every candidate of the library.
+all the data and only the ``SHORTLIST`` best by that training fit, whose training gain could pass
+the test (``sqrt(gain / 2) >= z_threshold / 2``, see ``_Trials._shortlisted``), are fitted fold by
+fold (the others keep the current model's held-out residual, so they cannot be chosen). The
+significance threshold still counts every candidate of the library.
 """
 
 from __future__ import annotations
@@ -322,8 +323,9 @@ def correlation(poses: list[PoseData], effects: list) -> dict:
 class _Trials:
     """``trial(state, effect)`` for :func:`forward_select`, state = [(effect, params), ...]."""
 
-    def __init__(self, poses: list[PoseData], candidates: list, progress=None):
+    def __init__(self, poses: list[PoseData], candidates: list, progress=None, z_threshold: float = 0.0):
         self.poses, self.candidates, self.progress = poses, candidates, progress
+        self.z_threshold = z_threshold
         self._screen: dict = {}
 
     def _diag(self, state):
@@ -347,9 +349,22 @@ class _Trials:
         return self._screen[key]
 
     def _shortlisted(self, state, effect) -> bool:
+        """Among the SHORTLIST best training fits, and a training gain that could pass the test.
+
+        With whitened residuals the gain of a least-squares fit is ``X2_0 - X2_1 ~ sum|d|^2`` and
+        the held-out z is about ``gain / sqrt(2 sum|d|^2) = sqrt(gain / 2)``; held-out gains are
+        smaller than training gains, so a candidate with ``sqrt(gain / 2) < z_thr / 2`` cannot pass
+        and is not refitted fold by fold."""
         fits = {c.name: self._full(state, c) for c in self.candidates if c.name not in {e.name for e, _ in state}}
         ranked = sorted((v[1], k) for k, v in fits.items() if v is not None)
-        return effect.name in [k for _, k in ranked[:SHORTLIST]]
+        if effect.name not in [k for _, k in ranked[:SHORTLIST]]:
+            return False
+        gain = self._chi2(state) - fits[effect.name][1]
+        return gain > 0 and math.sqrt(gain / 2) >= 0.5 * self.z_threshold
+
+    def _chi2(self, state) -> float:
+        r = _whitened(self.poses, list(state))
+        return float(r @ r)
 
     def heldout(self, state_params: list, refit: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         res, meas, sig = [], [], []
@@ -411,7 +426,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
                        f"got {len(measurement.poses)}")
     poses = prepare(measurement, model, progress)
     candidates = [e for e in effects_for("frf", model) if isinstance(e, StructuralEffect)]
-    trials = _Trials(poses, candidates, progress)
+    from .selection import z_threshold
+    trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
     sel = forward_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress)
     state = model
     for eff, params in sel.state:
