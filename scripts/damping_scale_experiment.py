@@ -29,7 +29,7 @@ from robolobes.linearize.model import build_model
 from robolobes.linearize.path import Pass
 from robolobes.lobes.problem import LobeProblem
 from robolobes.lobes.sdm import SemiDiscretization
-from robolobes.lobes.solve import stability
+from robolobes.lobes.solver import stability
 from robolobes.lobes.structure import PhysicalStructure
 from robolobes.timedomain.summary import principal_period
 

@@ -12,13 +12,14 @@ __all__ = ["register", "run_study_cli"]
 def run_study_cli(args) -> int:
     from .run import run_study
 
-    bar = Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet)
     try:
-        res = run_study(args.out, quick=args.quick, progress=bar)
+        with Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet) as bar:
+            # run_study checks --out before any work (core.outdir: a user's directory or file is refused)
+            res = run_study(args.out, quick=args.quick, progress=bar)
+            bar.done()
     except KeyboardInterrupt:
         print(f"\nrobolobes study: interrupted; {args.out} left as it was", file=sys.stderr)
         return 130
-    bar.done()
     ex = res["explanation"]
     for mat in ("aluminium", "steel"):
         f = ex[mat]

@@ -25,7 +25,7 @@ import numpy as np
 
 from robolobes import cases
 from robolobes.core.io import provenance, to_jsonable
-from robolobes.linearize.cli import modes_summary
+from robolobes.linearize.summary import modes_summary
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.model import VARIANTS
 from robolobes.linearize.path import Pass
@@ -141,7 +141,7 @@ def _lobe_problem(st, case):
 
 
 def _operating_point(lins, case, material, variant, pose, theta, method) -> OperatingPoint:
-    from robolobes.lobes.solve import stability
+    from robolobes.lobes.solver import stability
     lin, st = lins.structure(case, variant, pose, theta)
     op = stability(_lobe_problem(st, case), method)
     f_ch = op.limit_chatter_freq_hz if math.isfinite(op.limit_chatter_freq_hz) else op.chatter_freq_hz
@@ -167,7 +167,7 @@ def compute_operating_points(settings, lins, cs, poses, progress: Progress = _qu
 def compute_diagrams(settings, lins, cs, poses, progress: Progress = _quiet) -> tuple:
     """Lobe diagrams (SDM, ``settings.n_rpm`` speeds, up to 10 mm) of the settings' variants."""
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import solve
+    from robolobes.lobes.solver import solve
     method = SemiDiscretization(m=settings.sdm_m)
     jobs = [(mat, v, p) for mat in cs for v in settings.lobe_variants for p in settings.lobe_poses]
     out = []
@@ -184,7 +184,7 @@ def compute_diagrams(settings, lins, cs, poses, progress: Progress = _quiet) -> 
 
 def compute_absolute_limits(lins, cs, poses) -> tuple:
     """Smallest ZOA limit over 300-30000 rpm (400 speeds, geometric), basic model, start pose."""
-    from robolobes.lobes.solve import solve
+    from robolobes.lobes.solver import solve
     from robolobes.lobes.zoa import ZeroOrder
     out = []
     for mat, case in cs.items():
@@ -221,7 +221,7 @@ def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic")
     """Damping bracket by the lobes: stable when the SDM limit at the cut speed exceeds the cut
     depth beyond its discretization error bound (Tab. 7 pose)."""
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import stability
+    from robolobes.lobes.solver import stability
     method = SemiDiscretization(m=settings.sdm_m)
 
     def check(scale):
@@ -365,7 +365,7 @@ def material_facts(case, modes, op: OperatingPoint, absolute: AbsoluteLimit, run
 NOTES = ("The Tab. 7 pose has A3 = -212.14 deg = +147.86 deg, 2.86 deg past the +145 deg datasheet limit: "
          "accepted with a warning.",
          "Forces in the paper's axes: Fx along the feed (force on the tool), Fy normal pointing into the material "
-         "(see timedomain.cutting).")
+         "(see timedomain.workpiece_force).")
 
 
 # ------------------------------------------------------------------------------------------ driver
