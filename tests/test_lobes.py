@@ -511,3 +511,18 @@ def test_richardson_option_of_solve():
     assert_allclose(r.depth_error_m[0], abs(b80 - b40), rtol=1e-5)
     assert_allclose(r.depth_limit_m[0], 0.3163574e-3, rtol=1e-4)
     assert r.stats["m_richardson"] == 80
+
+
+def test_depth_verdict_rule():
+    """The rule on hand-made numbers: stable below limit - error, unstable above limit + error,
+    undetermined in between (edges included in the band), with the numbers in the reason."""
+    from robolobes.lobes import depth_verdict
+
+    assert depth_verdict(1.0e-3, 2.0e-3, 0.5e-3, (40, 80)).status == "stable"
+    assert depth_verdict(3.0e-3, 2.0e-3, 0.5e-3, (40, 80)).status == "unstable"
+    for d in (1.5e-3, 2.0e-3, 2.5e-3):
+        v = depth_verdict(d, 2.0e-3, 0.5e-3, (40, 80))
+        assert v.status == "undetermined" and v.stable is None and "m = 40/80" in v.reason
+    v = depth_verdict(1.0e-3, math.inf, 0.0, (40, 80), depth_max_m=0.016)
+    assert v.status == "stable" and "16 mm" in v.reason
+    assert depth_verdict(1.0e-3, math.inf, math.inf, (40, 80)).status == "undetermined"
