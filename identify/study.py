@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import math
 import os
-import shutil
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass, replace
@@ -29,14 +27,15 @@ from pathlib import Path
 import numpy as np
 
 from robolobes import cases
-from robolobes.core.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
+from robolobes.core.io import Progress, provenance_text, pyplot, save_figure, to_jsonable, write_json, write_text
+from robolobes.core.outdir import OutputDir
 from robolobes.linearize.summary import modes_summary
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.linear import linearize
 from robolobes.linearize.model import VARIANTS, build_model
 from robolobes.linearize.path import Pass
 
-__all__ = ["StudySettings", "run_study", "POSES"]
+__all__ = ["StudySettings", "run_study", "study_output", "POSES"]
 
 #: Poses of the study as fractions of the pass travel.
 POSES = {"start": 0.0, "middle": 0.5, "end": 1.0}
@@ -287,10 +286,11 @@ def steel_damping_by_time_domain(settings, steel, variant="basic", progress=None
 
 
 def _simulate(case, variant, settings, t_end, damping_scale=1.0, stats_window=None, progress=None):
-    from robolobes.timedomain.simulate import SimulationProblem, simulate
-    pb = SimulationProblem(case=case, variant=variant, damping_scale=damping_scale, t_end_s=t_end,
-                           linearized=settings.td_linearized, stats_window_s=stats_window)
-    return simulate(pb, progress=progress)
+    from robolobes.linearize.model import build_model
+    from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
+    robot = build_model(case.robot, variant, damping_scale=damping_scale)
+    pb = SimulationProblem(robot, case, t_end_s=t_end, stats_window_s=stats_window)
+    return simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(), progress=progress)
 
 
 def section_time_domain(settings, cases_, paper, progress, figdir: Path, lobes_damping: dict) -> dict:
@@ -323,11 +323,11 @@ def section_time_domain(settings, cases_, paper, progress, figdir: Path, lobes_d
 
 
 def _td_entry(r) -> dict:
-    s = r.summary
+    s = r.summary.to_json()
     keys = ("stable", "chatter_freq_hz", "nonsynchronous_peak_hz", "stability", "verdict_basis", "force_stats",
             "force_stats_paper_axes", "force_stats_window_s", "roughness_um", "tcp_deviation_y_um", "wall_y_um",
             "steady_window_s", "note")
-    e = {k: s[k] for k in keys if k in s}
+    e = {k: s[k] for k in keys if s[k] is not None or k == "stable"}
     e["t_end_s"] = float(r.t_s[-1])
     e["wall_s"] = r.stats["wall_time_s"]
     e["steps"] = r.stats["steps"]
@@ -370,7 +370,7 @@ def _plot_td(sims, path):
             r2 = sims[k]
             ax.plot(r2.t_s, np.asarray(r2.force_paper_axes_n)[:, 1], lw=0.4, alpha=0.8,
                     label=f"Fy, damping x{k[2]:g}")
-        st = r.summary.get("stable")
+        st = r.summary.stable
         ax.set_title(f"{mat} [basic]: {'stable' if st else 'unstable' if st is False else 'no verdict'}", fontsize=10)
         ax.set_ylabel("force (N, paper axes)")
         ax.legend(fontsize=7, loc="lower left")
@@ -425,7 +425,7 @@ def _plot_main(results, lobes_out, sims, path):
         t0 = r.steady_window_s[0]
         sel = (np.asarray(r.t_s) >= t0) & (np.asarray(r.t_s) <= t0 + 0.6)
         ax.plot(np.asarray(r.t_s)[sel] - t0, np.asarray(r.force_paper_axes_n)[sel, 1], lw=0.5, color=col,
-                label=f"{mat}: {'stable' if r.summary.get('stable') else 'unstable'}")
+                label=f"{mat}: {'stable' if r.summary.stable else 'unstable'}")
     ax.set_xlabel("time from full engagement (s)")
     ax.set_ylabel("Fy (N, paper axes)")
     ax.set_title("time domain [basic]: normal force", fontsize=10)
@@ -511,7 +511,8 @@ def _report(results: dict, settings: StudySettings) -> str:
     a = L.append
     a("# robolobes study: stable aluminium, unstable steel on the Staubli TX200\n")
     a(f"{'Quick' if settings.quick else 'Full'} study, computed in {results['wall_s']:.0f} s "
-      f"({results['generated']}). Every number below is in `results.json`.\n")
+      f"({results['generated']}). Every number below is in `results.json`. Provenance: "
+      f"{provenance_text(results['provenance'])}.\n")
     a("![main figure](study.png)\n")
     a("## The explanation, in numbers\n")
     a(f"* **Tooth passing against the robot modes.** Aluminium is cut at {al['spindle_rpm']:.0f} rpm: "
@@ -620,13 +621,19 @@ def _report(results: dict, settings: StudySettings) -> str:
 
 
 # ------------------------------------------------------------------------------------------ driver
-def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = False, progress=None) -> dict:
+def study_output(out_dir: str | os.PathLike, quick: bool) -> OutputDir:
+    """The study's output directory, checked now (``core.outdir``: refuses a user's directory or file)."""
+    return OutputDir(out_dir, "study", {"command": "study", "quick": bool(quick)})
+
+
+def run_study(out_dir: str | os.PathLike | OutputDir = "robolobes-study", quick: bool = False, progress=None) -> dict:
     """Run the study and write ``report.md``, ``results.json`` and figures into ``out_dir``.
 
     Parameters
     ----------
-    out_dir : path
-        Target directory (replaced atomically when the study completes).
+    out_dir : path or OutputDir
+        Target directory (:func:`study_output`: checked before any work, swapped in atomically when
+        the study completes; never a directory or file robolobes did not write).
     quick : bool
         Coarser grids and shorter runs (:meth:`StudySettings.make`).
     progress : callable ``(fraction, note)``, optional
@@ -639,9 +646,8 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
     t0 = time.perf_counter()
     settings = StudySettings.make(quick)
     prog = progress or (lambda f, note="": None)
-    target = Path(out_dir).resolve()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    out = out_dir if isinstance(out_dir, OutputDir) else study_output(out_dir, quick)
+    work = out.open()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", JointLimitWarning)  # the Tab. 7 A3 warning, reported below
@@ -652,7 +658,7 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
                          "notes": ["The Tab. 7 pose has A3 = -212.14 deg = +147.86 deg, 2.86 deg past the +145 deg "
                                    "datasheet limit: accepted with a warning.",
                                    "Forces in the paper's axes: Fx along the feed (force on the tool), Fy normal "
-                                   "pointing into the material (see timedomain.cutting)."]}
+                                   "pointing into the material (see timedomain.workpiece_force)."]}
         prog(0.0, "modes")
         results["modes"] = section_modes(settings, pas, cases_["aluminium"], lambda f: prog(0.05 * f, "modes"), work)
         prog(0.05, "lobes")
@@ -682,21 +688,13 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
                                               results["steel_damping"]["time_domain"])
         results["wall_s"] = time.perf_counter() - t0
         results["generated"] = time.strftime("%Y-%m-%d %H:%M")
+        results["provenance"] = out.provenance
         prog(0.97, "report")
         _plot_main(results, lobes_out, sims, work / "study.png")
         write_json(work / "results.json", results)
         write_text(work / "report.md", _report(to_jsonable(results), settings))
-        # swap the finished directory in
-        old = None
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=target.parent))
-            old.rmdir()
-            target.rename(old)
-        work.rename(target)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        out.commit()  # swap the finished directory in
         prog(1.0, "done")
         return to_jsonable(results)
     finally:
-        if work.exists():
-            shutil.rmtree(work, ignore_errors=True)
+        out.discard()  # after an error or Ctrl-C; a no-op after commit

@@ -7,32 +7,48 @@ import math
 import sys
 
 from robolobes.cases import DEFAULT_CASE, load_case
+from robolobes.core.errors import BadInput
 from robolobes.core.io import Progress
+from robolobes.core.outdir import MARKER, OutputDir
 from robolobes.linearize.model import VARIANTS
 
 __all__ = ["register", "run_simulate"]
 
 
+def _check_damping(args) -> None:
+    if not (math.isfinite(args.damping_scale) and args.damping_scale >= 0):
+        raise BadInput(f"--damping-scale must be a finite number >= 0, got {args.damping_scale}")
+
+
 def run_simulate(args) -> int:
+    from robolobes.linearize.model import build_model
+
     from .newmark import NewmarkInterrupted
     from .output import save_result, summary_dict
-    from .simulate import SimulationProblem, simulate
+    from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem, step_count
+    from .simulation import simulate
+    from .summary import simulation_inputs
 
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        raise ValueError(f"--duration must be a simulated time > 0 s, got {args.duration}")
     case = load_case(args.case)
-    problem = SimulationProblem(case=case, variant=args.variant, damping_scale=args.damping_scale,
-                                t_end_s=args.duration, linearized=args.linearized, deg_per_step=args.deg_per_step)
-    bar = Progress(f"simulate {case.name} [{args.variant}{', linearized' if args.linearized else ''}]",
-                   enabled=not args.quiet)
+    _check_damping(args)
+    # the library's bounds (duration within the pass, deg per step, records <= 2 GiB), before any work
+    method = (LinearizedNewmark if args.linearized else NonlinearNewmark)(deg_per_step=args.deg_per_step)
+    robot = build_model(case.robot, args.variant, damping_scale=args.damping_scale)
+    problem = SimulationProblem(robot, case, t_end_s=args.duration)
+    step_count(problem, method)
+    out = OutputDir(args.out, "simulate", simulation_inputs(problem, method))
     try:
-        result = simulate(problem, progress=bar)
+        with Progress(f"simulate {case.name} [{args.variant}{', linearized' if args.linearized else ''}]",
+                      enabled=not args.quiet) as bar:
+            result = simulate(problem, method, progress=bar)
+            bar.done()
     except NewmarkInterrupted as e:
         print(f"\nrobolobes simulate: interrupted at t = {e.result.t_s:.4f} s; nothing written", file=sys.stderr)
         return 130
-    bar.done()
-    paths = save_result(result, args.out, series=args.series)
-    s = summary_dict(result)
+    s = summary_dict(result)  # its provenance is the marker's: simulation_inputs(problem, method)
+    with out:
+        save_result(result, out.path, series=args.series)
+    paths = sorted(p for p in out.target.iterdir() if p.name != MARKER)
     if args.json:
         print(json.dumps(s, indent=2))
     else:
@@ -66,7 +82,8 @@ def register(sub) -> None:
                    help="multiply the joint damping by F (the paper's x10 experiment)")
     p.add_argument("--linearized", action="store_true",
                    help="fast path: robot linearized at the start pose + nonlinear milling and backlash")
-    p.add_argument("--deg-per-step", type=float, default=2.0, help="spindle rotation per time step, deg (default 2)")
+    p.add_argument("--deg-per-step", type=float, default=2.0,
+                   help="spindle rotation per time step, deg (default 2; in (0, 10], records <= 2 GiB)")
     p.add_argument("--series", choices=("npz", "csv"), default="npz", help="format of the time series file")
     p.add_argument("--json", action="store_true", help="print the JSON summary")
     p.add_argument("--quiet", action="store_true", help="no progress display")
