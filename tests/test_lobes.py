@@ -486,7 +486,7 @@ def test_bad_input_is_named(make, match):
         make()
 
 
-def test_adaptive_refinement_decides_a_marginal_point():
+def test_adaptive_refinement_decides_an_undetermined_point():
     """0.3185 mm at 10126 rpm is 0.7 % above the converged limit 0.31636 mm: m = 40/80 cannot tell
     (bound |b80 - b40| = 4.4e-3 mm > 2.1e-3 mm), m = 80/160 can (bound 1.1e-3 mm)."""
     p = problem(1.0, rpm=10126.0, depth=0.3185e-3)
