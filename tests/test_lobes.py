@@ -35,6 +35,7 @@ from numpy.testing import assert_allclose
 from scipy.linalg import expm
 
 from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, in_cut
+from robolobes.core.frf import FRF
 from robolobes.core.numerics import richardson
 from robolobes.lobes import (LobeError, LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
                    ZeroOrder, average_directional_matrix, classify_multiplier, solve, stability)
@@ -468,6 +469,9 @@ def test_progress_and_result_arrays():
         (lambda: PhysicalStructure(np.eye(2), np.eye(2), [[1, np.nan], [0, 1]], np.ones((2, 2))), "finite"),
         (lambda: PhysicalStructure(np.zeros((2, 2)), np.eye(2), np.eye(2), np.ones((2, 2))), "singular"),
         (lambda: ModalStructure(()), "at least one"),
+        (lambda: ModalStructure((Mode(922, 0.01, 1e6, (1, 0)),)).frf([-1.0]), "omega_rad_s must be >= 0"),
+        (lambda: FRF(np.ones(3), np.ones((3, 3, 4)), "cut"), r"FRF needs omega \(F,\)"),
+        (lambda: FRF(np.ones(4), np.ones((3, 3, 4)), ""), "frame"),
         (lambda: solve(problem(0.05), SemiDiscretization(), []), "empty"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [1000.0, -5.0]), "> 0 rpm"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [float("nan")]), "finite"),
