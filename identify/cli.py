@@ -72,11 +72,12 @@ def run_identify_cli(args) -> int:
     import json
 
     from robolobes.core.io import provenance, to_jsonable
-    from robolobes.core.outdir import OutputDir, cli_inputs
+    from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
 
     from .api import identify, model_state, read_measurement
 
-    measurement = read_measurement(args.measured)
+    with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
+        measurement = read_measurement(args.measured)
     state, notes = model_state(measurement, args.case, args.variant)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
@@ -108,7 +109,7 @@ def run_identify_cli(args) -> int:
         print(f"  {e.name}: {ps}")
     print(f"metric: {result.metric}")
     if report is not None:
-        print(f"report: {report}/report.md")
+        print(f"report: {report.target}/report.md")
     return 0
 
 
