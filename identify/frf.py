@@ -411,11 +411,13 @@ def _splits(poses):
 
 
 def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
-                 progress: Callable[[str], None] | None = None, poles: bool = True) -> Identification:
+                 progress: Callable[[str], None] | None = None, poles: bool = True,
+                 effects=None) -> Identification:
     """Identify structural effects from a tool-tip FRF set (see the module doc).
 
     ``poles``: also fit the measurement's poles (LSCF/LSFD, :mod:`identify.modal`) and set them beside
-    the model's, before and after (a few seconds per pose).
+    the model's, before and after (a few seconds per pose). ``effects``: candidate names (default:
+    the library's default candidates).
     """
     from robolobes.core.errors import BadInput
 
@@ -424,8 +426,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     if len(measurement.poses) < 2:
         raise BadInput(f"{measurement.path}: leave-one-pose-out needs at least 2 poses with data, "
                        f"got {len(measurement.poses)}")
+    candidates = [e for e in effects_for("frf", model, effects) if isinstance(e, StructuralEffect)]
     poses = prepare(measurement, model, progress)
-    candidates = [e for e in effects_for("frf", model) if isinstance(e, StructuralEffect)]
     from .selection import z_threshold
     trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
     sel = forward_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress)

@@ -12,6 +12,8 @@ costs a few microseconds instead of rebuilding and re-linearizing the pinocchio 
   element's pinocchio model gives the same M, C, K up to the gravity load of the small mass);
 * ``joint_correction_aN``: ``K[i, i] += (s_k - 1) k_N``, ``C[i, i] += (s_d - 1) d_N`` (exact);
 * ``orthogonal_correction``: the same on every virtual joint (exact);
+* ``servo_aN``: one rotor coordinate more, ``M[n, n] = J``, ``C[n, n] = kd``, ``K[n, n] = k + kp``,
+  ``K[i, n] = K[n, i] = -k`` (exact);
 * ``payload_mass``: ``M += dm J_G^T J_G`` with ``J_G`` the translational Jacobian of the payload's
   centre of mass (exact for the basic variant; with gravity the small change of the gravity
   stiffness is neglected).
@@ -243,8 +245,47 @@ class PayloadMassEffect(StructuralEffect):
         return replace(pm, M=pm.M + dm * pm.J_payload.T @ pm.J_payload)
 
 
+class ServoEffect(StructuralEffect):
+    """Servo dynamics of axis ``joint``: not a default candidate (name it with ``--effects``)."""
+
+    candidate = False
+    observed_by = {"frf": "an extra pose-dependent mode and reshaped robot modes when the position loop "
+                          "kp is within ~10x the joint stiffness"}
+    signatures = ("extra_peak", "pose_shift", "peak_height")
+
+    def __init__(self, joint: int):
+        self.joint = joint
+        self.name = f"servo_a{joint}"
+        self.doc = f"axis {joint}: rotor inertia and PD position loop behind the joint spring"
+        self.parameters = (Parameter("rotor_inertia_kg_m2", 0.05, 200.0, log=True),
+                           Parameter("kp_n_m_per_rad", 1e5, 1e9, log=True),
+                           Parameter("kd_n_m_s_per_rad", 1.0, 1e5, log=True))
+
+    def table(self, params):
+        return {"type": "servo_drive", "joint": self.joint, **{k: float(v) for k, v in params.items()}}
+
+    def applicable(self, model: ModelState) -> bool:
+        return self.joint <= model.case.robot.n_joints
+
+    def guesses(self, diagnosis):
+        return [{"rotor_inertia_kg_m2": 5.0, "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": 1e3} for kp in (3e6, 3e7)]
+
+    def perturb(self, pm, params):
+        i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
+        k = pm.joint_k[self.joint - 1]
+        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = params["rotor_inertia_kg_m2"]
+        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = params["kd_n_m_s_per_rad"]
+        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K
+        K[i, n] = K[n, i] = -k
+        K[n, n] = k + params["kp_n_m_per_rad"]
+        z = np.zeros((3, 1))
+        return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, z]), J_payload=np.hstack([pm.J_payload, z]))
+
+
 register(TcpModeEffect())
 for _j in range(1, 7):
     register(JointCorrectionEffect(_j))
 register(OrthogonalCorrectionEffect())
 register(PayloadMassEffect())
+for _j in range(1, 7):
+    register(ServoEffect(_j))
