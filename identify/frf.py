@@ -195,8 +195,11 @@ def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dic
     lo, hi = _bounds(layout)
     span = hi - lo
     best = None
-    for start in starts:
-        x0 = np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span)
+    x0s = [np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span) for start in starts]
+    if len(x0s) > 2:   # many starts (a scan): optimize from the two with the lowest cost
+        cost = [float(np.sum(_whitened(poses, fixed + _from_x(layout, x)) ** 2)) for x in x0s]
+        x0s = [x0s[i] for i in np.argsort(cost)[:2]]
+    for x0 in x0s:
         res = least_squares(lambda x: _whitened(poses, fixed + _from_x(layout, x)), x0, bounds=(lo, hi),
                             x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
         if best is None or res.cost < best.cost:

@@ -184,6 +184,11 @@ class JointCorrectionEffect(StructuralEffect):
             Parameter("damping_scale", 0.2, 5.0, neutral=1.0, detect=0.3, log=True),
         )
 
+    def guesses(self, diagnosis):
+        # a scan of the stiffness: a mode shifted by more than its bandwidth is a local minimum
+        # of the least squares from the neutral start
+        return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0)]
+
     def table(self, params):
         return {"type": "joint_correction", "joint": self.joint, "stiffness_scale": float(params["stiffness_scale"]),
                 "damping_scale": float(params["damping_scale"])}
@@ -209,6 +214,9 @@ class OrthogonalCorrectionEffect(StructuralEffect):
 
     def applicable(self, model: ModelState) -> bool:
         return model.variant in ("orthogonal", "backlash")
+
+    def guesses(self, diagnosis):
+        return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.3, 0.5, 0.7, 1.0, 1.5, 2.2, 3.5)]
 
     def perturb(self, pm, params):
         v = pm.virtual_dofs
@@ -239,6 +247,9 @@ class PayloadMassEffect(StructuralEffect):
         params = check_params(self, params)
         dm = (params["mass_scale"] - 1) * model.case.robot.payload.mass_kg
         return model.with_element(ElementSpec("payload_mass", {"delta_mass_kg": float(dm)}))
+
+    def guesses(self, diagnosis):
+        return [{"mass_scale": s} for s in (0.7, 0.85, 1.0, 1.2, 1.4)]
 
     def perturb(self, pm, params):
         dm = (params["mass_scale"] - 1) * pm.payload_mass_kg
