@@ -66,6 +66,20 @@ def _positive(name, v, *, zero_ok=False):
         raise BadInput(f"{name} must be a finite number {'>= 0' if zero_ok else '> 0'}, got {v!r}")
 
 
+def _diagonal(robot, idx, k, d, q=None, v=None, rest=0.0):
+    """Force ``-k (q[idx] - rest) - d v[idx]`` (q, v given) or its tangent ``(-k, -d)`` on the
+    diagonal (q None), for springs and dampers acting on single coordinates ``idx``."""
+    if q is not None:
+        tau = np.zeros(robot.nv)
+        tau[idx] = -k * (q[idx] - rest) - d * v[idx]
+        return tau
+    kq = np.zeros((robot.nv, robot.nv))
+    kv = np.zeros((robot.nv, robot.nv))
+    kq[idx, idx] = -k
+    kv[idx, idx] = -d
+    return kq, kv
+
+
 @dataclass(frozen=True)
 class TcpMode(Element):
     """A tool-holder / spindle mode at the TCP: a mass on a spring and damper along ``direction``.
@@ -127,16 +141,10 @@ class TcpMode(Element):
         object.__setattr__(self, "_iv", robot.model.joints[jid].idx_v)
 
     def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._iv] = -self.stiffness_n_per_m * q[self._iv] - self.damping_n_s_per_m * v[self._iv]
-        return tau
+        return _diagonal(robot, self._iv, self.stiffness_n_per_m, self.damping_n_s_per_m, q, v)
 
     def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._iv, self._iv] = -self.stiffness_n_per_m
-        kv[self._iv, self._iv] = -self.damping_n_s_per_m
-        return kq, kv
+        return _diagonal(robot, self._iv, self.stiffness_n_per_m, self.damping_n_s_per_m)
 
 
 @dataclass(frozen=True)
@@ -169,16 +177,10 @@ class JointCorrection(Element):
         object.__setattr__(self, "_dd", (self.damping_scale - 1) * robot.spec.joints[j].damping_n_m_s_per_rad)
 
     def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._iv] = -self._dk * (q[self._iv] - theta[self.joint - 1]) - self._dd * v[self._iv]
-        return tau
+        return _diagonal(robot, self._iv, self._dk, self._dd, q, v, rest=theta[self.joint - 1])
 
     def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._iv, self._iv] = -self._dk
-        kv[self._iv, self._iv] = -self._dd
-        return kq, kv
+        return _diagonal(robot, self._iv, self._dk, self._dd)
 
 
 @dataclass(frozen=True)
@@ -202,16 +204,10 @@ class OrthogonalCorrection(Element):
         object.__setattr__(self, "_dd", (self.damping_scale - 1) * vj[0].damping)
 
     def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._idx] = -self._dk * q[self._idx] - self._dd * v[self._idx]
-        return tau
+        return _diagonal(robot, self._idx, self._dk, self._dd, q, v)
 
     def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._idx, self._idx] = -self._dk
-        kv[self._idx, self._idx] = -self._dd
-        return kq, kv
+        return _diagonal(robot, self._idx, self._dk, self._dd)
 
 
 @dataclass(frozen=True)
