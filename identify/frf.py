@@ -402,6 +402,7 @@ class _Trials:
         if effect.name == "tcp_mode":
             ev["extra_peak_hz"] = diag["extra_peak_hz"]
             ev["extra_peak_in_every_pose"] = diag["extra_peak_in_every_pose"]
+            ev["direction_tcp"] = effect.table(params[-1][1])["direction"]
         return Trial(r, m, s, state=params, params=dict(params[-1][1]), uncertainty=unc, evidence=ev)
 
 

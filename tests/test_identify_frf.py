@@ -129,6 +129,7 @@ def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=F
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--variant", variant]
                             + ([] if poles else ["--no-poles"]), capsys)
     assert rc == 0, err
+    t["element"] = el
     return name, json.loads(out), t
 
 
@@ -146,6 +147,13 @@ def _correct(name, res, t):
 def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
     name, res, t = _identify_draw(tmp_path, capsys, kind, seed)
     assert _correct(name, res, t), (name, res["effects"], res["error_before"], res["error_after"], _truth_errors(t))
+    if kind == "tcp_mode":
+        # the Gauss-Newton standard deviations cover the truth: |fit - true| < 5 sigma (generous: the
+        # noise estimate is conservative and sigma is inflated by the reduced chi-square)
+        e, el = res["effects"][0], t["element"]
+        for k, true in (("freq_hz", el.freq_hz), ("damping_ratio", el.damping_ratio),
+                        ("stiffness_n_per_m", el.stiffness_n_per_m)):
+            assert abs(e["params"][k] - true) < 5 * e["uncertainty"][k], (k, e["params"][k], true, e["uncertainty"][k])
     assert res["metric"].startswith("held-out")
     assert "provenance" in res and len(res["provenance"]["inputs_sha256"]) == 64
     # the model output loads as a case and carries the effect
