@@ -152,6 +152,25 @@ def test_model_toml_loads_and_builds_the_identified_robot(tmp_path):
     assert case.law == CASE.law and case.cut == CASE.cut
 
 
+def test_model_toml_runs_in_lobes_and_modes(tmp_path, capsys):
+    # the written model is a case like any other for the commands upstream of identify
+    import json
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.model_toml import model_toml
+    from robolobes.main import main
+    state = ModelState(case=CASE, variant="basic", case_ref="tx200-aluminium",
+                       elements=(ElementSpec("tcp_mode", {"freq_hz": 900.0, "damping_ratio": 0.03,
+                                                          "stiffness_n_per_m": 2e7, "direction": [1.0, 0, 0]}),))
+    p = tmp_path / "model.toml"
+    p.write_text(model_toml(state))
+    assert main(["lobes", "--case", str(p), "--n-rpm", "5", "--json", "--quiet"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["rpm"]) == 5
+    assert main(["modes", "--case", str(p), "--json"]) == 0
+    modes = json.loads(capsys.readouterr().out)
+    assert any(abs(f - 900) < 20 for f in modes["freq_hz"])
+
+
 def test_servo_drive_stiff_loop_recovers_the_model_and_static_series_springs():
     # kp -> inf: the rotor is locked and the robot is the one without servo (1e-4 of the peak at
     # kp = 1e12, k / kp = 6e-6). Statics: joint spring k and loop kp in series give the axis a
