@@ -94,6 +94,8 @@ def run_identify_cli(args) -> int:
         bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
 
     kw = {"poles": False} if args.no_poles else {}
+    if args.effects:
+        kw["effects"] = [x.strip() for x in args.effects.split(",") if x.strip()]
     result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
     bar.done()
     out = {**result.to_json(), "provenance": prov}
@@ -128,6 +130,9 @@ def _register_identify(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--report", default=None, help="write report.md and figures into this directory (never "
                                                     "replaces a user's files)")
+    p.add_argument("--effects", default=None,
+                   help="comma-separated candidate effects (default: the library's default candidates; "
+                        "e.g. servo_a2 is tried only when named)")
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
