@@ -51,7 +51,8 @@ from robolobes.linearize.path import Pass
 
 from .cutting import MillingForce
 from .newmark import NewmarkOptions, integrate
-from .signals import chatter_frequency, force_stats, stability
+from .signals import chatter_frequency, force_stats
+from .verdict import VERDICT_KEYS, principal_period, verdict_summary
 from .workpiece import Workpiece, default_disc_count
 
 __all__ = ["SimulationProblem", "SimulationResult", "simulate", "summarize", "robot_equations", "PAPER_AXES",
@@ -199,11 +200,6 @@ class _Setup:
         pe = self.pas.part_entry_s + tool.diameter_m
         px = self.pas.part_exit_s - tool.diameter_m
         self.steady = (float(self.pas.time_at_s(pe)), float(self.pas.time_at_s(max(pe, px))))
-
-    def slowest_decay(self) -> float:
-        """Smallest modal decay rate ``zeta w_n`` of the linearized robot at the start, 1/s."""
-        lin = linearize(self.robot, self.th_tab[0])
-        return float(np.min(-np.asarray(lin.modes().poles).real))
 
     def theta(self, t: float) -> np.ndarray:
         return _lerp_row(self.th_tab, self.dt_tab, t)
@@ -498,10 +494,9 @@ def simulate(problem: SimulationProblem, progress: Callable[[float], None] | Non
     result = SimulationResult(problem=problem, t_s=_ro(t), force_workpiece_n=_ro(-rec.force_tool_n),
                               tcp_deviation_m=_ro(dev), spindle_angle_rad=_ro(S.omega * t), wall_x_m=_ro(wall.x_m),
                               wall_y_m=_ro(wall.y_m), steady_window_s=S.steady, stats=stats, summary={})
-    summary = summarize(result, S.workpiece, last_centre_x_m=float(rec.center_m[-1, 0]),
-                        slowest_decay_per_s=S.slowest_decay())
+    summary = summarize(result, S.workpiece, last_centre_x_m=float(rec.center_m[-1, 0]))
     tool = problem.case.tool
-    if verdict_companion and summary.get("stable") is not None and _has_runout(tool) \
+    if verdict_companion and t[-1] > S.steady[0] and _has_runout(tool) \
             and principal_period(tool, problem.case.cut)[1] == "tooth":
         # With runout the forced response alternates from tooth to tooth: the same period as a flip
         # of the tooth period, so this run's section cannot separate them. While every tooth cuts,
@@ -512,9 +507,9 @@ def simulate(problem: SimulationProblem, progress: Callable[[float], None] | Non
         t_end0 = min(float(t[-1]), S.steady[0] + 2.0)
         comp = simulate(replace(problem, case=case0, t_end_s=t_end0), verdict_companion=False)
         cs = comp.summary
-        summary["runout_run_verdict"] = {k: summary.get(k) for k in ("stable", "stability", "chatter_freq_hz")}
-        for k in ("stable", "stability", "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio",
-                  "verdict_section", "note"):
+        keys = tuple(VERDICT_KEYS) + ("chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio")
+        summary["runout_run_verdict"] = {k: summary.get(k) for k in keys}
+        for k in keys:
             if k in cs:
                 summary[k] = cs[k]
             else:
@@ -528,45 +523,32 @@ def simulate(problem: SimulationProblem, progress: Callable[[float], None] | Non
     return replace(result, summary=summary)
 
 
-def principal_period(tool, cut) -> tuple[float, str]:
-    """Period of the cut's linear dynamics and its name: the tooth period ``T / N`` when every tooth
-    cuts and regenerates on the surface of its predecessor one equal pitch earlier (uniform pitch,
-    runout too small to make a tooth skip), else the spindle revolution ``T`` (variable pitch,
-    skipped teeth). The lobes (:mod:`lobes`) use the same principal period; a flip bifurcation is a
-    period doubling of it, which a once-per-revolution section cannot see when N = 2."""
-    from robolobes.cases.milling import regeneration
-    reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
-    pitch = 2 * math.pi / tool.teeth
-    if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):
-        return cut.spindle_period_s / tool.teeth, "tooth"
-    return cut.spindle_period_s, "revolution"
-
-
 def _has_runout(tool) -> bool:
     return max(tool.runout_m) - min(tool.runout_m) > 0
 
 
-#: The window must be long enough for the slowest free robot mode to lose at least 20 % of its
-#: amplitude over two thirds of it; shorter, ringing after the entry cannot be told from chatter.
-DECAY_LIMIT = 0.8
+def _chatter(out: dict, t, dev_xy, case, window) -> None:
+    """Chatter frequency (reported when unstable) and the largest non-synchronous line, in place."""
+    Tp, pname = principal_period(case.tool, case.cut)
+    forced = "tooth" if (pname == "tooth" and not _has_runout(case.tool)) else "spindle"
+    T = case.cut.spindle_period_s
+    cf = chatter_frequency(t, dev_xy, 1.0 / T, teeth=case.tool.teeth, harmonics=forced,
+                           t_start_s=window[0], t_end_s=window[1])
+    out["chatter_freq_hz"] = cf.freq_hz if out.get("stable") is False else None
+    out["nonsynchronous_peak_hz"] = cf.freq_hz
+    out["nonsynchronous_ratio"] = cf.ratio
 
 
-def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *, last_centre_x_m: float | None = None,
-              slowest_decay_per_s: float | None = None) -> dict:
+def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *,
+              last_centre_x_m: float | None = None) -> dict:
     """Derived numbers: force statistics, stability verdict, chatter frequency, roughness, wall.
 
     * Force statistics over ``problem.stats_window_s`` (default: the steady window), per axis of the
       dynamometer (cut) frame, N; ``force_stats_paper_axes`` gives (Fx, Fy) as the paper's Tab. 10.
-    * Stability: once-per-principal-period samples (:func:`principal_period`: tooth period for a
-      uniform pitch, else the revolution) of the TCP deviation (x, y) over the steady window
-      (:func:`timedomain.signals.stability`, ``rule="trend"``): unstable when the non-synchronous
-      motion exceeds 5 % of the forced peak-to-peak and does not decay significantly (log-linear
-      fit over 6 segments: dying out iff slope + 2 standard errors < -sigma/4, a quarter of the
-      slowest free robot mode's decay rate), or when it grows significantly from more than 1e-5
-      of the forced motion (a slow instability caught early). The robot's slowest
-      mode rings after the entry with a decay rate ``sigma = min(zeta w_n)`` (0.5-1 1/s for the
-      TX200): if over two thirds of the window it would not fall below ``DECAY_LIMIT`` itself, the
-      window cannot tell a ringing stable robot from chatter and the verdict is ``None``.
+    * Verdict: :func:`timedomain.verdict.verdict_summary` on the TCP deviation (x, y) over the
+      steady window (the rule is stated once, in :mod:`timedomain.verdict`): ``verdict``,
+      ``stable`` (true/false/null), ``verdict_reason``, ``growth_rate_per_s`` with its standard
+      error and 95 % interval, ``regenerative_ratio``; ``chatter_freq_hz`` when unstable.
     * Roughness: ISO 4287 on the wall of the middle slice, Gaussian mean line with the ISO 4288
       cutoff 0.8 mm (waviness from the robot modes, wavelengths v/f of millimetres, is form, not
       roughness), over the part the tool has fully passed.
@@ -589,46 +571,15 @@ def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *, l
                               for i, ax in enumerate("xyz")}
         out["force_stats_paper_axes"] = {ax: {"min": fp.min_n[i], "max": fp.max_n[i], "mean": fp.mean_n[i],
                                               "rms": fp.rms_n[i]} for i, ax in enumerate("xy")}
-        Tp, pname = principal_period(case.tool, case.cut)
-        out["verdict_section"] = f"once per {pname} period ({Tp * 1e3:.3f} ms)"
-        n_sec = int((t1 - t0) / Tp + 1e-9)
-        if n_sec < 30:
-            # the trend rule needs 6 segments of >= 5 sections
-            out.update(stable=None, chatter_freq_hz=None,
-                       note=f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
-                            f"verdict needs 30: simulate longer")
-        else:
-            # a transient must decay at least at a quarter of the slowest free robot mode's rate
-            # (cutting slows the decay near the boundary; slower than that is, over a window of a few
-            # seconds, indistinguishable from saturated chatter: conservative)
-            min_decay = 0.25 * slowest_decay_per_s if slowest_decay_per_s is not None else 0.0
-            verdict = stability(t, result.tcp_deviation_m[:, :2], Tp, t_start_s=t0, t_end_s=t1, decay_limit=DECAY_LIMIT,
-                                rule="trend", min_decay_per_s=min_decay)
-            forced = "tooth" if (pname == "tooth" and not _has_runout(case.tool)) else "spindle"
-            cf = chatter_frequency(t, result.tcp_deviation_m[:, :2], 1.0 / T, teeth=case.tool.teeth, harmonics=forced,
-                                   t_start_s=t0, t_end_s=t1)
-            ringing = None if slowest_decay_per_s is None else math.exp(-slowest_decay_per_s * (t1 - t0) * 2 / 3)
-            stable = verdict.stable
-            if not stable and ringing is not None and ringing > DECAY_LIMIT:
-                # a free robot mode would itself lose less than the required 20 % over this window (and
-                # close modes beat): ringing after the entry cannot be told from chatter
-                stable = None
-                out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
-                               f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two thirds "
-                               f"of the {t1 - t0:.2f} s steady window; simulate longer")
-            out["stable"] = stable
-            out["stability"] = {"ratio": verdict.ratio, "decay": verdict.decay, "threshold": verdict.threshold,
-                                "trend_per_s": verdict.trend_per_s, "trend_se_per_s": verdict.trend_se_per_s,
-                                "slowest_mode_decay_over_window": ringing}
-            out["chatter_freq_hz"] = cf.freq_hz if stable is False else None
-            out["nonsynchronous_peak_hz"] = cf.freq_hz
-            out["nonsynchronous_ratio"] = cf.ratio
+        out.update(verdict_summary(t, result.tcp_deviation_m[:, :2], case.tool, case.cut, (t0, t1)))
+        _chatter(out, t, result.tcp_deviation_m[:, :2], case, (t0, t1))
         dy = result.tcp_deviation_m[(t >= t0) & (t <= t1), 1]
         out["tcp_deviation_y_um"] = {"min": float(dy.min() * 1e6), "max": float(dy.max() * 1e6)}
     else:
-        out["stable"] = None
-        out["note"] = (f"steady window {t0:.3f}-{t1:.3f} s holds fewer than 15 revolutions: no verdict, "
-                       f"no statistics (simulate longer)")
+        out.update(verdict_summary(t, result.tcp_deviation_m[:, :2], case.tool, case.cut, (t0, t1)))
+        out["chatter_freq_hz"] = None
+        out["note"] = (f"steady window {t0:.3f}-{t1:.3f} s holds fewer than 15 revolutions: no force "
+                       f"statistics (simulate longer)")
     if workpiece is not None and last_centre_x_m is not None:
         # the wall is finished where the tool has fully passed: from the entry face + R to the last
         # tool-centre position - R

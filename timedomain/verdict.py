@@ -76,25 +76,28 @@ import numpy as np
 from robolobes.cases.milling import engagement_rad, regeneration
 from robolobes.core.verdict import Verdict
 
-__all__ = ["GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale", "principal_period",
-           "poincare_sections", "growth_rate", "regenerative_ratio", "decide", "floquet_rate_per_s"]
+__all__ = ["VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale", "principal_period",
+           "poincare_sections", "growth_rate", "regenerative_ratio", "decide", "floquet_rate_per_s",
+           "floquet_comparison", "verdict_summary"]
 
 
-def principal_period(tool, cut) -> tuple[float, str]:
-    """Principal period of the cut's linear dynamics and its name: the tooth period ``T / N`` when
-    every tooth cuts and regenerates one equal pitch after its predecessor, else the revolution
-    ``T`` (the lobes' choice). Returns (seconds, "tooth" | "revolution")."""
-    from dataclasses import replace
-    try:
-        from robolobes.cases.milling import principal_period as pp  # the shared home, once it exists
-        return pp(tool, cut)
-    except ImportError:
-        pass
-    reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
-    pitch = 2 * math.pi / tool.teeth
-    if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):
-        return cut.spindle_period_s / tool.teeth, "tooth"
-    return cut.spindle_period_s, "revolution"
+try:  # the shared home of the principal period (the lobes use the same), once it exists there
+    from robolobes.cases.milling import principal_period
+except ImportError:
+    def principal_period(tool, cut) -> tuple[float, str]:
+        """Principal period of the cut's linear dynamics and its name: the tooth period ``T / N``
+        when every tooth cuts and regenerates one equal pitch after its predecessor, else the
+        revolution ``T`` (the lobes' choice). Returns (seconds, "tooth" | "revolution")."""
+        from dataclasses import replace
+        reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
+        pitch = 2 * math.pi / tool.teeth
+        if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):
+            return cut.spindle_period_s / tool.teeth, "tooth"
+        return cut.spindle_period_s, "revolution"
+
+#: The summary keys of the verdict (:func:`verdict_summary`); a runout companion run copies them.
+VERDICT_KEYS = ("verdict", "stable", "verdict_reason", "growth_rate_per_s", "growth_rate_se_per_s",
+                "growth_rate_ci_per_s", "regenerative_ratio", "duration_to_decide_s", "verdict_section", "stability")
 
 
 @dataclass(frozen=True)
@@ -393,3 +396,48 @@ def floquet_rate_per_s(spectral_radius: float, principal_period_s: float) -> flo
     """``ln|mu| / Tp``: the growth rate a time-domain run should measure (1/s), from the SDM's
     spectral radius per principal period (Insperger & Stepan 2004)."""
     return math.log(spectral_radius) / principal_period_s
+
+
+def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], *,
+                    rule: GrowthRule = GrowthRule()) -> dict:
+    """The verdict block of a time-domain summary (the policy, in one place).
+
+    Parameters
+    ----------
+    t_s : array (n,)                 uniform times, s.
+    deviation_m : array (n, 2)       TCP deviation from the commanded path in the cut plane, m.
+    tool, cut : cases.milling.Tool, Cut
+    window_s : (float, float)        steady window (full engagement), s.
+
+    Returns
+    -------
+    dict with ``verdict``, ``stable``, ``verdict_reason``, ``growth_rate_per_s``,
+    ``growth_rate_se_per_s``, ``growth_rate_ci_per_s``, ``regenerative_ratio``,
+    ``duration_to_decide_s``, ``verdict_section`` and ``stability`` (the rule's numbers).
+    """
+    tp, name = principal_period(tool, cut)
+    t = np.asarray(t_s, dtype=float)
+    t0, t1 = float(window_s[0]), min(float(window_s[1]), float(t[-1]))
+    out = {"verdict_section": f"once per {name} period ({tp * 1e3:.3f} ms)"}
+    if t1 <= t0:
+        v = TimeDomainVerdict(Verdict("undetermined", f"the run ends at {t[-1]:.3f} s, before full engagement at "
+                                                      f"{t0:.3f} s: simulate longer"), None, math.nan,
+                              t0 - float(t[0]) + rule.min_periods * tp)
+    else:
+        v = decide(t, deviation_m, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=t1, rule=rule)
+    out.update(v.to_json())
+    g = v.growth
+    out["stability"] = {"rule": "growth rate of the non-synchronous motion (timedomain.verdict)",
+                        "confidence": rule.confidence, "window_s": [t0, max(t0, t1)],
+                        "n_periods": None if g is None else g.n_periods,
+                        "dof": None if g is None else g.dof, "rho": None if g is None else g.rho}
+    return out
+
+
+def floquet_comparison(growth: GrowthEstimate, spectral_radius: float, principal_period_s: float) -> dict:
+    """The measured rate against the SDM's ``ln|mu| / Tp``: both (1/s), their difference and the
+    difference in units of the measured SE."""
+    ref = floquet_rate_per_s(spectral_radius, principal_period_s)
+    diff = growth.rate_per_s - ref
+    return {"floquet_rate_per_s": ref, "growth_rate_per_s": growth.rate_per_s, "difference_per_s": diff,
+            "difference_in_se": diff / growth.se_per_s if growth.se_per_s > 0 else math.inf}
