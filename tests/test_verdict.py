@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 
 from robolobes.cases.milling import Cut, Tool
 from robolobes.core.errors import BadInput
-from robolobes.timedomain.verdict import (ChipScale, GrowthRule, chip_scale, decide, floquet_rate_per_s, growth_rate,
+from robolobes.timedomain.verdict import (ChipScale, GrowthRule, beat_period_s, chip_scale, decide, floquet_rate_per_s, growth_rate,
                                           regenerative_ratio)
 
 FS = 18700 / 60.0  # spindle frequency of the aluminium cut, Hz
@@ -219,6 +219,25 @@ def test_summary_json_keys():
     assert j["verdict"] == "stable" and j["stable"] is True and "decays" in j["verdict_reason"]
     lo, hi = j["growth_rate_ci_per_s"]
     assert lo < j["growth_rate_per_s"] < hi < 0 and j["growth_rate_se_per_s"] > 0
+
+
+def test_beat_period_of_the_closest_ringing_modes():
+    # Closed form 1 / min |f_i - f_j| over modes with damping ratio <= 1/(6 pi): the TX200 basic
+    # modes 15.77, 25.15, 27.72 Hz (zeta 1-2 %) beat at 1/2.57 Hz; 33.5 Hz at zeta 0.052 counts
+    # (it rings for three cycles), a mode at 26 Hz with zeta 0.2 does not.
+    def pole(f, z):
+        w = 2 * math.pi * f
+        return complex(-z * w, w * math.sqrt(1 - z * z))
+    poles = [pole(15.77, 0.0097), pole(25.15, 0.0175), pole(27.72, 0.0175), pole(26.0, 0.2), pole(33.5, 0.052)]
+    poles += [p.conjugate() for p in poles]
+    assert_allclose(beat_period_s(poles), 1 / (27.72 - 25.15), rtol=1e-9)
+    assert beat_period_s([pole(20.0, 0.01)]) == 0.0
+    # a window shorter than the beat period is undetermined, whatever the fit says
+    rng = np.random.default_rng(1)
+    t, x = _signal(-3.0, 0.3, 20.0, rng)
+    v = decide(t, x, TP, BIG_CHIP, t_start_s=0.0, t_end_s=t[-1], beat_period_s=0.39)
+    assert v.verdict.status == "undetermined" and "beat period" in v.verdict.reason
+    assert_allclose(v.duration_to_decide_s, 0.39)
 
 
 def test_floquet_rate():

@@ -494,7 +494,8 @@ def simulate(problem: SimulationProblem, progress: Callable[[float], None] | Non
     result = SimulationResult(problem=problem, t_s=_ro(t), force_workpiece_n=_ro(-rec.force_tool_n),
                               tcp_deviation_m=_ro(dev), spindle_angle_rad=_ro(S.omega * t), wall_x_m=_ro(wall.x_m),
                               wall_y_m=_ro(wall.y_m), steady_window_s=S.steady, stats=stats, summary={})
-    summary = summarize(result, S.workpiece, last_centre_x_m=float(rec.center_m[-1, 0]))
+    summary = summarize(result, S.workpiece, last_centre_x_m=float(rec.center_m[-1, 0]),
+                        poles_rad_s=linearize(S.robot, S.th_tab[0]).modes().poles)
     tool = problem.case.tool
     if verdict_companion and t[-1] > S.steady[0] and _has_runout(tool) \
             and principal_period(tool, problem.case.cut)[1] == "tooth":
@@ -540,7 +541,7 @@ def _chatter(out: dict, t, dev_xy, case, window) -> None:
 
 
 def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *,
-              last_centre_x_m: float | None = None) -> dict:
+              last_centre_x_m: float | None = None, poles_rad_s=()) -> dict:
     """Derived numbers: force statistics, stability verdict, chatter frequency, roughness, wall.
 
     * Force statistics over ``problem.stats_window_s`` (default: the steady window), per axis of the
@@ -571,12 +572,14 @@ def summarize(result: SimulationResult, workpiece: Workpiece | None = None, *,
                               for i, ax in enumerate("xyz")}
         out["force_stats_paper_axes"] = {ax: {"min": fp.min_n[i], "max": fp.max_n[i], "mean": fp.mean_n[i],
                                               "rms": fp.rms_n[i]} for i, ax in enumerate("xy")}
-        out.update(verdict_summary(t, result.tcp_deviation_m[:, :2], case.tool, case.cut, (t0, t1)))
+        out.update(verdict_summary(t, result.tcp_deviation_m[:, :2], case.tool, case.cut, (t0, t1),
+                                   poles_rad_s=poles_rad_s))
         _chatter(out, t, result.tcp_deviation_m[:, :2], case, (t0, t1))
         dy = result.tcp_deviation_m[(t >= t0) & (t <= t1), 1]
         out["tcp_deviation_y_um"] = {"min": float(dy.min() * 1e6), "max": float(dy.max() * 1e6)}
     else:
-        out.update(verdict_summary(t, result.tcp_deviation_m[:, :2], case.tool, case.cut, (t0, t1)))
+        out.update(verdict_summary(t, result.tcp_deviation_m[:, :2], case.tool, case.cut, (t0, t1),
+                                   poles_rad_s=poles_rad_s))
         out["chatter_freq_hz"] = None
         out["note"] = (f"steady window {t0:.3f}-{t1:.3f} s holds fewer than 15 revolutions: no force "
                        f"statistics (simulate longer)")

@@ -56,6 +56,12 @@ The rule (:func:`decide`)
 * **stable** also when the non-synchronous motion of the second half of the window is below
   ``resolution_m`` throughout (nothing is left to grow).
 
+* **undetermined** when the window is shorter than ``3 B + 2`` principal periods, or than the
+  beat period ``1 / min |f_i - f_j|`` of the structure's two closest modes that ring for three
+  cycles or more (:func:`beat_period_s`): two decaying modes beat, and over less than one beat
+  their summed envelope can rise (or fall) smoothly, so the residuals of the fit cannot reveal
+  that the line is the wrong model. (The TX200's 25.2 and 27.7 Hz modes: 0.39 s.)
+
 An undetermined verdict states the window that would decide: the SE falls at least as
 ``T_window^-1`` (a deterministic residual such as beating; white noise gives ``T^-3/2``), so
 ``|sigma_hat| = t SE`` is reached at ``T (t SE / |sigma_hat|)`` (a conservative, i.e. long, estimate).
@@ -76,7 +82,7 @@ import numpy as np
 from robolobes.cases.milling import engagement_rad, regeneration
 from robolobes.core.verdict import Verdict
 
-__all__ = ["VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale", "principal_period",
+__all__ = ["beat_period_s", "VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale", "principal_period",
            "poincare_sections", "growth_rate", "regenerative_ratio", "decide", "floquet_rate_per_s",
            "floquet_comparison", "verdict_summary"]
 
@@ -352,19 +358,22 @@ class TimeDomainVerdict:
 
 
 def decide(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float, t_end_s: float,
-           rule: GrowthRule = GrowthRule()) -> TimeDomainVerdict:
+           rule: GrowthRule = GrowthRule(), beat_period_s: float = 0.0) -> TimeDomainVerdict:
     """The rule of the module docstring on the TCP deviation ``x`` (n, m), m, over the window.
 
-    A window shorter than ``rule.min_periods`` principal periods gives ``undetermined`` with the
-    length that is needed.
+    A window shorter than ``rule.min_periods`` principal periods, or than ``beat_period_s`` (the
+    structure's, :func:`beat_period_s`), gives ``undetermined`` with the length that is needed.
     """
     t, xx = _as_series(t_s, x)
     lo, hi = float(t_start_s), min(float(t_end_s), float(t[-1]))
     n_per = int((hi - lo) / period_s + 1e-9)
-    if n_per < rule.min_periods:
-        need = rule.min_periods * period_s
-        v = Verdict("undetermined", f"the window {lo:.3f}-{hi:.3f} s holds {n_per} principal periods; the growth "
-                                    f"rate needs {rule.min_periods} ({need:.3f} s): simulate longer")
+    need = max(rule.min_periods * period_s, float(beat_period_s))
+    if hi - lo < need - 1e-12 or n_per < rule.min_periods:
+        why = (f"{n_per} principal periods, the growth rate needs {rule.min_periods}" if n_per < rule.min_periods else
+               f"shorter than the beat period {beat_period_s:.3f} s of the structure's two closest ringing modes "
+               f"(a ringing structure can look like growth over less)")
+        v = Verdict("undetermined", f"the window {lo:.3f}-{hi:.3f} s is too short ({why}): simulate to at least "
+                                    f"{lo + need:.3f} s")
         return TimeDomainVerdict(v, None, math.nan, need)
     g = growth_rate(t, xx, period_s, t_start_s=lo, t_end_s=hi, rule=rule)
     last = (g.window_s[1] - g.window_s[0]) / rule.blocks
@@ -398,8 +407,26 @@ def floquet_rate_per_s(spectral_radius: float, principal_period_s: float) -> flo
     return math.log(spectral_radius) / principal_period_s
 
 
+def beat_period_s(poles_rad_s) -> float:
+    """Beat period ``1 / min |f_i - f_j|`` (s) of the two closest modes that ring for at least
+    three cycles (damping ratio <= 1 / (6 pi) = 0.053: amplitude >= 1/e after three cycles), from
+    the structure's poles (rad/s, complex; conjugates counted once); 0 with fewer than two.
+
+    Two decaying modes of close frequencies beat: over less than a beat their summed envelope can
+    rise while both decay, and the fit's residuals cannot show it (module docstring).
+    """
+    p = np.asarray(poles_rad_s, dtype=complex).ravel()
+    p = p[p.imag > 0]
+    zeta = -p.real / np.abs(p)
+    f = np.sort(np.abs(p[zeta <= 1 / (6 * math.pi)]) / (2 * math.pi))
+    if f.size < 2:
+        return 0.0
+    df = float(np.min(np.diff(f)))
+    return 1.0 / df if df > 0 else math.inf
+
+
 def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], *,
-                    rule: GrowthRule = GrowthRule()) -> dict:
+                    rule: GrowthRule = GrowthRule(), poles_rad_s=()) -> dict:
     """The verdict block of a time-domain summary (the policy, in one place).
 
     Parameters
@@ -408,6 +435,7 @@ def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], 
     deviation_m : array (n, 2)       TCP deviation from the commanded path in the cut plane, m.
     tool, cut : cases.milling.Tool, Cut
     window_s : (float, float)        steady window (full engagement), s.
+    poles_rad_s : array (k,), complex   the structure's poles (for :func:`beat_period_s`).
 
     Returns
     -------
@@ -424,7 +452,8 @@ def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], 
                                                       f"{t0:.3f} s: simulate longer"), None, math.nan,
                               t0 - float(t[0]) + rule.min_periods * tp)
     else:
-        v = decide(t, deviation_m, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=t1, rule=rule)
+        v = decide(t, deviation_m, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=t1, rule=rule,
+                   beat_period_s=beat_period_s(poles_rad_s))
     out.update(v.to_json())
     g = v.growth
     out["stability"] = {"rule": "growth rate of the non-synchronous motion (timedomain.verdict)",
