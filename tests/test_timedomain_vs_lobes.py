@@ -24,7 +24,8 @@ from robolobes.lobes.problem import LobeProblem
 from robolobes.lobes.sdm import SemiDiscretization
 from robolobes.lobes.solve import stability
 from robolobes.lobes.structure import PhysicalStructure
-from robolobes.timedomain.simulate import SimulationProblem, principal_period, simulate
+from robolobes.cases.milling import principal_period
+from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
 from robolobes.timedomain.verdict import beat_period_s, floquet_rate_per_s, growth_rate, verdict_summary
 
 warnings.filterwarnings("ignore", category=L.JointLimitWarning)  # Tab. 7's A3, accepted and tested elsewhere
@@ -39,9 +40,15 @@ def _structure(case, variant="basic", damping_scale=1.0):
     return PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
 
 
+def _run(case, variant="basic", damping_scale=1.0, linearized=True, **kw):
+    """A run of ``case`` on the linearized fast path (or the full model)."""
+    robot = L.build_model(case.robot, variant, damping_scale=damping_scale)
+    method = LinearizedNewmark() if linearized else NonlinearNewmark()
+    return simulate(SimulationProblem(robot, case, **kw), method)
+
+
 def _poles(problem):
-    robot = L.build_model(problem.case.robot, problem.variant, damping_scale=problem.damping_scale)
-    return L.linearize(robot, problem.case.path.start_q_rad).modes().poles
+    return L.linearize(problem.robot, problem.case.path.start_q_rad).modes().poles
 
 
 def _truncated(run, t_end_s):
@@ -58,7 +65,7 @@ _RUNS = {}
 def _alu_run(variant, linearized=True):
     key = (variant, linearized)
     if key not in _RUNS:
-        _RUNS[key] = simulate(SimulationProblem(ALU, variant, linearized=linearized))
+        _RUNS[key] = _run(ALU, variant, linearized=linearized)
     return _RUNS[key]
 
 
@@ -82,10 +89,10 @@ def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(rpm):
     assert op.depth_limit_m < 0.01
     for factor, expect in ((0.8, "stable"), (1.25, "unstable")):
         case = replace(STEEL, tool=tool, cut=replace(cut, ap_m=factor * op.depth_limit_m))
-        s = simulate(SimulationProblem(case, "basic", linearized=True)).summary
-        assert s["verdict"] == expect, (rpm, factor, s["verdict_reason"])
+        s = _run(case).summary
+        assert s.verdict == expect, (rpm, factor, s.verdict_reason)
         if expect == "unstable":
-            assert_allclose(s["chatter_freq_hz"], op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
+            assert_allclose(s.chatter_freq_hz, op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
 
 
 def test_principal_period():
@@ -101,10 +108,10 @@ def test_aluminium_pass_is_stable_and_matches_the_paper_model_forces():
     # paper's basic-model row of Tab. 10 (0.4-1.4 s), same model and coefficients: mean and RMS
     # within 2 %, extremes within 5 % (the paper's disc count, time step and feed ramp are not
     # stated; ours: 22 discs, 2 deg per step, 0.1 s jerk-limited ramp).
-    s = simulate(SimulationProblem(ALU, "basic", linearized=True, stats_window_s=(0.4, 1.4))).summary
-    assert s["verdict"] == "stable", s["verdict_reason"]
+    s = _run(ALU, stats_window_s=(0.4, 1.4)).summary
+    assert s.verdict == "stable", s.verdict_reason
     fx_min, fy_min, fx_max, fy_max, fx_mean, fy_mean, fx_rms, fy_rms = PAPER["aluminium"]["tab10"]["basic"]
-    fs = s["force_stats_paper_axes"]
+    fs = s.force_stats_paper_axes
     assert_allclose([fs["x"]["mean"], fs["y"]["mean"], fs["x"]["rms"], fs["y"]["rms"]],
                     [fx_mean, fy_mean, fx_rms, fy_rms], rtol=0.02)
     assert_allclose([fs["x"]["min"], fs["y"]["min"], fs["x"]["max"]], [fx_min, fy_min, fx_max], rtol=0.05)
@@ -116,12 +123,12 @@ def test_truncation_equals_a_shorter_run():
     # --duration 0.6` said unstable (trend -0.97 +- 0.75 1/s, decaying). Now: not unstable, and the
     # same verdict and rate as the first 0.6 s of the whole pass (causality: same steps, same
     # part), to round-off.
-    short = simulate(SimulationProblem(ALU, "basic", linearized=True, t_end_s=0.6)).summary
-    assert short["verdict"] != "unstable", short["verdict_reason"]
+    short = _run(ALU, t_end_s=0.6).summary
+    assert short.verdict != "unstable", short.verdict_reason
     cut = _truncated(_alu_run("basic"), 0.6)
-    assert short["verdict"] == cut["verdict"]
-    if short["growth_rate_per_s"] is not None:
-        assert_allclose(short["growth_rate_per_s"], cut["growth_rate_per_s"], rtol=1e-6, atol=1e-9)
+    assert short.verdict == cut["verdict"]
+    if short.growth_rate_per_s is not None:
+        assert_allclose(short.growth_rate_per_s, cut["growth_rate_per_s"], rtol=1e-6, atol=1e-9)
 
 
 def _check_variant(variant, linearized=True):
@@ -130,7 +137,7 @@ def _check_variant(variant, linearized=True):
         s = _truncated(run, d)
         assert s["verdict"] != "unstable", (variant, d, s["verdict_reason"])
     s = run.summary
-    assert s["verdict"] == "stable", (variant, s["verdict_reason"])
+    assert s.verdict == "stable", (variant, s.verdict_reason)
 
 
 def test_aluminium_basic_never_unstable_and_stable_over_the_pass():
@@ -152,7 +159,7 @@ def test_aluminium_backlash_full_model_never_unstable():
     # zones) at 0.5 s and over the whole pass: not unstable; stable over the whole pass.
     run = _alu_run("backlash", linearized=False)
     assert _truncated(run, 0.5)["verdict"] != "unstable"
-    assert run.summary["verdict"] == "stable", run.summary["verdict_reason"]
+    assert run.summary.verdict == "stable", run.summary.verdict_reason
 
 
 def test_steel_is_unstable_from_full_engagement_on():
@@ -160,7 +167,7 @@ def test_steel_is_unstable_from_full_engagement_on():
     # from full engagement that holds enough periods for a rate says unstable. Runout removed (it
     # changes neither the delays nor which teeth cut; the summary's companion run does the same).
     case = replace(STEEL, tool=replace(STEEL.tool, runout_m=(0.0, 0.0)))
-    run = simulate(SimulationProblem(case, "basic", linearized=True, t_end_s=4.5))
+    run = _run(case, t_end_s=4.5)
     t0 = run.steady_window_s[0]
     tp = principal_period(case.tool, case.cut)[0]
     shortest = max(38 * tp, beat_period_s(_poles(run.problem)))  # the rule's shortest window
@@ -177,12 +184,11 @@ def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
     # 103.3 Hz tooth passing).
     runs = {}
     for scale in (1.0, 10.0, 15.0):
-        runs[scale] = simulate(SimulationProblem(STEEL, "basic", linearized=True, t_end_s=4.5,
-                                                 damping_scale=scale)).summary
-    assert [runs[k]["verdict"] for k in (1.0, 10.0, 15.0)] == ["unstable", "unstable", "stable"], \
-        {k: r["verdict_reason"] for k, r in runs.items()}
-    assert_allclose(runs[1.0]["chatter_freq_hz"], 3100 / 60, atol=0.5)
-    assert runs[1.0]["verdict_basis"].startswith("companion run without runout")
+        runs[scale] = _run(STEEL, damping_scale=scale, t_end_s=4.5).summary
+    assert [runs[k].verdict for k in (1.0, 10.0, 15.0)] == ["unstable", "unstable", "stable"], \
+        {k: r.verdict_reason for k, r in runs.items()}
+    assert_allclose(runs[1.0].chatter_freq_hz, 3100 / 60, atol=0.5)
+    assert runs[1.0].verdict_basis.startswith("companion run without runout")
     # the lobes agree: x10 unstable, x15 stable
     for scale, expect in ((10.0, "unstable"), (15.0, "stable")):
         st = _structure(STEEL, damping_scale=scale)
@@ -202,8 +208,7 @@ def _alu_near_limit(factor, helix=True):
     cut = replace(ALU.cut, feed_per_tooth_m=3e-5, ap_m=factor * ALU_LIMIT_M)
     case = replace(ALU, tool=tool, cut=cut, path=replace(ALU.path, part_length_m=0.045))
     op = stability(LobeProblem(_structure(ALU), tool, cut, ALU.law), SemiDiscretization(m=40), adaptive=False)
-    run = simulate(SimulationProblem(case, "basic", linearized=True))
-    return op, run
+    return op, _run(case)
 
 
 @pytest.mark.slow
@@ -212,7 +217,7 @@ def test_aluminium_near_its_limit_agrees_with_the_lobes(factor, expect):
     op, run = _alu_near_limit(factor)
     assert op.verdict == expect
     s = run.summary
-    assert s["verdict"] == expect, s["verdict_reason"]
+    assert s.verdict == expect, s.verdict_reason
 
 
 @pytest.mark.slow

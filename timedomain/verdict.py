@@ -82,24 +82,12 @@ import numpy as np
 from robolobes.cases.milling import engagement_rad, regeneration
 from robolobes.core.verdict import Verdict
 
-__all__ = ["beat_period_s", "VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale", "principal_period",
+__all__ = ["beat_period_s", "VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale",
            "poincare_sections", "growth_rate", "regenerative_ratio", "decide", "floquet_rate_per_s",
            "floquet_comparison", "verdict_summary"]
 
 
-try:  # the shared home of the principal period (the lobes use the same), once it exists there
-    from robolobes.cases.milling import principal_period
-except ImportError:
-    def principal_period(tool, cut) -> tuple[float, str]:
-        """Principal period of the cut's linear dynamics and its name: the tooth period ``T / N``
-        when every tooth cuts and regenerates one equal pitch after its predecessor, else the
-        revolution ``T`` (the lobes' choice). Returns (seconds, "tooth" | "revolution")."""
-        from dataclasses import replace
-        reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
-        pitch = 2 * math.pi / tool.teeth
-        if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):
-            return cut.spindle_period_s / tool.teeth, "tooth"
-        return cut.spindle_period_s, "revolution"
+from robolobes.cases.milling import principal_period  # the one decision, shared with the lobes
 
 #: The summary keys of the verdict (:func:`verdict_summary`); a runout companion run copies them.
 VERDICT_KEYS = ("verdict", "stable", "verdict_reason", "growth_rate_per_s", "growth_rate_se_per_s",
