@@ -22,7 +22,8 @@ from robolobes.timedomain.verdict import (ChipScale, GrowthRule, beat_period_s, 
 FS = 18700 / 60.0  # spindle frequency of the aluminium cut, Hz
 TP = 1 / FS  # principal period: one revolution (variable pitch), s
 DT = TP / 180  # 2 deg of spindle rotation per step, as the simulations
-BIG_CHIP = ChipScale(delays_s=(TP / 2,), mean_chip_m=(1.0,))  # a chip of 1 m: never saturated
+BIG_CHIP = ChipScale(delays_s=(TP / 2,), max_chip_m=(1.0,))  # a chip of 1 m: never saturated
+HALF = (math.pi / 2, math.pi)  # half-immersion down-milling arc: mean chip = 2 h0 / pi
 
 
 def _signal(rate, duration, f_hz, rng, *, noise=1e-3, a0=1e-6, dt=TP / 40):
@@ -120,7 +121,7 @@ def test_two_beating_robot_modes_ringing_down_are_never_unstable():
     # dominates: stable, with the rate between the two modes' (-1.5 and -0.8 1/s; a sum of two
     # decaying exponentials has a log-slope between theirs).
     rng = np.random.default_rng(9)
-    chip = ChipScale(delays_s=(TP * 170 / 360, TP * 190 / 360), mean_chip_m=(0.058e-3, 0.058e-3))
+    chip = ChipScale(delays_s=(TP * 170 / 360, TP * 190 / 360), max_chip_m=(0.1e-3, 0.1e-3))
     for duration, allowed in ((0.6, ("stable", "undetermined")), (3.0, ("stable",))):
         t = np.arange(int(duration / DT) + 1) * DT
         forced = 1e-5 * np.sin(2 * np.pi * 2 * FS * t) + 3e-5 * t
@@ -158,8 +159,20 @@ def test_regenerative_ratio_of_a_sinusoid():
     t = np.arange(int(0.3 / DT) + 1) * DT
     a, f, tau, hbar = 4e-6, 1100.0, TP / 2, 5e-6
     x = 1e-5 * np.sin(2 * np.pi * 2 * FS * t) + a * np.sin(2 * np.pi * f * t)
-    r = regenerative_ratio(t, x, TP, ChipScale((tau,), (hbar,)), t_start_s=0.0, t_end_s=t[-1])
+    chip = ChipScale((tau,), (hbar * math.pi / 2,), HALF)  # mean chip hbar
+    r = regenerative_ratio(t, x, TP, chip, t_start_s=0.0, t_end_s=t[-1])
     assert_allclose(r, 2 * a * abs(math.sin(math.pi * f * tau)) / hbar, rtol=0.01)
+
+
+def test_chip_loss_fraction_closed_form():
+    # Half immersion, down-milling: the tooth is out of the cut where h0 sin phi < A, i.e. for
+    # phi > pi - asin(A / h0); its share of int sin over [pi/2, pi] (= 1) is 1 - cos(asin(A / h0))
+    # = 1 - sqrt(1 - (A / h0)^2). Trapezoid on 4001 points: 1e-4.
+    chip = ChipScale((TP / 2,), (1e-5,), HALF)
+    for ratio in (0.1, 0.3, 0.6, 0.9):
+        assert_allclose(chip.loss_fraction(ratio * 1e-5, 0), 1 - math.sqrt(1 - ratio**2), atol=1e-4)
+    assert chip.loss_fraction(2e-5, 0) == pytest.approx(1.0)
+    assert_allclose(chip.mean_chip_m, [2e-5 / math.pi], rtol=1e-12)
 
 
 def test_chip_scale_closed_form():
@@ -169,15 +182,17 @@ def test_chip_scale_closed_form():
     cut = Cut(ae_m=0.005, ap_m=1e-3, spindle_rpm=6000.0, feed_per_tooth_m=1e-4, mode="down")
     cs = chip_scale(tool, cut)
     assert_allclose(cs.mean_chip_m, [2e-4 / math.pi] * 2, rtol=1e-12)
+    assert_allclose(cs.arc_rad, HALF, rtol=1e-12)
     assert_allclose(cs.delays_s, [0.005] * 2, rtol=1e-12)
 
 
 @pytest.mark.parametrize("kind", ["hopf", "flip"])
 def test_saturated_chatter_is_unstable(kind):
     # Chatter that grew (rate +8 1/s) and saturated at an amplitude whose regenerative variation is
-    # 2 x the mean chip (a tooth leaves the cut): its rate over the window is ~0, the linear test
-    # alone would say undetermined; the amplitude criterion says unstable. Below the chip (R ~ 0.2)
-    # the same bounded motion is undetermined.
+    # 2 x the mean chip (half immersion: teeth out of the cut over the whole arc at the peaks, loss
+    # 1): its rate over the window is ~0, the linear test alone would say undetermined; the
+    # chip-loss criterion says unstable. At R = 0.2 (loss 1 - sqrt(1 - 0.127^2) = 0.008 < 0.05) the
+    # same bounded motion is undetermined.
     rng = np.random.default_rng(17)
     t = np.arange(int(1.0 / DT) + 1) * DT
     f = 1100.0 if kind == "hopf" else 1.5 * FS  # 1.76 and 0.75 cycles per delay tau = T/2
@@ -188,10 +203,27 @@ def test_saturated_chatter_is_unstable(kind):
     for target, expect in ((2.0, "unstable"), (0.2, "undetermined")):
         a = target * 1e-5 / gain
         x = 1e-5 * np.sin(2 * np.pi * 2 * FS * t) + a * line
-        v = decide(t, x, TP, ChipScale((tau,), (1e-5,)), t_start_s=0.55, t_end_s=t[-1])
+        v = decide(t, x, TP, ChipScale((tau,), (1e-5 * math.pi / 2,), HALF), t_start_s=0.55, t_end_s=t[-1])
         assert v.verdict.status == expect, (target, v.verdict.reason)
         # closed form (test_regenerative_ratio_of_a_sinusoid); 5 %: the noise adds in quadrature
         assert_allclose(v.regenerative_ratio, target, rtol=0.05)
+
+
+@pytest.mark.parametrize("rate, expect", [(-0.01, "unstable"), (-4.0, "undetermined")])
+def test_drifting_saturated_chatter_and_a_large_decaying_transient(rate, expect):
+    # In the nonlinear regime (R = 1.5: teeth out of the cut over 1 - sqrt(1 - 0.95^2) = 69 % of
+    # the arc at the window's end) the verdict asks whether one more window at the rate's upper
+    # bound leaves it: at -0.01 1/s (a saturated amplitude drifting down along a pass) no, so
+    # unstable; at -4 1/s over 0.45 s (x 0.17) it would, so undetermined (a transient on its way out).
+    rng = np.random.default_rng(19)
+    t = np.arange(int(1.0 / DT) + 1) * DT
+    f, tau = 1100.0, TP / 2
+    gain = 2 * abs(math.sin(math.pi * f * tau))
+    a = 1.5 * 1e-5 / gain * np.exp(rate * (t - t[-1]))
+    x = 1e-5 * np.sin(2 * np.pi * 2 * FS * t) + a * (np.sin(2 * np.pi * f * t) + 0.002 * rng.standard_normal(t.size))
+    v = decide(t, x, TP, ChipScale((tau,), (1e-5 * math.pi / 2,), HALF), t_start_s=0.55, t_end_s=t[-1])
+    assert v.verdict.status == expect, v.verdict.reason
+    assert v.chip_loss_fraction > 0.5
 
 
 def test_motion_below_the_resolution_is_stable():

@@ -56,7 +56,9 @@ class SimulationSummary:
     growth_rate_ci_per_s : (float, float) or None
         Its 95 % confidence interval, 1/s.
     regenerative_ratio : float or None
-        Regenerative chip variation over the mean chip (>= 1: a tooth leaves the cut).
+        Regenerative chip variation over the mean chip.
+    chip_loss_fraction : float or None
+        Share of the chip-weighted arc where teeth leave the cut (>= 0.05: saturated regime).
     duration_to_decide_s : float or None
         Steady window that would decide an undetermined verdict, s.
     stability : dict or None
@@ -108,6 +110,7 @@ class SimulationSummary:
     growth_rate_se_per_s: float | None = None
     growth_rate_ci_per_s: tuple[float, float] | None = None
     regenerative_ratio: float | None = None
+    chip_loss_fraction: float | None = None
     duration_to_decide_s: float | None = None
     stability: dict | None = None
     chatter_freq_hz: float | None = None

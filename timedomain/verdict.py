@@ -31,27 +31,38 @@ Estimator (:func:`growth_rate`)
    interval is ``sigma_hat +- t SE`` with the Student quantile ``t_{0.975, B - 2}`` (95 %,
    two-sided; 2.23 for B = 12).
 
-Saturated chatter (:func:`regenerative_ratio`)
-----------------------------------------------
+Saturated chatter (:func:`regenerative_ratio`, :func:`chip_loss_fraction`)
+------------------------------------------------------------------------
 Chatter that has grown until a tooth leaves the cut is bounded: its rate is ~0 and the linear test
 cannot call it. Tooth j's chip is ``h_j(phi) = h_j0 sin(phi) + n(phi) . (y(t) - y(t - tau_j))``:
 the static chip (``h_j0`` the tooth's chip at 90 deg, :func:`cases.milling.regeneration`) plus
 the regenerative variation of the non-synchronous motion ``y`` over the tooth's delay ``tau_j``.
-The chip, whose mean over the engaged arc ``[phi_st, phi_ex]`` is
-``hbar_j = h_j0 (cos phi_st - cos phi_ex) / (phi_ex - phi_st)``, goes negative (the tooth leaves
-the cut, the force law saturates) once the variation's amplitude exceeds the mean chip. The
-regenerative ratio is ``R = max_j sqrt(2) rms|y(t) - y(t - tau_j)| / hbar_j`` over the last block
-(``y = x`` minus its synchronous average over that block; ``|.|`` the vector norm bounds the
-projection ``n . Delta``; ``sqrt 2`` the peak of a sinusoid of that RMS). ``R >= 1`` is the
-nonlinear regime; ``R < 1`` the linear one in which the growth rate decides.
+Its amplitude ``A_j = sqrt(2) rms|y(t) - y(t - tau_j)|`` over the last block (``y = x`` minus its
+synchronous average over that block; ``|.|`` the vector norm bounds the projection
+``n . Delta``; ``sqrt 2`` the peak of a sinusoid of that RMS) is compared with the chip:
+
+* the regenerative ratio ``R = max_j A_j / hbar_j``, ``hbar_j`` the mean static chip over the
+  engaged arc ``[phi_st, phi_ex]`` (reported);
+* the chip-loss fraction ``L = max_j int_{h_j0 sin phi < A_j} sin phi dphi / int_arc sin phi dphi``:
+  the share of the tooth's chip-weighted engagement where, at the peaks of the variation, the
+  chip is negative and the tooth out of the cut. The regenerative force, hence the linear
+  model's gain, is reduced by up to this share. A linear-theory instability saturates once the
+  loss matches its excess gain (e.g. about 20 % at 1.25 times the limit), whereas a cut in the
+  linear regime loses ~0 (down-milling's chip vanishes at the exit, so some loss is always
+  there at the end of the arc: ``L`` weighs it by the chip it carries).
+  ``L >= 0.05`` is the nonlinear regime: the cut's gain differs from the linear one by 5 % or
+  more, the resolution at which the lobes and the time domain are compared here.
 
 The rule (:func:`decide`)
 -------------------------
-* ``R >= 1`` (the tool leaves the cut) and the upper confidence bound of ``sigma`` >= 0 (growing
-  or bounded): **unstable**, saturated chatter (steel; the backlash period-2 cycle).
-* ``R >= 1`` and confidently decaying: **undetermined** (a large transient still in the nonlinear
-  regime).
-* ``R < 1``: **stable** when the whole 95 % interval is below 0, **unstable** when it is above 0,
+* ``L >= 0.05`` (teeth leave the cut), and still >= 0.05 one window later if the amplitude
+  changed at the upper confidence bound of ``sigma`` (growing, bounded, or decaying too slowly to
+  leave the nonlinear regime within the window's own length): **unstable**, saturated chatter
+  (steel; the backlash period-2 cycle). Saturated chatter drifts: along a pass its amplitude can
+  shrink by a fraction of a percent per second, a "decay" that does not make the cut stable.
+* ``L >= 0.05`` but below it one window later: **undetermined** (a large transient leaving the
+  nonlinear regime).
+* ``L < 0.05``: **stable** when the whole 95 % interval is below 0, **unstable** when it is above 0,
   **undetermined** otherwise.
 * **stable** also when the non-synchronous motion of the second half of the window is below
   ``resolution_m`` throughout (nothing is left to grow).
@@ -67,7 +78,7 @@ An undetermined verdict states the window that would decide: the SE falls at lea
 ``|sigma_hat| = t SE`` is reached at ``T (t SE / |sigma_hat|)`` (a conservative, i.e. long, estimate).
 
 Nothing here is tuned on the robot: the 95 % level is conventional, ``B = 12`` gives 10 degrees
-of freedom, ``R = 1`` is the chip balance above, and
+of freedom, ``L = 0.05`` is the 5 % comparison resolution above, and
 ``resolution_m`` is the Newton tolerance (1e-11 rad on the joints, lever arms ~2 m) times 5. The
 synthetic tests (tests/test_verdict.py) check coverage and decisiveness on signals of known rate.
 """
@@ -83,7 +94,8 @@ from robolobes.cases.milling import engagement_rad, regeneration
 from robolobes.core.verdict import Verdict
 
 __all__ = ["beat_period_s", "VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale",
-           "poincare_sections", "growth_rate", "regenerative_ratio", "decide", "floquet_rate_per_s",
+           "poincare_sections", "growth_rate", "regenerative_ratio", "regenerative_amplitudes",
+           "LOSS_LIMIT", "decide", "floquet_rate_per_s",
            "floquet_comparison", "verdict_summary"]
 
 
@@ -91,7 +103,8 @@ from robolobes.cases.milling import principal_period  # the one decision, shared
 
 #: The summary keys of the verdict (:func:`verdict_summary`); a runout companion run copies them.
 VERDICT_KEYS = ("verdict", "stable", "verdict_reason", "growth_rate_per_s", "growth_rate_se_per_s",
-                "growth_rate_ci_per_s", "regenerative_ratio", "duration_to_decide_s", "verdict_section", "stability")
+                "growth_rate_ci_per_s", "regenerative_ratio", "chip_loss_fraction", "duration_to_decide_s",
+                "verdict_section", "stability")
 
 
 @dataclass(frozen=True)
@@ -163,23 +176,43 @@ class GrowthEstimate:
 
 @dataclass(frozen=True)
 class ChipScale:
-    """What the regenerative ratio compares with, per cutting tooth.
+    """What the saturation criterion compares with, per cutting tooth.
 
     delays_s : tuple of float        regenerative delay of each cutting tooth, s.
-    mean_chip_m : tuple of float     its static chip averaged over the engaged arc, m (> 0).
+    max_chip_m : tuple of float      its static chip at phi = 90 deg, ``h_j0``, m (> 0).
+    arc_rad : (float, float)         engaged arc ``(phi_st, phi_ex)``, rad, within [0, pi].
     """
 
     delays_s: tuple[float, ...]
-    mean_chip_m: tuple[float, ...]
+    max_chip_m: tuple[float, ...]
+    arc_rad: tuple[float, float] = (0.0, math.pi)
+
+    def _sin(self) -> np.ndarray:
+        phi = np.linspace(self.arc_rad[0], self.arc_rad[1], 4001)
+        return np.sin(phi)
+
+    @property
+    def mean_chip_m(self) -> tuple[float, ...]:
+        """Static chip averaged over the arc, ``h_j0 (cos phi_st - cos phi_ex) / (phi_ex - phi_st)``, m."""
+        st, ex = self.arc_rad
+        return tuple(h * (math.cos(st) - math.cos(ex)) / (ex - st) for h in self.max_chip_m)
+
+    def loss_fraction(self, amplitude_m: float, tooth: int) -> float:
+        """Share of the chip-weighted arc where ``h_j0 sin phi < amplitude`` (trapezoid on 4001 points)."""
+        w = self._sin()
+        lost = np.where(self.max_chip_m[tooth] * w < amplitude_m, w, 0.0)
+        return float(np.trapezoid(lost) / np.trapezoid(w))
+
+
+#: Chip-loss fraction from which the cut is in the nonlinear regime (module docstring).
+LOSS_LIMIT = 0.05
 
 
 def chip_scale(tool, cut) -> ChipScale:
-    """Delays and mean chips of the cutting teeth (module docstring, saturated chatter)."""
-    phi_st, phi_ex = engagement_rad(tool, cut)
-    mean_sin = (math.cos(phi_st) - math.cos(phi_ex)) / (phi_ex - phi_st)
+    """Delays, static chips and arc of the cutting teeth (module docstring, saturated chatter)."""
     reg = [r for r in regeneration(tool, cut) if r.cuts and r.chip_m > 0]
     return ChipScale(delays_s=tuple(r.delay_rad / cut.omega_rad_s for r in reg),
-                     mean_chip_m=tuple(r.chip_m * mean_sin for r in reg))
+                     max_chip_m=tuple(r.chip_m for r in reg), arc_rad=engagement_rad(tool, cut))
 
 
 def _as_series(t_s, x):
@@ -284,13 +317,12 @@ def growth_rate(t_s, x, period_s: float, *, t_start_s: float, t_end_s: float,
                           n_periods=k, below_resolution=below, t_quantile=q)
 
 
-def regenerative_ratio(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float, t_end_s: float) -> float:
-    """``R = max_j sqrt(2) rms|y(t) - y(t - tau_j)| / hbar_j`` over ``[t_start_s, t_end_s]``
+def regenerative_amplitudes(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float,
+                            t_end_s: float) -> np.ndarray:
+    """``A_j = sqrt(2) rms|y(t) - y(t - tau_j)|`` per cutting tooth over the window, m, shape (teeth,)
     (module docstring); ``y`` is ``x`` minus its average over the window's whole periods as a
-    function of the phase in ``period_s``. Dimensionless; inf when no tooth cuts (no chip)."""
+    function of the phase in ``period_s``."""
     t, xx = _as_series(t_s, x)
-    if not chip.delays_s:
-        return math.inf
     dt = (t[-1] - t[0]) / (t.size - 1)
     sel = np.flatnonzero((t >= t_start_s - 1e-12) & (t <= t_end_s + 1e-12))
     n_per = int((t[sel[-1]] - t[sel[0]]) / period_s + 1e-9)
@@ -306,14 +338,21 @@ def regenerative_ratio(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: f
         np.add.at(avg, ph, xs)
         avg /= np.maximum(np.bincount(ph), 1)[:, None]
         y = xs - avg[ph]
-    worst = 0.0
-    for tau, hbar in zip(chip.delays_s, chip.mean_chip_m):
+    amp = np.zeros(len(chip.delays_s))
+    for j, tau in enumerate(chip.delays_s):
         lag = int(round(tau / dt))
-        if lag < 1 or lag >= y.shape[0]:
-            continue
-        d = np.linalg.norm(y[lag:] - y[:-lag], axis=1)
-        worst = max(worst, math.sqrt(2.0) * float(np.sqrt((d**2).mean())) / hbar)
-    return worst
+        if 1 <= lag < y.shape[0]:
+            d = np.linalg.norm(y[lag:] - y[:-lag], axis=1)
+            amp[j] = math.sqrt(2.0) * float(np.sqrt((d**2).mean()))
+    return amp
+
+
+def regenerative_ratio(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float, t_end_s: float) -> float:
+    """``R = max_j A_j / hbar_j`` (module docstring); inf when no tooth cuts."""
+    if not chip.delays_s:
+        return math.inf
+    amp = regenerative_amplitudes(t_s, x, period_s, chip, t_start_s=t_start_s, t_end_s=t_end_s)
+    return float(max(a / h for a, h in zip(amp, chip.mean_chip_m)))
 
 
 @dataclass(frozen=True)
@@ -323,24 +362,27 @@ class TimeDomainVerdict:
     verdict : Verdict                     stable / unstable / undetermined, with the reason.
     growth : GrowthEstimate or None       None when the window is too short for a rate.
     regenerative_ratio : float            R over the last block (module docstring).
+    chip_loss_fraction : float            L over the last block (module docstring).
     duration_to_decide_s : float or None  window that would decide an undetermined verdict, s.
     """
 
     verdict: Verdict
     growth: GrowthEstimate | None
     regenerative_ratio: float
+    chip_loss_fraction: float
     duration_to_decide_s: float | None = None
     extra: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """Summary keys: verdict, stable, verdict_reason, growth_rate_per_s, growth_rate_se_per_s,
-        growth_rate_ci_per_s, regenerative_ratio, duration_to_decide_s."""
+        growth_rate_ci_per_s, regenerative_ratio, chip_loss_fraction, duration_to_decide_s."""
         g = self.growth
         out = self.verdict.to_json()
         out.update(growth_rate_per_s=None if g is None else g.rate_per_s,
                    growth_rate_se_per_s=None if g is None else g.se_per_s,
                    growth_rate_ci_per_s=None if g is None else list(g.ci_per_s),
-                   regenerative_ratio=self.regenerative_ratio, duration_to_decide_s=self.duration_to_decide_s)
+                   regenerative_ratio=self.regenerative_ratio, chip_loss_fraction=self.chip_loss_fraction,
+                   duration_to_decide_s=self.duration_to_decide_s)
         out.update(self.extra)
         return out
 
@@ -362,31 +404,37 @@ def decide(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float, t_end_
                f"(a ringing structure can look like growth over less)")
         v = Verdict("undetermined", f"the window {lo:.3f}-{hi:.3f} s is too short ({why}): simulate to at least "
                                     f"{lo + need:.3f} s")
-        return TimeDomainVerdict(v, None, math.nan, need)
+        return TimeDomainVerdict(v, None, math.nan, math.nan, need)
     g = growth_rate(t, xx, period_s, t_start_s=lo, t_end_s=hi, rule=rule)
     last = (g.window_s[1] - g.window_s[0]) / rule.blocks
-    ratio = regenerative_ratio(t, xx, period_s, chip, t_start_s=max(lo, hi - max(last, 2 * period_s)), t_end_s=hi)
+    tail = max(lo, hi - max(last, 2 * period_s))
+    ratio = regenerative_ratio(t, xx, period_s, chip, t_start_s=tail, t_end_s=hi)
+    amp = regenerative_amplitudes(t, xx, period_s, chip, t_start_s=tail, t_end_s=hi)
+    loss = max((chip.loss_fraction(a, j) for j, a in enumerate(amp)), default=1.0)
+    out = lambda status, why, need=None: TimeDomainVerdict(Verdict(status, why), g, ratio, loss, need)  # noqa: E731
     lo_ci, hi_ci = g.ci_per_s
     pct = f"{100 * rule.confidence:g} %"
     rate = f"growth rate {g.rate_per_s:+.4g} 1/s ({pct} interval {lo_ci:+.3g} to {hi_ci:+.3g})"
-    if ratio >= 1 and hi_ci >= 0:
-        return TimeDomainVerdict(Verdict("unstable", f"saturated chatter: the regenerative chip variation is {ratio:.2f}"
-                                                     f" times the mean chip (a tooth leaves the cut) and the {rate}"
-                                                     f" is not a decay"), g, ratio)
-    if ratio >= 1:
-        return TimeDomainVerdict(Verdict("undetermined", f"the {rate} is a decay, but the regenerative chip variation "
-                                                         f"is still {ratio:.2f} times the mean chip (nonlinear regime)"),
-                                 g, ratio, g.duration_to_decide_s())
+    lost = f"teeth leave the cut over {100 * loss:.0f} % of the chip-weighted arc"
+    if loss >= LOSS_LIMIT:
+        # still in the nonlinear regime one window later at the slowest decay the interval allows?
+        later = math.exp(hi_ci * (g.window_s[1] - g.window_s[0]))
+        loss_later = max(chip.loss_fraction(a * later, j) for j, a in enumerate(amp))
+        if loss_later >= LOSS_LIMIT:
+            return out("unstable", f"saturated chatter: {lost} (regenerative variation {ratio:.2f} times the mean "
+                                   f"chip), and at the {rate} still {100 * loss_later:.0f} % one window later")
+        return out("undetermined", f"{lost} (nonlinear regime), but the {rate} takes it below "
+                                   f"{100 * LOSS_LIMIT:g} % within one window", g.duration_to_decide_s())
     if g.below_resolution and lo_ci <= 0:
-        return TimeDomainVerdict(Verdict("stable", f"the non-synchronous motion of the second half of the window is "
-                                                   f"below the resolution {rule.resolution_m:.1e} m"), g, ratio)
+        return out("stable", f"the non-synchronous motion of the second half of the window is below the resolution "
+                             f"{rule.resolution_m:.1e} m")
     if hi_ci < 0:
-        return TimeDomainVerdict(Verdict("stable", f"the non-synchronous motion decays: {rate}"), g, ratio)
+        return out("stable", f"the non-synchronous motion decays: {rate}")
     if lo_ci > 0:
-        return TimeDomainVerdict(Verdict("unstable", f"the non-synchronous motion grows: {rate}"), g, ratio)
+        return out("unstable", f"the non-synchronous motion grows: {rate}")
     need = g.duration_to_decide_s()
     when = "no window decides a rate of zero" if not math.isfinite(need) else f"a window of about {need:.2g} s would decide"
-    return TimeDomainVerdict(Verdict("undetermined", f"the {rate} contains 0: {when}"), g, ratio, need)
+    return out("undetermined", f"the {rate} contains 0: {when}", need)
 
 
 def floquet_rate_per_s(spectral_radius: float, principal_period_s: float) -> float:
@@ -428,7 +476,7 @@ def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], 
     Returns
     -------
     dict with ``verdict``, ``stable``, ``verdict_reason``, ``growth_rate_per_s``,
-    ``growth_rate_se_per_s``, ``growth_rate_ci_per_s``, ``regenerative_ratio``,
+    ``growth_rate_se_per_s``, ``growth_rate_ci_per_s``, ``regenerative_ratio``, ``chip_loss_fraction``,
     ``duration_to_decide_s``, ``verdict_section`` and ``stability`` (the rule's numbers).
     """
     tp, name = principal_period(tool, cut)
@@ -437,7 +485,7 @@ def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], 
     out = {"verdict_section": f"once per {name} period ({tp * 1e3:.3f} ms)"}
     if t1 <= t0:
         v = TimeDomainVerdict(Verdict("undetermined", f"the run ends at {t[-1]:.3f} s, before full engagement at "
-                                                      f"{t0:.3f} s: simulate longer"), None, math.nan,
+                                                      f"{t0:.3f} s: simulate longer"), None, math.nan, math.nan,
                               t0 - float(t[0]) + rule.min_periods * tp)
     else:
         v = decide(t, deviation_m, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=t1, rule=rule,
