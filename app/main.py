@@ -27,7 +27,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 # subcommand -> module that registers it (imported lazily, in data-flow order)
 _COMMANDS = {
-    "study": "robolobes.identify.cli",
+    "study": "robolobes.study.cli",
     "modes": "robolobes.linearize.cli",
     "frf": "robolobes.linearize.cli",
     "lobes": "robolobes.lobes.cli",
