@@ -1,0 +1,478 @@
+"""Identification pipelines of the force-side measurements: ``forces``, ``force_stats``, ``stability``.
+
+``forces`` (a cutting-force series)
+-----------------------------------
+1. The spindle frequency is estimated from the data and the model is run at it
+   (:mod:`identify.force_signals`).
+2. The complete revolutions of the window are split in two contiguous blocks: the first half
+   trains, the second is held out. Each block's time-synchronous average (TSA) is compared with the
+   model's average over the same pass times (the linearized pass, :mod:`identify.force_model`),
+   after a circular shift that aligns the unknown spindle phase (fitted on the training block).
+3. Greedy selection over the force-side library (:mod:`identify.cutting_effects`): each candidate
+   is fitted on the training TSA (bounded least squares, the phase shift a nuisance parameter) and
+   scored on the held-out TSA. The significance rule (derived once, not tuned): with ``r`` the
+   held-out residual of the current model and ``d`` the change the candidate makes to the held-out
+   model average (both per bin and axis), if the current model were exact ``r`` is the TSA noise
+   ``e ~ N(0, s^2)`` (``s = sigma / sqrt(N)`` per bin, from the revolution scatter) and, ``d`` being
+   fitted on other revolutions, ``z = sum(r d) / sqrt(sum(s^2 d^2)) ~ N(0, 1)``. A candidate is
+   kept when ``z > z_crit`` and its held-out error is lower; ``z_crit`` is the one-sided normal
+   quantile of ``0.01 / L`` for ``L`` candidates (Bonferroni): a family-wise false-positive rate of
+   at most 1 % over the library when the model explains the data. At most ``MAX_STEPS`` effects.
+
+``force_stats`` (8 published numbers)
+------------------------------------
+No held-out part: every subset of the library with at most 3 parameters in total is fitted to the
+8 numbers (least squares in N), ranked by AICc ``n ln(RSS/n) + 2k + 2k(k+1)/(n-k-1)``; a fit with
+a value on its bound is rejected. The error is the RMS over the 8 numbers (N); the degrees of
+freedom ``n - k`` are reported.
+
+``stability`` (observed stable / chatter cuts)
+----------------------------------------------
+See :func:`identify_stability`: the joint-damping scale (and the process damping it would take)
+that makes the lobes' verdict agree with every observation.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from robolobes.cases import load_case
+from robolobes.core.errors import BadInput
+
+from .cutting_effects import FORCE_EFFECTS, ModelState, chain_transfer
+from .force_data import ForceSeries, ForceStatistics, StabilityObservations, read_force_measurement
+from .force_model import revolution_averages, simulate_forces, with_spindle_hz
+from .force_signals import (ERROR_METRIC, SyncAverage, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
+                            revolutions, shift_average, spectrum_lines, sync_average)
+from .result import EffectFit, Identification, SelectionStep
+
+__all__ = ["identify_forces", "identify_force_stats", "identify_stability", "identify_force_measurement",
+           "ForceContext", "FAMILY_ALPHA", "MAX_STEPS", "resolve_case", "check_window"]
+
+#: Family-wise false-positive rate of the selection over the whole library.
+FAMILY_ALPHA = 0.01
+#: Most effects added greedily to a cutting-force model.
+MAX_STEPS = 3
+#: Angle bins per revolution at most (fewer when a revolution holds fewer samples).
+MAX_BINS = 256
+
+
+def resolve_case(named: str | None, override: str | None, base_dir: Path, *, quiet: bool = False):
+    """The case to use: ``--case`` overrides the file's (said on stderr), else the file's, else an error."""
+    if override is not None:
+        if named is not None and named != override and not quiet:
+            print(f"identify: --case {override} overrides case = {named!r} of the measurement", file=sys.stderr)
+        return load_case(override)
+    if named is None:
+        raise BadInput(f"{base_dir}: the measurement names no case; give --case NAME (tx200-aluminium, tx200-steel) "
+                       f"or a case TOML path")
+    p = Path(named)
+    if not p.is_absolute() and p.suffix == ".toml" and (base_dir / p).is_file():
+        return load_case(base_dir / p)
+    return load_case(named)
+
+
+def check_window(path, window: tuple, case) -> None:
+    """BadInput when ``window`` (pass time, s) is not inside the case's pass."""
+    from robolobes.linearize.path import Pass
+
+    dur = float(Pass.from_case(case).duration_s)
+    if window[1] > dur + 1e-9:
+        raise BadInput(f"{path}: window_s = {list(window)} s is outside the pass of case {case.name!r}, which lasts "
+                       f"{dur:.4g} s; valid: 0 <= t0 < t1 <= {dur:.4g}")
+
+
+# ---------------------------------------------------------------------------------------------
+# cutting-force series
+# ---------------------------------------------------------------------------------------------
+
+class ForceContext:
+    """Measured averages of the training and held-out blocks, and the model's over the same times.
+
+    Attributes: ``spindle_hz``, ``bins``, ``train``/``heldout`` (:class:`SyncAverage`), ``blocks``
+    (revolution start times per block), ``t_end_s`` (model run length).
+    """
+
+    def __init__(self, series: ForceSeries, case, *, nominal_hz: float | None = None):
+        t, f = series.t_s, series.force_n
+        nominal = nominal_hz or case.cut.spindle_rpm / 60.0
+        self.spindle_hz = estimate_spindle_hz(t, f[:, :2], nominal)
+        per_rev = series.sample_rate_hz / self.spindle_hz
+        self.bins = int(min(MAX_BINS, 2 * (int(per_rev) // 2)))
+        starts, revs = revolutions(t, f, self.spindle_hz, self.bins)
+        if len(starts) < 8:
+            raise BadInput(f"{series.path}: the window holds {len(starts)} spindle revolutions; identification needs "
+                           f"at least 8 (4 to train, 4 held out)")
+        half = len(starts) // 2
+        period = 1.0 / self.spindle_hz
+        self.blocks = [starts[:half], starts[half:]]
+        self.train = sync_average(starts[:half], revs[:half], period)
+        self.heldout = sync_average(starts[half:], revs[half:], period)
+        self.t_end_s = float(starts[-1] + period + 4 * period / self.bins)
+
+    def raw_averages(self, state: ModelState) -> list:
+        t, f = simulate_forces(state.case, state.variant, self.t_end_s)
+        return revolution_averages(t, f, self.spindle_hz, self.bins, self.blocks)
+
+    def filtered(self, avg: np.ndarray, h) -> np.ndarray:
+        return apply_transfer(avg, self.spindle_hz, h)
+
+    def averages(self, state: ModelState) -> list:
+        raw = self.raw_averages(state)
+        if not state.chain:
+            return raw
+        h = chain_transfer(state.chain)
+        return [self.filtered(a, h) for a in raw]
+
+
+@dataclass
+class _Fit:
+    values: np.ndarray
+    sigma: np.ndarray
+    shift: float
+    train: np.ndarray  # aligned model average of the training block (bins, 3)
+    heldout: np.ndarray  # aligned model average of the held-out block
+    on_bound: bool
+
+
+def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> _Fit:
+    from scipy.optimize import least_squares
+
+    family = effect.family(ctx, state)
+    h = chain_transfer(state.chain) if state.chain else None
+
+    def model(v):
+        avgs = family(v)
+        return [ctx.filtered(a, h) for a in avgs] if h is not None else avgs
+
+    lo, hi = np.array(effect.lower, float), np.array(effect.upper, float)
+    scale = hi - lo
+    meas = ctx.train.mean[:, :2]
+
+    def resid(x):
+        v = lo + x[:-1] * scale
+        return (shift_average(model(v)[0], x[-1])[:, :2] - meas).ravel()
+
+    best = None
+    for v0 in effect.starts():
+        x0 = np.append(np.clip((np.asarray(v0, float) - lo) / scale, 0, 1), shift0)
+        r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift0 - 0.5),
+                                             np.append(np.ones(len(lo)), shift0 + 0.5)), x_scale="jac")
+        if best is None or r.cost < best.cost:
+            best = r
+    x = best.x
+    v = lo + x[:-1] * scale
+    n, p = best.fun.size, x.size
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * (2 * best.cost / max(n - p, 1))
+        sig = np.sqrt(np.clip(np.diag(cov)[:-1], 0, None)) * scale
+    except np.linalg.LinAlgError:
+        sig = np.full(len(v), np.inf)
+    avgs = model(v)
+    on_bound = bool(np.any(x[:-1] <= 1e-6) or np.any(x[:-1] >= 1 - 1e-6))
+    return _Fit(values=v, sigma=sig, shift=float(x[-1]), train=shift_average(avgs[0], x[-1]),
+                heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound)
+
+
+def _z_statistic(ctx: ForceContext, before_ho: np.ndarray, after_ho: np.ndarray) -> float:
+    """The significance statistic of the module docstring (x, y axes)."""
+    r = (ctx.heldout.mean - before_ho)[:, :2]
+    d = (after_ho - before_ho)[:, :2]
+    s = ctx.heldout.noise[:, :2]
+    den = math.sqrt(float(np.sum(s ** 2 * d ** 2)))
+    return float(np.sum(r * d)) / den if den > 0 else 0.0
+
+
+def _critical_z(n_candidates: int) -> float:
+    from scipy.stats import norm
+
+    return float(norm.isf(FAMILY_ALPHA / max(n_candidates, 1)))
+
+
+def identify_forces(series: ForceSeries, case, variant: str = "basic", *, effects=FORCE_EFFECTS,
+                    progress=None) -> Identification:
+    """Identify the force-side effects in a cutting-force series (module docstring).
+
+    Parameters
+    ----------
+    series : ForceSeries
+    case : MillingCase
+        The model's case (its commanded spindle speed is replaced by the measured one).
+    variant : str
+        Robot model variant.
+    effects : sequence of ForceEffect
+        The library searched.
+    progress : callable ``(fraction, note)``, optional
+    """
+    check_window(series.path, series.window_s, case)
+    ctx = ForceContext(series, case)
+    state = ModelState(case=with_spindle_hz(case, ctx.spindle_hz), variant=variant)
+    tr, ho = ctx.averages(state)
+    shift = align_shift(tr, ctx.train.mean)
+    cur_tr, cur_ho = shift_average(tr, shift), shift_average(ho, shift)
+    err0, floor = heldout_error(cur_ho, ctx.heldout)
+    signature0 = spectrum_lines(ctx.heldout.mean - cur_ho, case.tool.teeth)
+    err = err0
+    fits, steps = [], []
+    used = set()
+    library = [e for e in effects if "forces" in e.observed_by]
+    z_crit = _critical_z(len(library))
+    for step in range(MAX_STEPS):
+        cands = {}
+        scored = []
+        todo = [e for e in library if e.name not in used and e.applicable(state) is None]
+        for i, eff in enumerate(todo):
+            if progress:
+                progress((step + i / max(len(todo), 1)) / MAX_STEPS, eff.name)
+            fit = _fit_effect(ctx, eff, state, shift)
+            e_after, _ = heldout_error(fit.heldout, ctx.heldout)
+            z = _z_statistic(ctx, cur_ho, fit.heldout)
+            cands[eff.name] = {"heldout_error": e_after, "z": z, "params": eff.as_dict(fit.values)}
+            scored.append((e_after, z, eff, fit))
+        ok = [s for s in scored if s[1] > z_crit and s[0] < err]
+        best = min(ok, key=lambda s: s[0]) if ok else None
+        stat = max((s[1] for s in scored), default=0.0)
+        if best is None:
+            steps.append(SelectionStep(candidates=cands, kept=None, error_before=err, error_after=err,
+                                       statistic=stat, threshold=z_crit))
+            break
+        e_after, z, eff, fit = best
+        steps.append(SelectionStep(candidates=cands, kept=eff.name, error_before=err, error_after=e_after,
+                                   statistic=z, threshold=z_crit))
+        fits.append(EffectFit(name=eff.name, params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
+                              evidence={"signature": _signature_text(eff.name), "heldout_error_without": err,
+                                        "heldout_error_with": e_after, "z": z, "z_threshold": z_crit,
+                                        "on_bound": fit.on_bound,
+                                        "detection_threshold": dict(eff.threshold)}))
+        used.add(eff.name)
+        state = eff.apply(state, fit.values)
+        cur_tr, cur_ho, shift, err = fit.train, fit.heldout, fit.shift, e_after
+    extra = {"spindle_hz": ctx.spindle_hz, "spindle_rpm": ctx.spindle_hz * 60.0, "phase_shift_rev": shift,
+             "bins_per_rev": ctx.bins, "revolutions": {"train": ctx.train.n, "heldout": ctx.heldout.n},
+             "heldout_span_s": list(ctx.heldout.t_span_s), "signatures_before": signature0,
+             "signatures_after": spectrum_lines(ctx.heldout.mean - cur_ho, case.tool.teeth),
+             "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
+    return Identification(kind="forces", effects=tuple(fits), error_before=err0, error_after=err,
+                          metric=ERROR_METRIC, noise_floor=floor, steps=tuple(steps),
+                          model_toml=case_toml(state, fits), extra=extra)
+
+
+_SIGNATURES = {
+    "edge_coefficients": "mean offsets and a step at each tooth entry and exit (force without chip)",
+    "runout": "once-per-revolution lines (tooth-to-tooth alternation of the force peaks)",
+    "dynamometer": "ringing above the tooth-passing harmonics after each entry; mean unchanged",
+    "lowpass": "tooth-passing harmonics rolled off, entry/exit edges rounded; mean unchanged",
+    "backlash": "amplitude-dependent change of the tooth-passing harmonics",
+}
+
+
+def _signature_text(name: str) -> str:
+    return _SIGNATURES.get(name, "")
+
+
+def case_toml(state: ModelState, fits) -> str:
+    """The case TOML of the identified model: the source case file with the cutting law's edge
+    coefficients and the tool's runout of ``state``; measurement-chain and robot effects as comments
+    (they are not keys of a case file). Loads with :func:`cases.load_case` (strict keys)."""
+    import robolobes.cases as cases_pkg
+
+    case = state.case
+    src = Path(cases_pkg.__file__).parent / "data" / f"{case.name}.toml"
+    text = src.read_text() if src.is_file() else ""
+    if not text:
+        return ""
+    law, tool = case.law, case.tool
+    text = _set_key(text, "material", "kte_n_per_mm", f"{law.kte_n_per_m * 1e-3:.6g}")
+    text = _set_key(text, "material", "kre_n_per_mm", f"{law.kre_n_per_m * 1e-3:.6g}")
+    text = _set_key(text, "tool", "runout_um", "[" + ", ".join(f"{r * 1e6:.6g}" for r in tool.runout_m) + "]")
+    notes = [f"# identified: {f.name} {f.params}" for f in fits]
+    eff = {e.name: e for e in FORCE_EFFECTS}
+    for f in fits:
+        c = eff[f.name].toml_comment(tuple(f.params.values())) if f.name in eff else None
+        if c:
+            notes.append(f"# {c}")
+    return "\n".join(notes) + ("\n" if notes else "") + text
+
+
+def _set_key(text: str, table: str, key: str, value: str) -> str:
+    out, cur, done = [], None, False
+    for line in text.splitlines():
+        s = line.strip()
+        if s.startswith("[") and not s.startswith("[["):
+            if cur == table and not done:
+                out.append(f"{key} = {value}")
+                done = True
+            cur = s.strip("[]").strip()
+        if cur == table and not done and s.split("=")[0].strip() == key:
+            comment = line[line.index("#"):] if "#" in line else ""
+            line = f"{key} = {value}" + (f"   {comment}" if comment else "")
+            done = True
+        out.append(line)
+    if cur == table and not done:
+        out.append(f"{key} = {value}")
+    return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# force statistics (8 numbers)
+# ---------------------------------------------------------------------------------------------
+
+#: Angle bins per revolution for the statistics of a model run.
+STATS_BINS = 720
+#: Most parameters fitted to 8 statistics.
+MAX_STATS_PARAMS = 3
+
+
+def _stats_of(avg: np.ndarray) -> np.ndarray:
+    """(x min, max, mean, rms, y min, max, mean, rms) of a periodic average (bins, >=2), N."""
+    out = []
+    for j in range(2):
+        a = avg[:, j]
+        out += [a.min(), a.max(), a.mean(), math.sqrt(float(np.mean(a ** 2)))]
+    return np.array(out)
+
+
+class _StatsContext:
+    """Model averages over the statistics window: one block of every revolution in it."""
+
+    def __init__(self, stats: ForceStatistics, case):
+        self.spindle_hz = case.cut.spindle_rpm / 60.0
+        self.bins = STATS_BINS
+        t0, t1 = stats.window_s
+        period = 1.0 / self.spindle_hz
+        n = int(math.floor((t1 - t0) / period))
+        self.blocks = [t0 + period * np.arange(n)]
+        self.t_end_s = float(t0 + (n + 1) * period)
+
+    raw_averages = ForceContext.raw_averages
+    filtered = ForceContext.filtered
+    averages = ForceContext.averages
+
+
+def _fit_stats(ctx, combo, state, target):
+    """Fit a combination of effects (applied in order) to the 8 statistics; returns (values list, rss, on_bound)."""
+    from scipy.optimize import least_squares
+
+    sizes = [len(e.params) for e in combo]
+    lo = np.concatenate([np.array(e.lower, float) for e in combo])
+    hi = np.concatenate([np.array(e.upper, float) for e in combo])
+    scale = hi - lo
+
+    def model(x):
+        v = lo + x * scale
+        st, k = state, 0
+        for e, n in zip(combo, sizes):
+            st = e.apply(st, v[k:k + n])
+            k += n
+        return _stats_of(ctx.averages(st)[0])
+
+    best = None
+    starts = [np.concatenate(s) for s in itertools.product(*[e.starts() for e in combo])]
+    for v0 in starts[:6]:
+        x0 = np.clip((v0 - lo) / scale, 1e-3, 1 - 1e-3)
+        r = least_squares(lambda x: model(x) - target, x0, bounds=(0, 1), diff_step=1e-3)
+        if best is None or r.cost < best.cost:
+            best = r
+    v = lo + best.x * scale
+    out, k = [], 0
+    for n in sizes:
+        out.append(v[k:k + n])
+        k += n
+    sig = np.full(len(v), np.nan)
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * (2 * best.cost / max(len(target) - len(v), 1))
+        sig = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
+    except np.linalg.LinAlgError:
+        pass
+    on_bound = bool(np.any(best.x <= 1e-4) or np.any(best.x >= 1 - 1e-4))
+    return out, sig, 2 * best.cost, on_bound, model(best.x)
+
+
+def aicc(rss: float, n: int, k: int) -> float:
+    """Akaike's criterion with the small-sample correction, for least squares with Gaussian errors."""
+    if n - k - 1 <= 0:
+        return math.inf
+    return n * math.log(max(rss, 1e-300) / n) + 2 * k + 2 * k * (k + 1) / (n - k - 1)
+
+
+def identify_force_stats(stats: ForceStatistics, case, variant: str = "basic", *, effects=None,
+                         progress=None) -> Identification:
+    """Fit at most 3 parameters of the library to 8 published force statistics by AICc (module docstring)."""
+    check_window(stats.path, stats.window_s, case)
+    lib = [e for e in (effects or FORCE_EFFECTS) if "force_stats" in e.observed_by]
+    state = ModelState(case=case, variant=variant)
+    ctx = _StatsContext(stats, case)
+    target = stats.workpiece
+    base = _stats_of(ctx.averages(state)[0])
+    n = len(target)
+    rss0 = float(np.sum((base - target) ** 2))
+    rms0 = math.sqrt(rss0 / n)
+    combos = [c for r in (1, 2, 3) for c in itertools.combinations([e for e in lib if e.applicable(state) is None], r)
+              if sum(len(e.params) for e in c) <= MAX_STATS_PARAMS]
+    table = [{"effects": [], "k": 0, "rss_n2": rss0, "aicc": aicc(rss0, n, 0), "rms_n": rms0}]
+    best = None
+    for i, combo in enumerate(combos):
+        if progress:
+            progress(i / len(combos), "+".join(e.name for e in combo))
+        vals, sig, rss, on_bound, fitted = _fit_stats(ctx, combo, state, target)
+        k = sum(len(e.params) for e in combo)
+        row = {"effects": [e.name for e in combo], "k": k, "rss_n2": rss, "aicc": aicc(rss, n, k),
+               "rms_n": math.sqrt(rss / n), "on_bound": on_bound,
+               "params": [e.as_dict(v) for e, v in zip(combo, vals)]}
+        table.append(row)
+        if not on_bound and row["aicc"] < table[0]["aicc"] and (best is None or row["aicc"] < best[0]["aicc"]):
+            best = (row, combo, vals, sig, fitted)
+    fits, final = [], state
+    err_after, fitted = rms0, base
+    if best is not None:
+        row, combo, vals, sig, fitted = best
+        k = 0
+        for e, v in zip(combo, vals):
+            fits.append(EffectFit(name=e.name, params=e.as_dict(v), uncertainty=e.as_dict(sig[k:k + len(v)]),
+                                  evidence={"aicc": row["aicc"], "aicc_without": table[0]["aicc"],
+                                            "dof": n - row["k"], "rss_n2": row["rss_n2"]}))
+            k += len(v)
+            final = e.apply(final, v)
+        err_after = row["rms_n"]
+    table.sort(key=lambda r: r["aicc"])
+    extra = {"n_statistics": n, "dof": n - (best[0]["k"] if best else 0), "aicc_table": table[:12],
+             "target_workpiece_axes_n": target.tolist(), "model_before_n": base.tolist(),
+             "model_after_n": np.asarray(fitted).tolist(), "error_unit": "N",
+             "note": "statistics-only data: no held-out part; errors are the RMS over the 8 numbers in N"}
+    return Identification(kind="force_stats", effects=tuple(fits), error_before=rms0, error_after=err_after,
+                          metric="RMS over the 8 statistics (x, y min, max, mean, rms) of model - measured, N "
+                                 "(training fit: statistics-only data have no held-out part; chosen by AICc)",
+                          noise_floor=float("nan"), steps=(), model_toml=case_toml(final, fits), extra=extra)
+
+
+# ---------------------------------------------------------------------------------------------
+# dispatch
+# ---------------------------------------------------------------------------------------------
+
+def identify_force_measurement(path, *, case: str | None = None, variant: str | None = None, quiet: bool = False,
+                               progress=None) -> Identification:
+    """Read a force-side measurement and run its pipeline (``--case`` overrides the file's case)."""
+    m = read_force_measurement(path)
+    base = Path(path) if Path(path).is_dir() else Path(path).parent
+    if isinstance(m, StabilityObservations):
+        return identify_stability(m, case_override=case, variant=variant or "basic", quiet=quiet, progress=progress)
+    c = resolve_case(m.case, case, base, quiet=quiet)
+    v = variant or getattr(m, "variant", None) or "basic"
+    if isinstance(m, ForceSeries):
+        return identify_forces(m, c, v, progress=progress)
+    return identify_force_stats(m, c, v, progress=progress)
+
+
+def identify_stability(obs: StabilityObservations, *, case_override=None, variant="basic", quiet=False,
+                       progress=None) -> Identification:
+    """Stability observations: see :mod:`identify.force_stability`."""
+    from .force_stability import identify_stability as run
+
+    return run(obs, case_override=case_override, variant=variant, quiet=quiet, progress=progress)
+
