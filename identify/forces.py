@@ -356,27 +356,37 @@ class _StatsContext:
 
 
 def _fit_stats(ctx, combo, state, target):
-    """Fit a combination of effects (applied in order) to the 8 statistics; returns (values list, rss, on_bound)."""
+    """Fit a combination of effects to the 8 statistics; returns (values per effect, sigma, rss, on_bound,
+    fitted statistics). Cut-model effects combine by superposition of their changes of the average
+    (first order), measurement-chain effects filter the result."""
     from scipy.optimize import least_squares
 
     sizes = [len(e.params) for e in combo]
     lo = np.concatenate([np.array(e.lower, float) for e in combo])
     hi = np.concatenate([np.array(e.upper, float) for e in combo])
     scale = hi - lo
+    base = ctx.raw_averages(state)[0]
+    fams = [e.family(ctx, state) for e in combo]
+    h_state = chain_transfer(state.chain) if state.chain else None
 
     def model(x):
         v = lo + x * scale
-        st, k = state, 0
-        for e, n in zip(combo, sizes):
-            st = e.apply(st, v[k:k + n])
+        avg, k, chains = base.copy(), 0, []
+        for e, n, fam in zip(combo, sizes, fams):
+            if e.chain:
+                chains.append(e.transfer(v[k:k + n]))
+            else:
+                avg = avg + (fam(v[k:k + n])[0] - base)
             k += n
-        return _stats_of(ctx.averages(st)[0])
+        for h in chains + ([h_state] if h_state is not None else []):
+            avg = ctx.filtered(avg, h)
+        return _stats_of(avg)
 
     best = None
     starts = [np.concatenate(s) for s in itertools.product(*[e.starts() for e in combo])]
-    for v0 in starts[:6]:
+    for v0 in starts[:8]:
         x0 = np.clip((v0 - lo) / scale, 1e-3, 1 - 1e-3)
-        r = least_squares(lambda x: model(x) - target, x0, bounds=(0, 1), diff_step=1e-3)
+        r = least_squares(lambda x: model(x) - target, x0, bounds=(0, 1), diff_step=1e-4)
         if best is None or r.cost < best.cost:
             best = r
     v = lo + best.x * scale
