@@ -154,7 +154,7 @@ class Runout(ForceEffect):
     toml = "[tool] runout_um"
     #: Runs of the family, m; forces between them by cubic interpolation (they are nearly linear in
     #: delta while both teeth cut: the chip of each tooth changes by +-delta).
-    GRID = tuple(np.linspace(-3e-5, 3e-5, 7))
+    GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
 
     def applicable(self, state):
         if state.case.tool.teeth != 2:
