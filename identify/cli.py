@@ -10,15 +10,16 @@ __all__ = ["register", "run_study_cli", "run_identify_cli"]
 
 
 def run_study_cli(args) -> int:
-    from .study import run_study
+    from .study import run_study, study_output
 
-    bar = Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet)
+    out = study_output(args.out, args.quick)  # before any work: refuses a directory or file of the user's
     try:
-        res = run_study(args.out, quick=args.quick, progress=bar)
+        with Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet) as bar:
+            res = run_study(out, quick=args.quick, progress=bar)
+            bar.done()
     except KeyboardInterrupt:
         print(f"\nrobolobes study: interrupted; {args.out} left as it was", file=sys.stderr)
         return 130
-    bar.done()
     ex = res["explanation"]
     al, st = ex["aluminium"], ex["steel"]
     print(f"aluminium {al['spindle_rpm']:.0f} rpm, ap {al['depth_m'] * 1e3:.1f} mm: lobes limit "
