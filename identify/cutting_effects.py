@@ -47,67 +47,67 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robolobes.cases.spec import MillingCase
+from .effects import Effect, ModelState, Parameter, check_params, register
 
-__all__ = ["ModelState", "ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
+__all__ = ["ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
            "FORCE_EFFECTS", "chain_transfer", "process_damping_c"]
 
 
-@dataclass(frozen=True)
-class ModelState:
-    """A model under identification: the case, the robot variant and the measurement chain.
+class ForceEffect(Effect):
+    """An effect on forces (the framework's :class:`identify.effects.Effect`, registered in its
+    REGISTRY) plus what the force pipelines need to fit it fast: :meth:`family` (the model's
+    synchronous averages as a function of the parameter values) and :meth:`apply_values`.
 
-    chain : tuple of (effect name, params dict) applied to the forces in order.
+    ``parameters`` carry the physical bounds and the detection threshold (``detect``) for a
+    cutting-force set; ``observed_by`` names the kinds that observe the effect, with the threshold
+    in words.
     """
 
-    case: MillingCase
-    variant: str
-    chain: tuple = ()
-
-
-class ForceEffect:
-    """An effect on forces. Subclasses set the class attributes and ``family``/``apply``.
-
-    Attributes
-    ----------
-    name : str
-    params : tuple of str
-        Parameter names (SI unit in the name).
-    lower, upper : tuple of float
-        Physical bounds.
-    threshold : dict
-        Detection threshold per parameter (magnitude) for a cutting-force set.
-    observed_by : tuple of str
-        Measurement kinds that observe the effect.
-    toml : str
-        What it writes in the case TOML.
-    """
-
-    name = ""
-    params: tuple = ()
-    lower: tuple = ()
-    upper: tuple = ()
-    threshold: dict = {}
-    observed_by: tuple = ("forces", "force_stats")
     toml = ""
-    chain = False
 
-    def applicable(self, state: ModelState) -> str | None:
-        """None if the effect can be added to ``state``, else the reason why not."""
+    @property
+    def chain(self) -> bool:
+        return self.stage == "chain"
+
+    @property
+    def params(self) -> tuple:
+        return self.names
+
+    @property
+    def lower(self) -> tuple:
+        return tuple(p.lower for p in self.parameters)
+
+    @property
+    def upper(self) -> tuple:
+        return tuple(p.upper for p in self.parameters)
+
+    @property
+    def threshold(self) -> dict:
+        return {p.name: p.detect for p in self.parameters if p.detect is not None}
+
+    def reason_not_applicable(self, state: ModelState) -> str | None:
+        """None if the effect can be added to ``state``, else why not."""
         return None
+
+    def applicable(self, model: ModelState) -> bool:
+        return self.reason_not_applicable(model) is None
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        p = check_params(self, params)
+        return self.apply_values(model, [p[n] for n in self.names])
+
+    def apply_values(self, state: ModelState, values) -> ModelState:
+        raise NotImplementedError
 
     def starts(self) -> list:
         """Initial values for the nonlinear fit (inside the bounds)."""
         lo, hi = np.array(self.lower), np.array(self.upper)
         return [lo + 0.3 * (hi - lo)]
 
-    def apply(self, state: ModelState, values) -> ModelState:
-        raise NotImplementedError
-
     def family(self, ctx, state: ModelState):
         """A callable ``values -> list of raw (bins, 3) averages`` for the context's blocks, before the
         state's chain (the context applies the chain). Default: re-simulate the applied state."""
-        return lambda v: ctx.raw_averages(self.apply(state, v))
+        return lambda v: ctx.raw_averages(self.apply_values(state, v))
 
     def as_dict(self, values) -> dict:
         return {k: float(v) for k, v in zip(self.params, values)}
@@ -119,25 +119,30 @@ class ForceEffect:
 
 class EdgeCoefficients(ForceEffect):
     name = "edge_coefficients"
-    params = ("kte_n_per_m", "kre_n_per_m")
-    lower = (0.0, 0.0)
-    upper = (1e5, 1e5)
-    threshold = {"kte_n_per_m": 5e3, "kre_n_per_m": 5e3}
+    stage = "cutting_law"
+    parameters = (Parameter("kte_n_per_m", 0.0, 1e5, neutral=0.0, detect=5e3, doc="tangential edge coefficient"),
+                  Parameter("kre_n_per_m", 0.0, 1e5, neutral=0.0, detect=5e3, doc="radial edge coefficient"))
+    observed_by = {"forces": "mean offsets and entry/exit steps: Kte or Kre >= 5 N/mm (8 N per tooth at ap 1.6 mm)",
+                   "force_stats": "means and RMS shifted (fitted with at most 3 parameters in all)"}
+    signatures = ("mean_offset",)
+    doc = "edge (ploughing) forces Kte db, Kre db of an engaged edge element (Altintas)"
     toml = "[material] kte_n_per_mm, kre_n_per_mm"
     #: Edge coefficients of the basis runs, N/m (any value works: the forces are linear in them).
     BASIS = 2e4
 
-    def apply(self, state, values):
+    def apply_values(self, state, values):
         kte, kre = (float(v) for v in values)
         law = state.case.law
-        return replace(state, case=replace(state.case, law=replace(law, kte_n_per_m=law.kte_n_per_m + kte,
-                                                                    kre_n_per_m=law.kre_n_per_m + kre)))
+        new = replace(law, kte_n_per_m=law.kte_n_per_m + kte, kre_n_per_m=law.kre_n_per_m + kre)
+        case = replace(state.case, law=new)
+        st = state.with_override("material", "kte_n_per_mm", new.kte_n_per_m * 1e-3, case)
+        return st.with_override("material", "kre_n_per_mm", new.kre_n_per_m * 1e-3, case)
 
     def family(self, ctx, state):
         # forces are linear in (Kte, Kre) for the engaged elements: F = F0 + Kte G_te + Kre G_re
         base = ctx.raw_averages(state)
-        gte = [(a - b) / self.BASIS for a, b in zip(ctx.raw_averages(self.apply(state, (self.BASIS, 0.0))), base)]
-        gre = [(a - b) / self.BASIS for a, b in zip(ctx.raw_averages(self.apply(state, (0.0, self.BASIS))), base)]
+        gte = [(a - b) / self.BASIS for a, b in zip(ctx.raw_averages(self.apply_values(state, (self.BASIS, 0.0))), base)]
+        gre = [(a - b) / self.BASIS for a, b in zip(ctx.raw_averages(self.apply_values(state, (0.0, self.BASIS))), base)]
         return lambda v: [b + v[0] * x + v[1] * y for b, x, y in zip(base, gte, gre)]
 
     def starts(self):
@@ -147,30 +152,34 @@ class EdgeCoefficients(ForceEffect):
 
 class Runout(ForceEffect):
     name = "runout"
-    params = ("delta_m",)
-    lower = (-3e-5,)
-    upper = (3e-5,)
-    threshold = {"delta_m": 3e-6}
+    stage = "cutting_law"
+    parameters = (Parameter("delta_m", -3e-5, 3e-5, neutral=0.0, detect=3e-6,
+                            doc="radius of tooth 1 minus tooth 2 (two-tooth cutters)"),)
+    observed_by = {"forces": "once-per-revolution lines: |r1 - r2| >= 3 um (3 % of the 0.1 mm chip)",
+                   "force_stats": "extremes of one tooth raised, of the other lowered"}
+    signatures = ("once_per_rev",)
+    doc = "tooth-tip radii R + r_j: the chip of tooth j changes by r_j - r_(j-1)"
     toml = "[tool] runout_um"
     #: Runs of the family, m; forces between them by cubic interpolation (they are nearly linear in
     #: delta while both teeth cut: the chip of each tooth changes by +-delta).
     GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
 
-    def applicable(self, state):
+    def reason_not_applicable(self, state):
         if state.case.tool.teeth != 2:
             return "runout is built for two-tooth cutters only (delta = r1 - r2)"
         return None
 
-    def apply(self, state, values):
+    def apply_values(self, state, values):
         d = float(values[0])
         tool = state.case.tool
         r = np.asarray(tool.runout_m, float) + np.array([d / 2, -d / 2])
-        return replace(state, case=replace(state.case, tool=replace(tool, runout_m=tuple(r.tolist()))))
+        case = replace(state.case, tool=replace(tool, runout_m=tuple(r.tolist())))
+        return state.with_override("tool", "runout_um", [float(x) * 1e6 for x in r], case)
 
     def family(self, ctx, state):
         from scipy.interpolate import CubicSpline
 
-        runs = [ctx.raw_averages(self.apply(state, (g,))) for g in self.GRID]
+        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
         splines = [CubicSpline(self.GRID, np.stack([r[b] for r in runs]), axis=0) for b in range(len(runs[0]))]
         return lambda v: [s(float(v[0])) for s in splines]
 
@@ -201,18 +210,21 @@ def _butterworth_h(cutoff_hz: float, order: int = 4):
 
 class Dynamometer(ForceEffect):
     name = "dynamometer"
-    params = ("fn_hz", "zeta")
-    lower = (500.0, 0.005)
-    upper = (8000.0, 0.3)
-    threshold = {"fn_hz": 6000.0}
-    toml = "comment: measurement chain"
-    chain = True
+    stage = "chain"
+    parameters = (Parameter("fn_hz", 500.0, 8000.0, detect=6000.0, log=True, doc="dynamometer mode frequency"),
+                  Parameter("zeta", 0.005, 0.3, doc="its damping ratio"))
+    observed_by = {"forces": "ringing after each tooth entry: fn <= 6 kHz (within the first 10 tooth harmonics "
+                             "at 18 700 rpm)",
+                   "force_stats": "extremes overshoot (min below, max above the model), mean unchanged"}
+    signatures = ("entry_ringing",)
+    doc = "one lightly damped sensor mode per axis, unit static gain"
+    toml = "measurement chain (not written into the case)"
 
     def transfer(self, values):
         return _dynamometer_h(*values)
 
-    def apply(self, state, values):
-        return replace(state, chain=state.chain + ((self.name, self.as_dict(values)),))
+    def apply_values(self, state, values):
+        return state.with_chain(self.name, self.as_dict(values))
 
     def family(self, ctx, state):
         base = ctx.raw_averages(state)
@@ -227,18 +239,20 @@ class Dynamometer(ForceEffect):
 
 class Lowpass(ForceEffect):
     name = "lowpass"
-    params = ("cutoff_hz",)
-    lower = (300.0,)
-    upper = (20000.0,)
-    threshold = {"cutoff_hz": 5000.0}
-    toml = "comment: measurement chain"
-    chain = True
+    stage = "chain"
+    parameters = (Parameter("cutoff_hz", 300.0, 20000.0, detect=5000.0, log=True,
+                            doc="-3 dB frequency of a 4th-order Butterworth"),)
+    observed_by = {"forces": "tooth harmonics rolled off: cutoff <= 5 kHz",
+                   "force_stats": "extremes reduced, mean unchanged"}
+    signatures = ("harmonic_rolloff",)
+    doc = "acquisition anti-aliasing filter"
+    toml = "measurement chain (not written into the case)"
 
     def transfer(self, values):
         return _butterworth_h(float(values[0]))
 
-    def apply(self, state, values):
-        return replace(state, chain=state.chain + ((self.name, self.as_dict(values)),))
+    def apply_values(self, state, values):
+        return state.with_chain(self.name, self.as_dict(values))
 
     def family(self, ctx, state):
         base = ctx.raw_averages(state)
@@ -257,26 +271,32 @@ class Backlash(ForceEffect):
     ``GRID`` (the response to a dead zone is not smooth in its width)."""
 
     name = "backlash"
-    params = ("backlash_rad",)
-    lower = (0.0,)
-    upper = (3e-4,)
-    threshold = {"backlash_rad": 7.3e-5}
-    toml = "robot [motion] backlash (variant 'backlash')"
+    stage = "element"
+    parameters = (Parameter("backlash_rad", 0.0, 3e-4, neutral=0.0, detect=7.3e-5,
+                            doc="dead-zone half-width on every motion axis"),)
+    observed_by = {"forces": "amplitude-dependent change of the tooth harmonics (tested from the orthogonal "
+                             "variant only)"}
+    signatures = ("harmonic_rolloff",)
+    doc = "the paper's eq. 12 dead zone (variant 'backlash')"
+    toml = "robot file: backlash half-width, variant 'backlash'"
     GRID = (0.0, 3e-5, 7.3e-5, 1.5e-4, 3e-4)
 
-    def applicable(self, state):
+    def reason_not_applicable(self, state):
         if state.variant not in ("orthogonal", "backlash"):
             return (f"backlash is added to the 'orthogonal' variant (the paper's backlash variant); the model here "
                     f"is {state.variant!r}: identify with --variant orthogonal to test it")
         return None
 
-    def apply(self, state, values):
+    def apply_values(self, state, values):
         s = float(values[0])
         robot = replace(state.case.robot, backlash_half_width_rad=s)
         return replace(state, case=replace(state.case, robot=robot), variant="backlash" if s > 0 else "orthogonal")
 
+    def table(self, params):  # not an element of the case file: the variant says it
+        return {}
+
     def family(self, ctx, state):
-        runs = [ctx.raw_averages(self.apply(state, (g,))) for g in self.GRID]
+        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
         grid = np.array(self.GRID)
 
         def f(v):
@@ -293,8 +313,8 @@ class Backlash(ForceEffect):
         return f"robot: backlash half-width {values[0]:.3e} rad on the motion axes (variant 'backlash')"
 
 
-#: The force-side library, in the order candidates are tried.
-FORCE_EFFECTS = (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash())
+#: The force-side library, in the order candidates are tried (registered in identify.effects.REGISTRY).
+FORCE_EFFECTS = tuple(register(e) for e in (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash()))
 
 
 def chain_transfer(chain: tuple):

@@ -103,6 +103,7 @@ class ForceStatistics:
     stats: dict
 
     kind = "force_stats"
+    variant = None
 
     @property
     def workpiece(self) -> np.ndarray:
@@ -143,6 +144,7 @@ class StabilityObservations:
     rows: tuple
 
     kind = "stability"
+    variant = None
 
     @property
     def case(self) -> str | None:

@@ -27,28 +27,29 @@ _CACHE: OrderedDict = OrderedDict()
 _CACHE_SIZE = 48
 
 
-def _key(case: MillingCase, variant: str, damping_scale: float, t_end_s: float) -> tuple:
+def _key(state, t_end_s: float) -> tuple:
+    case = state.case
     r = case.robot
     return (case.name, repr(case.tool), repr(case.law), repr(case.cut), repr(case.path.ramp_s),
-            float(case.path.approach_m), float(case.path.part_length_m), variant, float(damping_scale),
+            float(case.path.approach_m), float(case.path.part_length_m), state.variant, repr(state.elements),
             round(float(t_end_s), 9), float(getattr(r, "backlash_half_width_rad", 0.0)),
             tuple(np.round(np.asarray(r.joint_damping, float), 12)))
 
 
-def simulate_forces(case: MillingCase, variant: str, t_end_s: float, *, damping_scale: float = 1.0
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Forces on the workpiece (cut frame) of the linearized pass from 0 to ``t_end_s``.
+def simulate_forces(state, t_end_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Forces on the workpiece (cut frame) of the linearized pass of a model state
+    (:class:`identify.effects.ModelState`: case, variant, added elements) from 0 to ``t_end_s``.
 
     Returns ``(t_s (n,), force_n (n, 3))`` (N). Memoised (module docstring).
     """
-    key = _key(case, variant, damping_scale, t_end_s)
+    key = _key(state, t_end_s)
     if key in _CACHE:
         _CACHE.move_to_end(key)
         return _CACHE[key]
-    from robolobes.timedomain.simulate import SimulationProblem, simulate
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
 
-    run = simulate(SimulationProblem(case, variant, damping_scale=damping_scale, linearized=True,
-                                     t_end_s=float(t_end_s)), verdict_companion=False)
+    run = simulate(SimulationProblem(state.robot(), state.case, t_end_s=float(t_end_s)), LinearizedNewmark(),
+                   verdict_companion=False)
     out = (np.asarray(run.t_s), np.asarray(run.force_workpiece_n))
     _CACHE[key] = out
     if len(_CACHE) > _CACHE_SIZE:

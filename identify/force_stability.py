@@ -21,7 +21,6 @@ result says so, and states whether the value is physically credible.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import replace
 
 import numpy as np
@@ -59,14 +58,13 @@ def _pose(case, obs) -> np.ndarray:
     return np.asarray(pas.theta_at_s(obs.path_s_m), float)
 
 
-def verdict_at(case, obs, variant: str, *, damping_scale: float = 1.0, pd_n_s_per_m: float = 0.0) -> dict:
-    """The lobes' verdict of one observation with the given joint-damping scale and tip damper."""
-    from robolobes.linearize import build_model, linearize
-    from robolobes.lobes.problem import LobeProblem
-    from robolobes.lobes.solve import stability
-    from robolobes.lobes.structure import PhysicalStructure
+def verdict_at(state, case, obs, *, damping_scale: float = 1.0, pd_n_s_per_m: float = 0.0) -> dict:
+    """The lobes' verdict of one observation with the given joint-damping scale and tip damper
+    (``state``: the model, :class:`identify.effects.ModelState`; ``case``: the observation's case)."""
+    from robolobes.linearize import linearize
+    from robolobes.lobes import LobeProblem, PhysicalStructure, stability
 
-    robot = build_model(case.robot, variant, damping_scale=damping_scale)
+    robot = replace(state, case=case).robot(damping_scale=damping_scale)
     lin = linearize(robot, _pose(case, obs))
     st = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
     if pd_n_s_per_m > 0:
@@ -78,8 +76,8 @@ def verdict_at(case, obs, variant: str, *, damping_scale: float = 1.0, pd_n_s_pe
             "chatter_freq_hz": op.limit_chatter_freq_hz}
 
 
-def _errors(cases_, obs, variant, **kw) -> tuple[float, list]:
-    out = [verdict_at(cases_[o.case], o, variant, **kw) for o in obs.rows]
+def _errors(state, cases_, obs, **kw) -> tuple[float, list]:
+    out = [verdict_at(state, cases_[o.case], o, **kw) for o in obs.rows]
     wrong = sum(1 for o, v in zip(obs.rows, out) if v["stable"] == o.chatter)
     return wrong / len(obs.rows), out
 
@@ -100,23 +98,23 @@ def _smallest(agree, lo: float, hi: float, rel: float = 0.01, progress=None):
     return math.exp(b)
 
 
-def identify_stability(obs: StabilityObservations, *, case_override=None, variant="basic", quiet=False,
-                       progress=None) -> Identification:
-    """The smallest joint-damping scale and tip process damper that reconcile the observations."""
+def identify_stability(obs: StabilityObservations, state, *, progress=None) -> Identification:
+    """The smallest joint-damping scale and tip process damper that reconcile the observations.
+
+    ``state`` is the model (:class:`identify.effects.ModelState`); rows whose case is the model's use
+    its case (``--case`` overrides the measurement's, see :func:`identify.api.model_state`), other
+    rows load theirs."""
     names = {o.case for o in obs.rows}
-    if case_override is not None:
-        if not quiet and names != {case_override}:
-            print(f"identify: --case {case_override} overrides case {sorted(names)} of {obs.path}", file=sys.stderr)
-        obs = replace(obs, rows=tuple(replace(o, case=case_override) for o in obs.rows))
-        names = {case_override}
     try:
-        cases_ = {n: load_case(n) for n in names}
+        cases_ = {n: (state.case if n in (state.case.name, state.case_ref) or len(names) == 1 else load_case(n))
+                  for n in names}
     except BadInput as e:
         raise BadInput(f"{obs.path}: {e}") from None
-    err0, before = _errors(cases_, obs, variant)
+    variant = state.variant
+    err0, before = _errors(state, cases_, obs)
     fits, steps = [], []
     if err0 > 0:
-        all_agree = lambda **kw: _errors(cases_, obs, variant, **kw)[0] == 0  # noqa: E731
+        all_agree = lambda **kw: _errors(state, cases_, obs, **kw)[0] == 0  # noqa: E731
         scale = _smallest(lambda s: all_agree(damping_scale=s), 1.0, SCALE_MAX)
         c_pd = _smallest(lambda c: all_agree(pd_n_s_per_m=c), 10.0, PD_MAX_N_S_PER_M, rel=0.05)
         cand = {"joint_damping": 0.0 if scale is not None else err0,

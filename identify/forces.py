@@ -8,16 +8,12 @@
    trains, the second is held out. Each block's time-synchronous average (TSA) is compared with the
    model's average over the same pass times (the linearized pass, :mod:`identify.force_model`),
    after a circular shift that aligns the unknown spindle phase (fitted on the training block).
-3. Greedy selection over the force-side library (:mod:`identify.cutting_effects`): each candidate
-   is fitted on the training TSA (bounded least squares, the phase shift a nuisance parameter) and
-   scored on the held-out TSA. The significance rule (derived once, not tuned): with ``r`` the
-   held-out residual of the current model and ``d`` the change the candidate makes to the held-out
-   model average (both per bin and axis), if the current model were exact ``r`` is the TSA noise
-   ``e ~ N(0, s^2)`` (``s = sigma / sqrt(N)`` per bin, from the revolution scatter) and, ``d`` being
-   fitted on other revolutions, ``z = sum(r d) / sqrt(sum(s^2 d^2)) ~ N(0, 1)``. A candidate is
-   kept when ``z > z_crit`` and its held-out error is lower; ``z_crit`` is the one-sided normal
-   quantile of ``0.01 / L`` for ``L`` candidates (Bonferroni): a family-wise false-positive rate of
-   at most 1 % over the library when the model explains the data. At most ``MAX_STEPS`` effects.
+3. Greedy selection over the force-side library (:mod:`identify.cutting_effects`) by
+   :func:`identify.selection.forward_select`: each candidate is fitted on the training TSA (bounded
+   least squares, the phase shift a nuisance parameter) and scored on the held-out TSA. The
+   significance rule is the framework's (gain of squared held-out residual against the noise of
+   the held-out average, Bonferroni over the candidates, family-wise 1 %); the noise per bin and
+   axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
 
 ``force_stats`` (8 published numbers)
 ------------------------------------
@@ -37,52 +33,39 @@ from __future__ import annotations
 import itertools
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from robolobes.cases import load_case
 from robolobes.core.errors import BadInput
 
-from .cutting_effects import FORCE_EFFECTS, ModelState, chain_transfer
-from .force_data import ForceSeries, ForceStatistics, StabilityObservations, read_force_measurement
+from .cutting_effects import FORCE_EFFECTS, chain_transfer
+from .effects import ModelState, effects_for
+from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
+from .model_toml import model_toml
+from .selection import Trial, forward_select
 from .force_model import revolution_averages, simulate_forces, with_spindle_hz
 from .force_signals import (ERROR_METRIC, SyncAverage, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
                             revolutions, shift_average, spectrum_lines, sync_average)
 from .result import EffectFit, Identification, SelectionStep
 
-__all__ = ["identify_forces", "identify_force_stats", "identify_stability", "identify_force_measurement",
-           "ForceContext", "FAMILY_ALPHA", "MAX_STEPS", "resolve_case", "check_window"]
+__all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
+           "identify_stability", "ForceContext", "check_window", "aicc"]
 
-#: Family-wise false-positive rate of the selection over the whole library.
-FAMILY_ALPHA = 0.01
-#: Most effects added greedily to a cutting-force model.
-MAX_STEPS = 3
+read_forces = read_force_set
+
 #: Angle bins per revolution at most (fewer when a revolution holds fewer samples).
 MAX_BINS = 256
 
 
-def resolve_case(named: str | None, override: str | None, base_dir: Path, *, quiet: bool = False):
-    """The case to use: ``--case`` overrides the file's (said on stderr), else the file's, else an error."""
-    if override is not None:
-        if named is not None and named != override and not quiet:
-            print(f"identify: --case {override} overrides case = {named!r} of the measurement", file=sys.stderr)
-        return load_case(override)
-    if named is None:
-        raise BadInput(f"{base_dir}: the measurement names no case; give --case NAME (tx200-aluminium, tx200-steel) "
-                       f"or a case TOML path")
-    p = Path(named)
-    if not p.is_absolute() and p.suffix == ".toml" and (base_dir / p).is_file():
-        return load_case(base_dir / p)
-    return load_case(named)
-
-
 def check_window(path, window: tuple, case) -> None:
     """BadInput when ``window`` (pass time, s) is not inside the case's pass."""
-    from robolobes.linearize.path import Pass
+    from robolobes.linearize.path import FeedProfile
 
-    dur = float(Pass.from_case(case).duration_s)
+    feed = case.cut.feed_rate_m_per_s(case.tool)
+    dur = float(FeedProfile(travel_m=case.path.travel_m(case.tool), feed_m_per_s=feed,
+                            ramp_s=case.path.ramp_s).duration_s)
     if window[1] > dur + 1e-9:
         raise BadInput(f"{path}: window_s = {list(window)} s is outside the pass of case {case.name!r}, which lasts "
                        f"{dur:.4g} s; valid: 0 <= t0 < t1 <= {dur:.4g}")
@@ -117,7 +100,7 @@ class ForceContext:
         self.t_end_s = float(starts[-1] + period + 4 * period / self.bins)
 
     def raw_averages(self, state: ModelState) -> list:
-        t, f = simulate_forces(state.case, state.variant, self.t_end_s)
+        t, f = simulate_forces(state, self.t_end_s)
         return revolution_averages(t, f, self.spindle_hz, self.bins, self.blocks)
 
     def filtered(self, avg: np.ndarray, h) -> np.ndarray:
@@ -180,87 +163,61 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
                 heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound)
 
 
-def _z_statistic(ctx: ForceContext, before_ho: np.ndarray, after_ho: np.ndarray) -> float:
-    """The significance statistic of the module docstring (x, y axes)."""
-    r = (ctx.heldout.mean - before_ho)[:, :2]
-    d = (after_ho - before_ho)[:, :2]
-    s = ctx.heldout.noise[:, :2]
-    den = math.sqrt(float(np.sum(s ** 2 * d ** 2)))
-    return float(np.sum(r * d)) / den if den > 0 else 0.0
-
-
-def _critical_z(n_candidates: int) -> float:
-    from scipy.stats import norm
-
-    return float(norm.isf(FAMILY_ALPHA / max(n_candidates, 1)))
-
-
-def identify_forces(series: ForceSeries, case, variant: str = "basic", *, effects=FORCE_EFFECTS,
-                    progress=None) -> Identification:
+def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
+                    progress=None, effects=None) -> Identification:
     """Identify the force-side effects in a cutting-force series (module docstring).
 
     Parameters
     ----------
-    series : ForceSeries
-    case : MillingCase
-        The model's case (its commanded spindle speed is replaced by the measured one).
-    variant : str
-        Robot model variant.
-    effects : sequence of ForceEffect
-        The library searched.
-    progress : callable ``(fraction, note)``, optional
+    measurement : ForceSeries
+    model : ModelState
+        The starting model (its case's commanded spindle speed is replaced by the measured one).
+    alpha : float
+        Family-wise false-positive rate of the selection (:func:`identify.selection.forward_select`).
+    max_effects : int
+    progress : callable ``(message)``, optional
+    effects : sequence of ForceEffect, optional
+        The library searched (default: every registered effect that observes ``"forces"``).
     """
-    check_window(series.path, series.window_s, case)
-    ctx = ForceContext(series, case)
-    state = ModelState(case=with_spindle_hz(case, ctx.spindle_hz), variant=variant)
+    case = model.case
+    check_window(measurement.path, measurement.window_s, case)
+    ctx = ForceContext(measurement, case)
+    state = replace(model, case=with_spindle_hz(case, ctx.spindle_hz))
     tr, ho = ctx.averages(state)
-    shift = align_shift(tr, ctx.train.mean)
-    cur_tr, cur_ho = shift_average(tr, shift), shift_average(ho, shift)
-    err0, floor = heldout_error(cur_ho, ctx.heldout)
-    signature0 = spectrum_lines(ctx.heldout.mean - cur_ho, case.tool.teeth)
-    err = err0
-    fits, steps = [], []
-    used = set()
-    library = [e for e in effects if "forces" in e.observed_by]
-    z_crit = _critical_z(len(library))
-    for step in range(MAX_STEPS):
-        cands = {}
-        scored = []
-        todo = [e for e in library if e.name not in used and e.applicable(state) is None]
-        for i, eff in enumerate(todo):
-            if progress:
-                progress((step + i / max(len(todo), 1)) / MAX_STEPS, eff.name)
-            fit = _fit_effect(ctx, eff, state, shift)
-            e_after, _ = heldout_error(fit.heldout, ctx.heldout)
-            z = _z_statistic(ctx, cur_ho, fit.heldout)
-            cands[eff.name] = {"heldout_error": e_after, "z": z, "params": eff.as_dict(fit.values)}
-            scored.append((e_after, z, eff, fit))
-        ok = [s for s in scored if s[1] > z_crit and s[0] < err]
-        best = min(ok, key=lambda s: s[0]) if ok else None
-        stat = max((s[1] for s in scored), default=0.0)
-        if best is None:
-            steps.append(SelectionStep(candidates=cands, kept=None, error_before=err, error_after=err,
-                                       statistic=stat, threshold=z_crit))
-            break
-        e_after, z, eff, fit = best
-        steps.append(SelectionStep(candidates=cands, kept=eff.name, error_before=err, error_after=e_after,
-                                   statistic=z, threshold=z_crit))
-        fits.append(EffectFit(name=eff.name, params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
-                              evidence={"signature": _signature_text(eff.name), "heldout_error_without": err,
-                                        "heldout_error_with": e_after, "z": z, "z_threshold": z_crit,
-                                        "on_bound": fit.on_bound,
-                                        "detection_threshold": dict(eff.threshold)}))
-        used.add(eff.name)
-        state = eff.apply(state, fit.values)
-        cur_tr, cur_ho, shift, err = fit.train, fit.heldout, fit.shift, e_after
-    extra = {"spindle_hz": ctx.spindle_hz, "spindle_rpm": ctx.spindle_hz * 60.0, "phase_shift_rev": shift,
-             "bins_per_rev": ctx.bins, "revolutions": {"train": ctx.train.n, "heldout": ctx.heldout.n},
-             "heldout_span_s": list(ctx.heldout.t_span_s), "signatures_before": signature0,
-             "signatures_after": spectrum_lines(ctx.heldout.mean - cur_ho, case.tool.teeth),
+    shift0 = align_shift(tr, ctx.train.mean)
+    meas = ctx.heldout.mean[:, :2].ravel()
+    sigma = ctx.heldout.noise[:, :2].ravel()
+    shifts = {id(state): shift0}
+    aligned = {id(state): shift_average(ho, shift0)}
+
+    def trial(st, eff):
+        if eff is None:
+            return Trial(residual=aligned[id(st)][:, :2].ravel() - meas, measured=meas, sigma=sigma, state=st)
+        fit = _fit_effect(ctx, eff, st, shifts[id(st)])
+        new = eff.apply_values(st, fit.values)
+        shifts[id(new)], aligned[id(new)] = fit.shift, fit.heldout
+        return Trial(residual=fit.heldout[:, :2].ravel() - meas, measured=meas, sigma=sigma, state=new,
+                     params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
+                     evidence={"signature": _signature_text(eff.name), "on_bound": fit.on_bound,
+                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift})
+
+    library = [e for e in (effects if effects is not None else effects_for("forces", state))
+               if hasattr(e, "family") and e.applicable(state)]
+    sel = forward_select(state, library, trial, alpha=alpha, max_effects=max_effects, progress=progress)
+    _, floor = heldout_error(aligned[id(state)], ctx.heldout)
+    final_ho = aligned[id(sel.state)]
+    extra = {"spindle_hz": ctx.spindle_hz, "spindle_rpm": ctx.spindle_hz * 60.0,
+             "phase_shift_rev": shifts[id(sel.state)], "bins_per_rev": ctx.bins,
+             "revolutions": {"train": ctx.train.n, "heldout": ctx.heldout.n},
+             "heldout_span_s": list(ctx.heldout.t_span_s),
+             "signatures_before": spectrum_lines(ctx.heldout.mean - aligned[id(state)], case.tool.teeth),
+             "signatures_after": spectrum_lines(ctx.heldout.mean - final_ho, case.tool.teeth),
+             "not_applicable": {e.name: e.reason_not_applicable(state) for e in FORCE_EFFECTS
+                                if not e.applicable(state)},
              "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
-    return Identification(kind="forces", effects=tuple(fits), error_before=err0, error_after=err,
-                          metric=ERROR_METRIC, noise_floor=floor, steps=tuple(steps),
-                          model_toml=case_toml(state, fits), extra=extra)
+    return Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
+                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
+                          model_toml=model_toml(sel.state), extra=extra)
 
 
 _SIGNATURES = {
@@ -274,49 +231,6 @@ _SIGNATURES = {
 
 def _signature_text(name: str) -> str:
     return _SIGNATURES.get(name, "")
-
-
-def case_toml(state: ModelState, fits) -> str:
-    """The case TOML of the identified model: the source case file with the cutting law's edge
-    coefficients and the tool's runout of ``state``; measurement-chain and robot effects as comments
-    (they are not keys of a case file). Loads with :func:`cases.load_case` (strict keys)."""
-    import robolobes.cases as cases_pkg
-
-    case = state.case
-    src = Path(cases_pkg.__file__).parent / "data" / f"{case.name}.toml"
-    text = src.read_text() if src.is_file() else ""
-    if not text:
-        return ""
-    law, tool = case.law, case.tool
-    text = _set_key(text, "material", "kte_n_per_mm", f"{law.kte_n_per_m * 1e-3:.6g}")
-    text = _set_key(text, "material", "kre_n_per_mm", f"{law.kre_n_per_m * 1e-3:.6g}")
-    text = _set_key(text, "tool", "runout_um", "[" + ", ".join(f"{r * 1e6:.6g}" for r in tool.runout_m) + "]")
-    notes = [f"# identified: {f.name} {f.params}" for f in fits]
-    eff = {e.name: e for e in FORCE_EFFECTS}
-    for f in fits:
-        c = eff[f.name].toml_comment(tuple(f.params.values())) if f.name in eff else None
-        if c:
-            notes.append(f"# {c}")
-    return "\n".join(notes) + ("\n" if notes else "") + text
-
-
-def _set_key(text: str, table: str, key: str, value: str) -> str:
-    out, cur, done = [], None, False
-    for line in text.splitlines():
-        s = line.strip()
-        if s.startswith("[") and not s.startswith("[["):
-            if cur == table and not done:
-                out.append(f"{key} = {value}")
-                done = True
-            cur = s.strip("[]").strip()
-        if cur == table and not done and s.split("=")[0].strip() == key:
-            comment = line[line.index("#"):] if "#" in line else ""
-            line = f"{key} = {value}" + (f"   {comment}" if comment else "")
-            done = True
-        out.append(line)
-    if cur == table and not done:
-        out.append(f"{key} = {value}")
-    return "\n".join(out) + "\n"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -411,25 +325,29 @@ def aicc(rss: float, n: int, k: int) -> float:
     return n * math.log(max(rss, 1e-300) / n) + 2 * k + 2 * k * (k + 1) / (n - k - 1)
 
 
-def identify_force_stats(stats: ForceStatistics, case, variant: str = "basic", *, effects=None,
-                         progress=None) -> Identification:
-    """Fit at most 3 parameters of the library to 8 published force statistics by AICc (module docstring)."""
+def identify_force_stats(measurement: ForceStatistics, model: ModelState, *, alpha: float = 0.01,
+                         max_effects: int = 3, progress=None, effects=None) -> Identification:
+    """Fit at most 3 parameters of the library to 8 published force statistics by AICc (module docstring).
+
+    ``alpha`` is not used (no held-out part: the choice is by AICc); ``max_effects`` bounds the size of
+    the combinations tried."""
+    stats, case, state = measurement, model.case, model
     check_window(stats.path, stats.window_s, case)
-    lib = [e for e in (effects or FORCE_EFFECTS) if "force_stats" in e.observed_by]
-    state = ModelState(case=case, variant=variant)
+    lib = [e for e in (effects if effects is not None else effects_for("force_stats", state)) if hasattr(e, "family")]
     ctx = _StatsContext(stats, case)
     target = stats.workpiece
     base = _stats_of(ctx.averages(state)[0])
     n = len(target)
     rss0 = float(np.sum((base - target) ** 2))
     rms0 = math.sqrt(rss0 / n)
-    combos = [c for r in (1, 2, 3) for c in itertools.combinations([e for e in lib if e.applicable(state) is None], r)
+    combos = [c for r in range(1, min(3, max_effects) + 1)
+              for c in itertools.combinations([e for e in lib if e.applicable(state)], r)
               if sum(len(e.params) for e in c) <= MAX_STATS_PARAMS]
     table = [{"effects": [], "k": 0, "rss_n2": rss0, "aicc": aicc(rss0, n, 0), "rms_n": rms0}]
     best = None
     for i, combo in enumerate(combos):
         if progress:
-            progress(i / len(combos), "+".join(e.name for e in combo))
+            progress(f"force statistics {i + 1}/{len(combos)}: " + "+".join(e.name for e in combo))
         vals, sig, rss, on_bound, fitted = _fit_stats(ctx, combo, state, target)
         k = sum(len(e.params) for e in combo)
         row = {"effects": [e.name for e in combo], "k": k, "rss_n2": rss, "aicc": aicc(rss, n, k),
@@ -448,7 +366,7 @@ def identify_force_stats(stats: ForceStatistics, case, variant: str = "basic", *
                                   evidence={"aicc": row["aicc"], "aicc_without": table[0]["aicc"],
                                             "dof": n - row["k"], "rss_n2": row["rss_n2"]}))
             k += len(v)
-            final = e.apply(final, v)
+            final = e.apply_values(final, v)
         err_after = row["rms_n"]
     table.sort(key=lambda r: r["aicc"])
     extra = {"n_statistics": n, "dof": n - (best[0]["k"] if best else 0), "aicc_table": table[:12],
@@ -458,31 +376,12 @@ def identify_force_stats(stats: ForceStatistics, case, variant: str = "basic", *
     return Identification(kind="force_stats", effects=tuple(fits), error_before=rms0, error_after=err_after,
                           metric="RMS over the 8 statistics (x, y min, max, mean, rms) of model - measured, N "
                                  "(training fit: statistics-only data have no held-out part; chosen by AICc)",
-                          noise_floor=float("nan"), steps=(), model_toml=case_toml(final, fits), extra=extra)
+                          noise_floor=float("nan"), steps=(), model_toml=model_toml(final), extra=extra)
 
 
-# ---------------------------------------------------------------------------------------------
-# dispatch
-# ---------------------------------------------------------------------------------------------
-
-def identify_force_measurement(path, *, case: str | None = None, variant: str | None = None, quiet: bool = False,
-                               progress=None) -> Identification:
-    """Read a force-side measurement and run its pipeline (``--case`` overrides the file's case)."""
-    m = read_force_measurement(path)
-    base = Path(path) if Path(path).is_dir() else Path(path).parent
-    if isinstance(m, StabilityObservations):
-        return identify_stability(m, case_override=case, variant=variant or "basic", quiet=quiet, progress=progress)
-    c = resolve_case(m.case, case, base, quiet=quiet)
-    v = variant or getattr(m, "variant", None) or "basic"
-    if isinstance(m, ForceSeries):
-        return identify_forces(m, c, v, progress=progress)
-    return identify_force_stats(m, c, v, progress=progress)
-
-
-def identify_stability(obs: StabilityObservations, *, case_override=None, variant="basic", quiet=False,
-                       progress=None) -> Identification:
+def identify_stability(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3, progress=None,
+                       **_) -> Identification:
     """Stability observations: see :mod:`identify.force_stability`."""
     from .force_stability import identify_stability as run
 
-    return run(obs, case_override=case_override, variant=variant, quiet=quiet, progress=progress)
-
+    return run(measurement, model, progress=progress)

@@ -13,23 +13,27 @@ effect's own error are computed here with plain numpy from the simulated samples
 revolution, aligned with the spindle), independently of the identifier's resampling.
 """
 
+import json
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from scipy import signal
 
+from robolobes.main import main
 from robolobes.cases import load_case
-from robolobes.identify.forces import identify_force_measurement
-from robolobes.timedomain.simulate import SimulationProblem, simulate
+from robolobes.linearize import build_model
+from robolobes.timedomain import NonlinearNewmark, SimulationProblem, simulate
 
 T_START, T_END = 0.25, 0.40   # steady cut from 0.228 s; 46 revolutions at 18 700 rpm
 PER_REV = 180                 # simulation samples per revolution (2 deg steps)
 
 
 def _full_forces(case):
-    run = simulate(SimulationProblem(case, "basic", linearized=False, t_end_s=T_END), verdict_companion=False)
+    run = simulate(SimulationProblem(build_model(case.robot, "basic"), case, t_end_s=T_END), NonlinearNewmark(),
+                   verdict_companion=False)
     return np.asarray(run.t_s), np.asarray(run.force_workpiece_n)
 
 
@@ -66,6 +70,20 @@ def _write(d: Path, t, f_clean, seed):
     (d / "cut.toml").write_text(f'case = "tx200-aluminium"\nsample_rate_hz = {rate:.10g}\n'
                                 f'window_s = [{t[sel][0]:.10g}, {t[sel][-1]:.10g}]\n')
     return t[sel], noise
+
+
+def identify_cli(path, capsys):
+    """``robolobes identify --measured PATH --json --quiet`` in this process (the model runs are memoised
+    per process); returns the JSON as an object with attribute access for the top-level keys."""
+    capsys.readouterr()
+    code = main(["identify", "--measured", str(path), "--json", "--quiet"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    d = json.loads(out)
+    effects = tuple(SimpleNamespace(**e) for e in d["effects"])
+    return SimpleNamespace(effects=effects, error_before=d["error_before"], error_after=d["error_after"],
+                           noise_floor=d["noise_floor"], steps=d["steps"], raw=d,
+                           extra={"heldout_span_s": d["heldout_span_s"], "revolutions": d["revolutions"]})
 
 
 def _heldout_block(res, t_sel, x):
@@ -118,7 +136,7 @@ def _data_with(name, p, case, t, f):
     raise ValueError(name)
 
 
-def _run_draws(name, seeds, base, tmp_path):
+def _run_draws(name, seeds, base, tmp_path, capsys):
     case, t, f = base
     out = []
     for seed in seeds:
@@ -127,42 +145,42 @@ def _run_draws(name, seeds, base, tmp_path):
         fe = _data_with(name, p, case, t, f)
         d = tmp_path / f"{name}-{seed}"
         t_sel, noise = _write(d, t, fe, seed)
-        res = identify_force_measurement(d, quiet=True)
+        res = identify_cli(d, capsys)
         ok, info = _judge(res, name, t, fe, f, noise, t_sel)
         out.append((ok, p, info))
     return out
 
 
-def test_no_effect_fast_subset(base, tmp_path):
+def test_no_effect_fast_subset(base, tmp_path, capsys):
     case, t, f = base
     for seed in (0, 1, 2):
         d = tmp_path / f"null-{seed}"
         _write(d, t, f, seed)
-        res = identify_force_measurement(d, quiet=True)
-        assert res.effects == (), (seed, res.steps[0].candidates)
+        res = identify_cli(d, capsys)
+        assert res.effects == (), (seed, res.steps)
         # the data came from the full path, the model from the linearized one: within noise
         assert res.error_before < 1.5 * res.noise_floor
 
 
-def test_dynamometer_one_draw(base, tmp_path):
-    (ok, p, info), = _run_draws("dynamometer", [0], base, tmp_path)
+def test_dynamometer_one_draw(base, tmp_path, capsys):
+    (ok, p, info), = _run_draws("dynamometer", [0], base, tmp_path, capsys)
     assert ok, (p, info)
 
 
 @pytest.mark.slow
-def test_no_effect_twenty_seeds(base, tmp_path):
+def test_no_effect_twenty_seeds(base, tmp_path, capsys):
     case, t, f = base
     found = []
     for seed in range(100, 120):
         d = tmp_path / f"null-{seed}"
         _write(d, t, f, seed)
-        res = identify_force_measurement(d, quiet=True)
+        res = identify_cli(d, capsys)
         found.append([e.name for e in res.effects])
     assert sum(1 for x in found if not x) >= 19, found
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["dynamometer", "lowpass", "edge_coefficients", "runout"])
-def test_effect_five_draws(base, tmp_path, name):
-    results = _run_draws(name, range(5), base, tmp_path)
+def test_effect_five_draws(base, tmp_path, capsys, name):
+    results = _run_draws(name, range(5), base, tmp_path, capsys)
     assert sum(ok for ok, _, _ in results) >= 4, results
