@@ -237,7 +237,12 @@ class CuttingPlan:
             for th, g in zip(self.tooth_angle_rad, self.tooth_group):
                 unit[:, g] += unit_avg(a0 + th)
             return b[:, None, None, None, None] * unit[None]
-        # helix: the lag of each slice depends on the depth; chunk over depths to bound memory
+        # helix: the lag of each slice depends on the depth. Batched callers often repeat a depth
+        # (a coarse scan evaluates one depth at every speed): compute each distinct depth once.
+        ub, inv = np.unique(b, return_inverse=True)
+        if len(ub) < len(b):
+            return self.wbar(ub, steps)[inv.reshape(-1)]
+        # chunk over depths to bound memory
         chunk = max(1, int(2e6 // max(1, len(steps) * q * ns)))
         for c0 in range(0, len(b), chunk):
             bc = b[c0:c0 + chunk]

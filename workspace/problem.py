@@ -128,9 +128,13 @@ class MapProblem:
             axes = tuple((name, np.linspace(a, b, cnt[name]) if name in cnt else np.array([a]))
                          for name, (a, b) in ranges)
         elif over == "pass":
+            import warnings
+
             from robolobes.linearize.path import Pass
 
-            travel = Pass.from_case(case).travel_m if n > 1 else 0.0
+            with warnings.catch_warnings():  # the poses' limits are reported per pose (reason)
+                warnings.simplefilter("ignore")
+                travel = Pass.from_case(case).travel_m if n > 1 else 0.0
             axes = (("s_m", np.linspace(0.0, travel, int(n))),)
         elif over == "tool-rotation":
             a, b = rotation_range_rad
