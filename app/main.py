@@ -31,6 +31,7 @@ _COMMANDS = {
     "frf": "robolobes.linearize.cli",
     "lobes": "robolobes.lobes.cli",
     "simulate": "robolobes.timedomain.cli",
+    "map": "robolobes.workspace.cli",
 }
 
 

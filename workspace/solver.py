@@ -78,19 +78,22 @@ class MapResult:
         depth = np.asarray(ds["depth_limit_m"].values)
         reach = np.asarray(ds["reachable"].values)
         theta = np.asarray(ds["theta_rad"].values)
-        best = np.where(reach, np.max(np.where(np.isnan(depth), -np.inf, depth), axis=1), np.nan)
-        worst = np.where(reach, np.min(np.where(np.isnan(depth), np.inf, depth), axis=1), np.nan)
+        # per pose: lowest limit over the speeds (inf: stable at every speed up to depth_max_m)
+        low = np.where(reach, np.min(np.where(np.isnan(depth), np.inf, depth), axis=1), np.nan)
+        op = np.asarray(ds["op_depth_limit_m"].values)
         out = {"n_poses": int(depth.shape[0]), "n_speeds": int(depth.shape[1]),
                "n_unreachable": int((~reach).sum()), "n_strict_ok": int(np.asarray(ds["strict_ok"].values).sum()),
                "min_depth_limit_m": None, "worst_pose": None, "best_pose": None,
                "worst_pose_q_deg": None, "best_pose_q_deg": None, "op_rpm": self.problem.op_rpm}
         if reach.any():
-            # worst pose: lowest limit over the speeds; best pose: highest best-speed limit
-            iw = int(np.nanargmin(np.where(reach, worst, np.nan)))
-            ib = int(np.nanargmax(np.where(reach, best, np.nan)))
-            out.update(min_depth_limit_m=float(worst[iw]), worst_pose=iw, best_pose=ib,
+            # worst / best pose: lowest / highest of the per-pose lowest limit, ties broken by the
+            # limit at the operating speed
+            idx = np.flatnonzero(reach)
+            order = idx[np.lexsort((op[idx], low[idx]))]
+            iw, ib = int(order[0]), int(order[-1])
+            out.update(min_depth_limit_m=float(low[iw]), worst_pose=iw, best_pose=ib,
                        worst_pose_q_deg=np.degrees(theta[iw]).tolist(), best_pose_q_deg=np.degrees(theta[ib]).tolist(),
-                       best_pose_best_depth_m=float(best[ib]))
+                       best_pose_min_depth_limit_m=float(low[ib]))
             op = np.asarray(ds["op_depth_limit_m"].values)
             out["op_min_depth_limit_m"] = float(np.nanmin(np.where(reach, op, np.nan)))
             out["op_max_depth_limit_m"] = float(np.nanmax(np.where(reach, op, np.nan)))
