@@ -56,19 +56,47 @@ def _format_warning(message, category, filename, lineno, line=None):
     return f"robolobes: warning: {message}\n"
 
 
+def _input_errors() -> tuple[type, ...]:
+    """:class:`BadInput`, plus the package error classes raised only by user input that do not yet
+    derive from it (transitional: an entry goes once its class is a ``BadInput`` subclass)."""
+    from robolobes.core.errors import BadInput
+
+    classes = [BadInput]
+    for module, name in (("robolobes.lobes._errors", "LobeError"), ("robolobes.cases.milling", "MillingError"),
+                         ("robolobes.linearize.path", "PassError"), ("robolobes.linearize.kinematics", "KinematicsError"),
+                         ("robolobes.linearize.linear", "SingularConfigurationError")):
+        cls = getattr(sys.modules.get(module), name, None)  # only modules this run imported
+        if isinstance(cls, type) and not issubclass(cls, BadInput):
+            classes.append(cls)
+    return tuple(classes)
+
+
+def _error(command: str, message) -> None:
+    print(f"robolobes {command}: error: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one subcommand; returns the exit code.
+
+    Exit codes: 0 done; 2 bad input (:class:`~robolobes.core.errors.BadInput`, one line on stderr,
+    raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C; 1 out
+    of memory (one line). Any other exception is an internal error and keeps its traceback.
+    """
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)
     except KeyboardInterrupt:
-        print("robolobes: interrupted", file=sys.stderr)
+        print("\nrobolobes: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, KeyError, FileNotFoundError) as e:
-        # bad input: one clear line, no traceback
-        msg = e.args[0] if isinstance(e, KeyError) and e.args else e
-        print(f"robolobes {args.command}: error: {msg}", file=sys.stderr)
+    except MemoryError:
+        _error(args.command, "out of memory: reduce the grid sizes (--n, --m, --n-rpm) or the simulated duration")
+        return 1
+    except Exception as e:
+        if not isinstance(e, _input_errors()):
+            raise  # an internal error: keep its traceback
+        _error(args.command, e)
         return 2
 
 

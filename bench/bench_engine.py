@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from robolobes.cases import load_case
-from robolobes.timedomain.cutting import MillingForce, run_prescribed, straight_path
+from robolobes.timedomain.workpiece_force import MillingForce, run_prescribed, straight_path
 from robolobes.timedomain.newmark import LinearSystem, NewmarkOptions, integrate
 from robolobes.timedomain.workpiece import Workpiece
 

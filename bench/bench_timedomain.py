@@ -34,7 +34,10 @@ import numpy as np
 import pinocchio as pin
 
 from robolobes import cases
-from robolobes.timedomain.simulate import SimulationProblem, _run_full, _run_linearized, _Setup
+from robolobes.linearize.model import build_model
+from robolobes.timedomain.drivers import run_full, run_linearized
+from robolobes.timedomain.equations import PassSetup
+from robolobes.timedomain.problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
 
 VARIANT = "backlash"
 
@@ -43,8 +46,11 @@ import time, warnings
 warnings.simplefilter("ignore")
 t0 = time.perf_counter()
 from robolobes import cases
-from robolobes.timedomain.simulate import SimulationProblem, _Setup, linear_system_data
-S = _Setup(SimulationProblem(cases.load_case("tx200-aluminium"), variant="backlash", t_end_s=0.001, linearized=True))
+from robolobes.linearize.model import build_model
+from robolobes.timedomain.equations import PassSetup, linear_system_data
+from robolobes.timedomain.problem import LinearizedNewmark, SimulationProblem
+case = cases.load_case("tx200-aluminium")
+S = PassSetup(SimulationProblem(build_model(case.robot, "backlash"), case, t_end_s=0.001), LinearizedNewmark())
 d = linear_system_data(S)
 t1 = time.perf_counter()
 from robolobes.timedomain.fastpath import run_linear_milling
@@ -63,7 +69,7 @@ def _first_call_s(cache_dir: str) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
-def _reference_s(S: _Setup, n: int = 1000, repeat: int = 5) -> float:
+def _reference_s(S: PassSetup, n: int = 1000, repeat: int = 5) -> float:
     """Median time of ``n`` pinocchio rnea calls on the setup's model, s."""
     model, data = S.robot.model, S.robot.data
     q = S.q_eq.copy()
@@ -79,14 +85,15 @@ def _reference_s(S: _Setup, n: int = 1000, repeat: int = 5) -> float:
 
 
 def _setup(case, t_end, linearized):
-    return _Setup(SimulationProblem(case, variant=VARIANT, t_end_s=t_end, linearized=linearized))
+    method = LinearizedNewmark() if linearized else NonlinearNewmark()
+    return PassSetup(SimulationProblem(build_model(case.robot, VARIANT), case, t_end_s=t_end), method)
 
 
 def _time_run(case, t_end, linearized):
     t0 = time.perf_counter()
     S = _setup(case, t_end, linearized)
     t1 = time.perf_counter()
-    rec = (_run_linearized if linearized else _run_full)(S, None)
+    rec = (run_linearized if linearized else run_full)(S, None)
     t2 = time.perf_counter()
     assert rec.stats["steps"] == S.n_steps
     return S, t1 - t0, t2 - t1, rec.stats

@@ -2,8 +2,8 @@
 
 A file with ``kind = "robot"`` describes a robot, ``kind = "cut"`` a milling case that names its
 robot. Every key carries its unit (``_mm``, ``_deg``, ``_mpa``, ...); values are converted to SI
-here. A missing or malformed key raises :class:`CaseError` naming the file, the key and what is
-expected.
+here. A missing, malformed or unknown key (a typo such as ``helx_deg``) raises :class:`CaseError` naming
+the file, the key and what is expected.
 """
 
 from __future__ import annotations
@@ -17,15 +17,17 @@ from typing import Any
 
 import numpy as np
 
+from robolobes.core.errors import BadInput
+
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
-from .spec import Assumption, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
+from .spec import Assumption, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
 __all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE"]
 
 DEFAULT_CASE = "tx200-aluminium"
 
 
-class CaseError(ValueError):
+class CaseError(BadInput):
     """A case or robot file that cannot be read: names the file, the key and what is expected."""
 
 
@@ -88,6 +90,23 @@ class _Reader:
 
     def __init__(self, path: Path, table: dict, prefix: str = ""):
         self.path, self.t, self.prefix = path, table, prefix
+        self.asked: set[str] = set()  # every key read (present or defaulted): the valid keys
+
+    def _get(self, key: str, default=None):
+        self.asked.add(key)
+        return self.t.get(key, default)
+
+    def allow(self, *keys: str) -> None:
+        """Mark ``keys`` as valid without reading them (read elsewhere, or documentation only)."""
+        self.asked.update(keys)
+
+    def finish(self) -> None:
+        """Raise :class:`CaseError` naming any key of this table that nothing read (a typo such as
+        ``helx_deg`` would otherwise silently leave its default)."""
+        unknown = sorted(set(self.t) - self.asked)
+        if unknown:
+            raise CaseError(f"{self.path}: unknown key '{self.prefix}{unknown[0]}'; valid keys here: "
+                            f"{', '.join(sorted(self.asked))}")
 
     def _err(self, key: str, expected: str, got: Any = None, missing: bool = False) -> CaseError:
         where = f"{self.prefix}{key}"
@@ -96,22 +115,23 @@ class _Reader:
         return CaseError(f"{self.path}: key '{where}' must be {expected}, got {got!r}")
 
     def has(self, key: str) -> bool:
+        self.asked.add(key)
         return key in self.t
 
     def table(self, key: str) -> "_Reader":
-        v = self.t.get(key)
+        v = self._get(key)
         if not isinstance(v, dict):
             raise self._err(key, "a table", v, missing=v is None)
         return _Reader(self.path, v, f"{self.prefix}{key}.")
 
     def tables(self, key: str) -> list["_Reader"]:
-        v = self.t.get(key)
+        v = self._get(key)
         if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
             raise self._err(key, "an array of tables [[...]]", v, missing=v is None)
         return [_Reader(self.path, x, f"{self.prefix}{key}[{i}].") for i, x in enumerate(v)]
 
     def num(self, key: str, default=None, *, positive=False, nonneg=False, allow_nan=False) -> float:
-        v = self.t.get(key, default)
+        v = self._get(key, default)
         if v is None:
             raise self._err(key, "a number", missing=True)
         if isinstance(v, bool) or not isinstance(v, (int, float)):
@@ -128,7 +148,7 @@ class _Reader:
         return v
 
     def integer(self, key: str, default=None, *, minimum=None) -> int:
-        v = self.t.get(key, default)
+        v = self._get(key, default)
         if v is None:
             raise self._err(key, "an integer", missing=True)
         if isinstance(v, bool) or not isinstance(v, int) or (minimum is not None and v < minimum):
@@ -136,7 +156,7 @@ class _Reader:
         return v
 
     def vec(self, key: str, n: int | None = None, default=None, allow_nan=False) -> np.ndarray:
-        v = self.t.get(key, default)
+        v = self._get(key, default)
         what = f"an array of {n} numbers" if n else "an array of numbers"
         if v is None:
             raise self._err(key, what, missing=True)
@@ -151,7 +171,7 @@ class _Reader:
         return a
 
     def text(self, key: str, default=None, choices=None) -> str:
-        v = self.t.get(key, default)
+        v = self._get(key, default)
         if v is None:
             raise self._err(key, "a string", missing=True)
         if not isinstance(v, str) or (choices and v not in choices):
@@ -159,7 +179,7 @@ class _Reader:
         return v
 
     def boolean(self, key: str, default=None) -> bool:
-        v = self.t.get(key, default)
+        v = self._get(key, default)
         if not isinstance(v, bool):
             raise self._err(key, "true or false", v, missing=v is None)
         return v
@@ -185,6 +205,8 @@ def _apply_assumptions(path: Path, data: dict) -> list[Assumption]:
     for i, a in enumerate(data.get("assumption", [])):
         r = _Reader(path, a, f"assumption[{i}].")
         reason = r.text("reason")
+        r.allow("key", "value")
+        r.finish()
         key = a.get("key")
         if key is None:
             out.append(Assumption(reason=reason))
@@ -204,6 +226,27 @@ def _apply_assumptions(path: Path, data: dict) -> list[Assumption]:
     return out
 
 
+def _elements(path: Path, data: dict) -> tuple[ElementSpec, ...]:
+    """``[[elements]]`` tables: a string ``type`` and number / array keys (the element checks its keys
+    when the model is built: :func:`robolobes.linearize.extra_elements.element_from_spec`)."""
+    if "elements" not in data:
+        return ()
+    out = []
+    for i, er in enumerate(_Reader(path, data).tables("elements")):
+        kind = er.text("type")
+        params = {}
+        for k, v in er.t.items():
+            if k == "type":
+                continue
+            ok = (isinstance(v, (int, float)) and not isinstance(v, bool)) or (
+                isinstance(v, list) and v and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v))
+            if not ok:
+                raise er._err(k, "a number or an array of numbers", v)
+            params[k] = v
+        out.append(ElementSpec(type=kind, params=params))
+    return tuple(out)
+
+
 def _parse_robot(path: Path, data: dict) -> RobotSpec:
     assumptions = _apply_assumptions(path, data)
     r = _Reader(path, data)
@@ -217,6 +260,8 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
                           f"'links.{name}.gb_m.<x|y|z>' giving its value", gb.tolist())
         links.append(LinkSpec(name=name, mass_kg=lr.num("mass_kg", positive=True), com_m=com,
                               next_joint_m=gb, inertia_kg_m2=_inertia(lr, "inertia_kg_m2")))
+        lr.allow("ag_m")
+        lr.finish()
     joints = []
     for jr in r.tables("joints"):
         rng = np.radians(jr.vec("range_deg", 2))
@@ -227,11 +272,12 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
             stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True),
             damping_n_m_s_per_rad=jr.num("damping_n_m_s_per_rad", nonneg=True),
             range_rad=rng, gravity_compensation=jr.boolean("gravity_compensation", False)))
+        jr.finish()
     if len(links) != len(joints) + 1:
         raise CaseError(f"{path}: {len(links)} [[links]] need {len(links) - 1} [[joints]], got {len(joints)}")
     pr = r.table("payload")
     rot = np.eye(3)
-    for k, item in enumerate(pr.t.get("tcp_rotation_deg", [])):
+    for k, item in enumerate(pr._get("tcp_rotation_deg", [])):
         if (not isinstance(item, list) or len(item) != 2 or item[0] not in _ROT
                 or isinstance(item[1], bool) or not isinstance(item[1], (int, float))):
             raise pr._err("tcp_rotation_deg", 'a list of ["x"|"y"|"z", angle_deg] pairs', item)
@@ -239,6 +285,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
     payload = PayloadSpec(name=pr.text("name", "payload"), mass_kg=pr.num("mass_kg", positive=True),
                           com_m=pr.vec("ag_m", 3), tcp_m=pr.vec("ag_m", 3) + pr.vec("gb_m", 3),
                           inertia_kg_m2=_inertia(pr, "inertia_kg_m2"), tcp_rotation=rot)
+    pr.finish()
     orth = r.table("orthogonal")
     back = r.table("backlash")
     poses = {}
@@ -246,13 +293,19 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         pt = r.table("poses")
         for k in pt.t:
             poses[k] = np.radians(pt.vec(k, len(joints)))
-    return RobotSpec(
+    spec = RobotSpec(
         name=r.text("name"), links=tuple(links), joints=tuple(joints), payload=payload,
         gravity_m_per_s2=r.num("gravity_m_per_s2", nonneg=True),
         orthogonal_stiffness_n_m_per_rad=orth.num("stiffness_n_m_per_rad", positive=True),
         orthogonal_damping_n_m_s_per_rad=orth.num("damping_n_m_s_per_rad", nonneg=True),
         backlash_half_width_rad=back.num("half_width_rad", nonneg=True),
-        poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""))
+        poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""),
+        elements=_elements(path, data))
+    orth.finish()
+    back.finish()
+    r.allow("kind", "assumption", "elements")
+    r.finish()
+    return spec
 
 
 def load_robot(name_or_path: str | Path) -> RobotSpec:
@@ -274,6 +327,9 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
     except CaseError as e:
         raise CaseError(f"{path}: key 'robot' = {robot_ref!r}: {e}") from None
     robot = _parse_robot(rpath, rdata)
+    if "elements" in data:  # the case's [[elements]] add to the robot's
+        from dataclasses import replace
+        robot = replace(robot, elements=robot.elements + _elements(path, data))
 
     tr = r.table("tool")
     try:
@@ -285,12 +341,14 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
             runout_m=tuple(tr.vec("runout_um") * 1e-6) if tr.has("runout_um") else None)
     except MillingError as e:
         raise CaseError(f"{path}: [tool]: {e}") from None
+    tr.finish()
     mr = r.table("material")
     law = CuttingLaw(
         ktc_pa=mr.num("ktc_mpa", positive=True) * 1e6, krc_pa=mr.num("krc_mpa") * 1e6,
         kac_pa=mr.num("kac_mpa", 0.0) * 1e6, kte_n_per_m=mr.num("kte_n_per_mm", 0.0) * 1e3,
         kre_n_per_m=mr.num("kre_n_per_mm", 0.0) * 1e3, kae_n_per_m=mr.num("kae_n_per_mm", 0.0) * 1e3,
         name=mr.text("name", ""))
+    mr.finish()
     cr = r.table("cut")
     try:
         cut = Cut.from_feed_rate(
@@ -302,8 +360,9 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
         check_cut(tool, cut)
     except MillingError as e:
         raise CaseError(f"{path}: [cut]: {e}") from None
+    cr.finish()
     pr = r.table("pass")
-    sp = pr.t.get("start_pose")
+    sp = pr._get("start_pose")
     if isinstance(sp, str):
         if sp not in robot.poses_rad:
             raise pr._err("start_pose", f"a pose of robot {robot.name!r} ({sorted(robot.poses_rad)}) "
@@ -315,8 +374,12 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
                          approach_m=pr.num("approach_mm", 0.0, nonneg=True) * 1e-3,
                          overrun_m=pr.num("overrun_mm", 0.0, nonneg=True) * 1e-3,
                          ramp_s=pr.num("ramp_s", positive=True))
-    return MillingCase(name=r.text("name", path.stem), robot=robot, tool=tool, law=law, cut=cut,
+    pr.finish()
+    case = MillingCase(name=r.text("name", path.stem), robot=robot, tool=tool, law=law, cut=cut,
                        path=path_spec, source=r.text("source", ""))
+    r.allow("kind", "elements")
+    r.finish()
+    return case
 
 
 def load_reference(name_or_path: str | Path) -> dict:

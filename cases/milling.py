@@ -61,9 +61,22 @@ __all__ = [
     "cut_frame",
     "regeneration",
     "ToothRegeneration",
+    "principal_period",
+    "PeriodName",
+    "ANGLE_TOL_RAD",
 ]
 
 MillingMode = Literal["up", "down"]
+PeriodName = Literal["tooth", "revolution"]
+
+#: Tolerance (rad) for deciding that two spindle angles computed in floating point are equal
+#: (a regenerative delay against the pitch ``2 pi / N``, two delays against each other). The
+#: angles are sums of at most N pitches of order 1 rad, so their rounding error is below
+#: ``N * 2 pi * eps`` ~ 1e-14 rad for any real tool: 1e-9 rad is 1e5 times that, and it is far below
+#: any pitch difference that matters (1e-9 rad is 1e-6 of one SDM step even at m = 1000 steps per
+#: tooth period of an 8-tooth tool, and the Tool check lets the pitches sum to 360 deg within
+#: 1e-6 deg = 1.7e-8 rad, so pitches typed in degrees are not told apart below that anyway).
+ANGLE_TOL_RAD = 1e-9
 
 
 class MillingError(ValueError):
@@ -438,3 +451,24 @@ def regeneration(tool: Tool, cut: Cut) -> list[ToothRegeneration]:
         # zero feed still regenerates on every tooth.
         out.append(ToothRegeneration(tooth=j, cuts=best[0] > -1e-12, chip_m=best[0], delay_rad=best[1]))
     return out
+
+
+def principal_period(tool: Tool, cut: Cut) -> tuple[float, PeriodName]:
+    """The period of the cut's linear (regenerative) dynamics, and its name.
+
+    The tooth period ``T / N`` when every tooth cuts and regenerates on the surface its predecessor
+    left one equal pitch ``2 pi / N`` earlier (uniform pitch, runout too small to make a tooth skip;
+    :func:`regeneration`); otherwise (variable pitch, skipped teeth) one spindle revolution ``T``.
+    Angles are compared within :data:`ANGLE_TOL_RAD`. This is the one decision used by the lobes
+    and the time domain: a flip bifurcation is a period doubling of this period, which a
+    once-per-revolution section cannot see when N = 2.
+
+    Returns
+    -------
+    (period_s, name) : (float, {"tooth", "revolution"})
+        Period in s and which one it is.
+    """
+    pitch = 2 * math.pi / tool.teeth
+    if all(r.cuts and abs(r.delay_rad - pitch) <= ANGLE_TOL_RAD for r in regeneration(tool, cut)):
+        return cut.spindle_period_s / tool.teeth, "tooth"
+    return cut.spindle_period_s, "revolution"

@@ -14,7 +14,8 @@ import numpy as np
 
 from .milling import Cut, CuttingLaw, Tool
 
-__all__ = ["LinkSpec", "JointSpec", "PayloadSpec", "RobotSpec", "PassSpec", "MillingCase", "Assumption", "Axis"]
+__all__ = ["LinkSpec", "JointSpec", "PayloadSpec", "RobotSpec", "PassSpec", "MillingCase", "Assumption", "Axis",
+           "ElementSpec"]
 
 Axis = Literal["x", "y", "z"]
 
@@ -34,6 +35,19 @@ class Assumption:
     reason: str
     key: str | None = None
     value: float | None = None
+
+
+@dataclass(frozen=True)
+class ElementSpec:
+    """An extra model element as data: an ``[[elements]]`` table of a robot or case TOML.
+
+    ``type`` names it (``"tcp_mode"``, ``"joint_correction"``, ...); ``params`` holds its other keys
+    as in the file (units in the keys). :func:`robolobes.linearize.extra_elements.element_from_spec`
+    checks them and builds the :class:`~robolobes.linearize.Element`.
+    """
+
+    type: str
+    params: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -141,6 +155,7 @@ class RobotSpec:
     poses_rad: dict[str, np.ndarray] = field(default_factory=dict)
     assumptions: tuple[Assumption, ...] = ()
     source: str = ""
+    elements: tuple[ElementSpec, ...] = ()
 
     def __post_init__(self):
         if len(self.links) != len(self.joints) + 1:

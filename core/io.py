@@ -17,7 +17,8 @@ from typing import Iterator
 
 import numpy as np
 
-__all__ = ["atomic_path", "write_json", "write_text", "save_figure", "pyplot", "to_jsonable", "Progress", "provenance"]
+__all__ = ["atomic_path", "write_json", "write_text", "save_figure", "pyplot", "to_jsonable", "Progress", "provenance",
+           "provenance_text"]
 
 
 @contextlib.contextmanager
@@ -82,59 +83,93 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, path: str | os.PathLike, **kw) -> None:
-    """Save a matplotlib figure atomically; the format follows the suffix (png, pdf, svg)."""
+_FIGURE_TEXT_KEY = {"png": "Description", "svg": "Description", "pdf": "Subject"}
+
+
+def save_figure(fig, path: str | os.PathLike, provenance: dict | None = None, **kw) -> None:
+    """Save a matplotlib figure atomically; the format follows the suffix (png, pdf, svg).
+
+    ``provenance`` (:func:`provenance`'s dict) is recorded in the file's metadata (PNG/SVG
+    ``Description``, PDF ``Subject``) so that ``core.outdir`` recognizes the file as robolobes'."""
     target = Path(path)
+    fmt = target.suffix.lstrip(".").lower() or "png"
+    if provenance is not None and fmt in _FIGURE_TEXT_KEY:
+        kw["metadata"] = {**kw.get("metadata", {}), _FIGURE_TEXT_KEY[fmt]: provenance_text(provenance)}
     with atomic_path(target) as tmp:
-        fig.savefig(tmp, format=target.suffix.lstrip(".") or "png", **kw)
+        fig.savefig(tmp, format=fmt, **kw)
+
+
+class _LineStream:
+    """A text stream for tqdm on a non-terminal: each redraw becomes one plain line (no ``\\r``)."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def write(self, text: str) -> None:
+        text = text.replace("\r", "\n")
+        for line in text.split("\n"):
+            if line.strip():
+                self.stream.write(line.rstrip() + "\n")
+
+    def flush(self) -> None:
+        self.stream.flush()
 
 
 class Progress:
-    """A one-line progress display on stderr for long work (simulations, lobe maps, studies).
+    """Progress of long work on stderr (tqdm), as a callback ``progress(fraction, note="")``.
 
-    ``Progress("simulate")(fraction)`` redraws ``simulate  42 %  (elapsed 3.1 s, left ~4.2 s)``
-    on a terminal (carriage return) and prints a line every 10 % otherwise; ``done()`` ends the
-    line. Silent when ``enabled`` is False.
+    ``Progress("simulate")(0.42, "steel")`` updates a tqdm bar ``simulate  42%|####  | [00:03<00:04, steel]``.
+    On a terminal the bar redraws in place (at most 10 times a second); on a non-terminal (a log
+    file) it writes one line at the start and at most one line per ``log_interval_s`` (default
+    60 s), then the final line: a few lines for a long run, not one per update. ``enabled=False``
+    (``--quiet``) writes nothing. ``done()`` (or leaving a ``with`` block, also on Ctrl-C) closes
+    the bar. ``sub(lo, hi)`` maps a sub-task's 0..1 onto ``[lo, hi]`` of this bar.
     """
 
-    def __init__(self, label: str, enabled: bool = True, stream=None):
+    def __init__(self, label: str, enabled: bool = True, stream=None, log_interval_s: float = 60.0):
         import sys
-        import time
+
+        from tqdm.auto import tqdm
 
         self.label, self.enabled = label, enabled
-        self.stream = stream if stream is not None else sys.stderr
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.t0 = time.perf_counter()
-        self._last = -1
+        stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(stream, "isatty", lambda: False)())
+        self._bar = tqdm(total=1000, desc=label, disable=not enabled, leave=True, dynamic_ncols=self.tty,
+                         file=stream if self.tty else _LineStream(stream),
+                         mininterval=0.1 if self.tty else log_interval_s, miniters=1,
+                         bar_format="{desc} {percentage:3.0f}%|{bar:20}| [{elapsed}<{remaining}{postfix}]"
+                         if self.tty else "{desc} {percentage:3.0f}% [elapsed {elapsed}, left ~{remaining}{postfix}]")
 
     def __call__(self, fraction: float, note: str = "") -> None:
-        import time
-
-        if not self.enabled:
+        if not self.enabled or self._bar.disable:
             return
-        pct = int(100 * min(max(fraction, 0.0), 1.0))
-        step = 1 if self.tty else 10
-        if pct // step == self._last // step and note == "":
-            return
-        self._last = pct
-        el = time.perf_counter() - self.t0
-        left = f", left ~{el * (1 - fraction) / fraction:.0f} s" if 0 < fraction < 1 else ""
-        msg = f"{self.label} {pct:3d} %  (elapsed {el:.0f} s{left}){'  ' + note if note else ''}"
-        if self.tty:
-            self.stream.write("\r" + msg.ljust(78))
-        else:
-            self.stream.write(msg + "\n")
-        self.stream.flush()
+        n = int(round(1000 * min(max(float(fraction), 0.0), 1.0)))
+        if note:
+            self._bar.set_postfix_str(note, refresh=False)
+        if n > self._bar.n:
+            self._bar.update(n - self._bar.n)
+        elif note:
+            self._bar.refresh() if self.tty else None
 
     def done(self, note: str = "") -> None:
-        import time
+        """Complete and close the bar."""
+        if self.enabled and not self._bar.disable:
+            if note:
+                self._bar.set_postfix_str(note, refresh=False)
+            if self.tty:
+                self._bar.update(1000 - self._bar.n)
+            else:
+                self._bar.n = 1000  # close() writes the final line once
+        self.close()
 
-        if not self.enabled:
-            return
-        el = time.perf_counter() - self.t0
-        msg = f"{self.label} done in {el:.1f} s{'  ' + note if note else ''}"
-        self.stream.write(("\r" + msg.ljust(78) + "\n") if self.tty else msg + "\n")
-        self.stream.flush()
+    def close(self) -> None:
+        self._bar.close()
+
+    def __enter__(self) -> "Progress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def sub(self, lo: float, hi: float):
         """A callback mapping a sub-task's 0..1 onto ``[lo, hi]`` of this display."""
@@ -154,3 +189,11 @@ def provenance(inputs) -> dict:
 
     text = json.dumps(to_jsonable(inputs), sort_keys=True, separators=(",", ":"))
     return {"robolobes_version": __version__, "inputs_sha256": hashlib.sha256(text.encode()).hexdigest()}
+
+
+def provenance_text(prov: dict) -> str:
+    """``"robolobes_version=0.1.0 inputs_sha256=<64 hex>"``: :func:`provenance` as one header line.
+
+    Writers put it where their format allows text (CSV comment, UFF id line, figure metadata) so
+    that ``core.outdir.read_provenance`` recognizes the file as written by robolobes."""
+    return f"robolobes_version={prov['robolobes_version']} inputs_sha256={prov['inputs_sha256']}"

@@ -287,10 +287,11 @@ def steel_damping_by_time_domain(settings, steel, variant="basic", progress=None
 
 
 def _simulate(case, variant, settings, t_end, damping_scale=1.0, stats_window=None, progress=None):
-    from robolobes.timedomain.simulate import SimulationProblem, simulate
-    pb = SimulationProblem(case=case, variant=variant, damping_scale=damping_scale, t_end_s=t_end,
-                           linearized=settings.td_linearized, stats_window_s=stats_window)
-    return simulate(pb, progress=progress)
+    from robolobes.linearize.model import build_model
+    from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
+    robot = build_model(case.robot, variant, damping_scale=damping_scale)
+    pb = SimulationProblem(robot, case, t_end_s=t_end, stats_window_s=stats_window)
+    return simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(), progress=progress)
 
 
 def section_time_domain(settings, cases_, paper, progress, figdir: Path, lobes_damping: dict) -> dict:
@@ -323,11 +324,11 @@ def section_time_domain(settings, cases_, paper, progress, figdir: Path, lobes_d
 
 
 def _td_entry(r) -> dict:
-    s = r.summary
+    s = r.summary.to_json()
     keys = ("stable", "chatter_freq_hz", "nonsynchronous_peak_hz", "stability", "verdict_basis", "force_stats",
             "force_stats_paper_axes", "force_stats_window_s", "roughness_um", "tcp_deviation_y_um", "wall_y_um",
             "steady_window_s", "note")
-    e = {k: s[k] for k in keys if k in s}
+    e = {k: s[k] for k in keys if s[k] is not None or k == "stable"}
     e["t_end_s"] = float(r.t_s[-1])
     e["wall_s"] = r.stats["wall_time_s"]
     e["steps"] = r.stats["steps"]
@@ -370,7 +371,7 @@ def _plot_td(sims, path):
             r2 = sims[k]
             ax.plot(r2.t_s, np.asarray(r2.force_paper_axes_n)[:, 1], lw=0.4, alpha=0.8,
                     label=f"Fy, damping x{k[2]:g}")
-        st = r.summary.get("stable")
+        st = r.summary.stable
         ax.set_title(f"{mat} [basic]: {'stable' if st else 'unstable' if st is False else 'no verdict'}", fontsize=10)
         ax.set_ylabel("force (N, paper axes)")
         ax.legend(fontsize=7, loc="lower left")
@@ -425,7 +426,7 @@ def _plot_main(results, lobes_out, sims, path):
         t0 = r.steady_window_s[0]
         sel = (np.asarray(r.t_s) >= t0) & (np.asarray(r.t_s) <= t0 + 0.6)
         ax.plot(np.asarray(r.t_s)[sel] - t0, np.asarray(r.force_paper_axes_n)[sel, 1], lw=0.5, color=col,
-                label=f"{mat}: {'stable' if r.summary.get('stable') else 'unstable'}")
+                label=f"{mat}: {'stable' if r.summary.stable else 'unstable'}")
     ax.set_xlabel("time from full engagement (s)")
     ax.set_ylabel("Fy (N, paper axes)")
     ax.set_title("time domain [basic]: normal force", fontsize=10)
@@ -652,7 +653,7 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
                          "notes": ["The Tab. 7 pose has A3 = -212.14 deg = +147.86 deg, 2.86 deg past the +145 deg "
                                    "datasheet limit: accepted with a warning.",
                                    "Forces in the paper's axes: Fx along the feed (force on the tool), Fy normal "
-                                   "pointing into the material (see timedomain.cutting)."]}
+                                   "pointing into the material (see timedomain.workpiece_force)."]}
         prog(0.0, "modes")
         results["modes"] = section_modes(settings, pas, cases_["aluminium"], lambda f: prog(0.05 * f, "modes"), work)
         prog(0.05, "lobes")

@@ -5,15 +5,18 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from robolobes.cases import DEFAULT_CASE, load_case
-from robolobes.core.io import to_jsonable
+from robolobes.core.errors import BadInput
+from robolobes.core.io import provenance, to_jsonable
+from robolobes.core.outdir import check_output_file, cli_inputs, user_path_errors
 from .model import VARIANTS, FlexibleRobot, build_model
 
-__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "modes_summary"]
+__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "modes_summary", "MAX_FRF_POINTS"]
+
+MAX_FRF_POINTS = 100_000  # H is 3 x 3 x n complex (144 B per frequency): 14 MB; a direct solve per frequency
 
 
 def add_pose_arguments(p: argparse.ArgumentParser) -> None:
@@ -32,14 +35,16 @@ def _parse_q_deg(text: str, n: int) -> np.ndarray:
     try:
         vals = [float(t) for t in text.split(",")]
     except ValueError:
-        raise ValueError(f"--q-deg must be {n} comma-separated numbers in degrees, got {text!r}") from None
+        raise BadInput(f"--q-deg must be {n} comma-separated numbers in degrees, got {text!r}") from None
     if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise ValueError(f"--q-deg must be {n} finite comma-separated numbers in degrees, got {text!r}")
+        raise BadInput(f"--q-deg must be {n} finite comma-separated numbers in degrees, got {text!r}")
     return np.radians(vals)
 
 
-def resolve_pose(args: argparse.Namespace):
+def resolve_pose(args: argparse.Namespace, case=None):
     """Case, robot model and motor angles selected by :func:`add_pose_arguments` options.
+
+    ``case``: the already loaded ``args.case`` (loaded here if None).
 
     Returns
     -------
@@ -51,7 +56,7 @@ def resolve_pose(args: argparse.Namespace):
     """
     from .kinematics import check_limits
 
-    case = load_case(args.case)
+    case = case if case is not None else load_case(args.case)
     robot = build_model(case.robot, args.variant, damping_scale=getattr(args, "damping_scale", 1.0) or 1.0)
     if args.q_deg is not None:
         theta, label = _parse_q_deg(args.q_deg, case.robot.n_joints), "q = " + args.q_deg + " deg"
@@ -61,6 +66,9 @@ def resolve_pose(args: argparse.Namespace):
         pas = Pass.from_case(case)
         theta, label = pas.theta_at_s(args.path_s), f"pass s = {args.path_s:g} m"
     elif args.pose is not None:
+        if args.pose not in case.robot.poses_rad:
+            raise BadInput(f"--pose {args.pose!r}: robot {case.robot.name!r} has no pose {args.pose!r}; known: "
+                           f"{', '.join(sorted(case.robot.poses_rad))}")
         theta, label = case.robot.pose(args.pose), f"pose {args.pose}"
         check_limits(case.robot, theta)
     else:
@@ -105,6 +113,7 @@ def run_modes(args) -> int:
     s = modes_summary(robot, theta, case)
     if args.json:
         import json
+        s["provenance"] = provenance(cli_inputs(args, case=case))
         print(json.dumps(to_jsonable(s), indent=2))
         return 0
     print(f"{robot.describe()}")
@@ -130,18 +139,24 @@ def run_frf(args) -> int:
     from .frf_io import plot_bode, write_frf
     from .linear import linearize
 
-    if not (0 <= args.fmin_hz < args.fmax_hz) or args.n < 2:
-        raise ValueError(f"need 0 <= --fmin-hz < --fmax-hz and --n >= 2, got {args.fmin_hz}, {args.fmax_hz}, {args.n}")
-    out = Path(args.out)
-    if out.suffix.lower() not in (".csv", ".uff", ".unv"):
-        raise ValueError(f"--out {out} must end in .csv, .uff or .unv")
-    case, robot, theta, label = resolve_pose(args)
+    if not (math.isfinite(args.fmax_hz) and 0 <= args.fmin_hz < args.fmax_hz):
+        raise BadInput(f"need 0 <= --fmin-hz < --fmax-hz (finite), got {args.fmin_hz}, {args.fmax_hz}")
+    if not 2 <= args.n <= MAX_FRF_POINTS:
+        raise BadInput(f"--n must be between 2 and {MAX_FRF_POINTS} frequencies, got {args.n}")
+    case = load_case(args.case)
+    inputs = cli_inputs(args, case=case)
+    out = check_output_file(args.out, (".csv", ".uff", ".unv"), inputs)
+    png = check_output_file(out.with_suffix(".png"), (".png",), inputs, name="the Bode plot beside --out,")
+    case, robot, theta, label = resolve_pose(args, case)
     lin = linearize(robot, theta)
     w = 2 * math.pi * np.linspace(args.fmin_hz, args.fmax_hz, args.n)
     frf = lin.frf(w, frame=args.frame, feed_direction=case.cut.feed_direction)
-    write_frf(frf, out)
-    png = out.with_suffix(".png")
-    plot_bode(frf, png, title=f"{case.name} [{robot.variant}], {label}: tool-tip receptance ({args.frame} frame)")
+    prov = provenance(inputs)
+    with user_path_errors(out):
+        write_frf(frf, out, provenance=prov)
+    with user_path_errors(png):
+        plot_bode(frf, png, title=f"{case.name} [{robot.variant}], {label}: tool-tip receptance ({args.frame} frame)",
+                  provenance=prov)
     print(f"wrote {out} and {png}")
     return 0
 

@@ -8,19 +8,44 @@ UFF58: one dataset per (output, input) pair, function type 4 (FRF), ordinate dis
 (type 8) over force (13), node 1, directions +1/+2/+3 for the frame's x/y/z axes, evenly spaced
 frequencies in Hz (UFF's own unit), complex128 data. pyuff is used because UFF is a fixed-column
 legacy format with many flags; a hand-written writer would be long and easy to get subtly wrong.
+
+Measured FRF sets (``robolobes identify``): a directory with ``poses.csv``
+(``pose,q1_deg,...,q6_deg``, optional ``case`` column) and one file per pose, ``<pose>.uff|.unv``
+or ``<pose>.csv``; a UFF dataset whose ``id1`` holds ``pose <name>`` (or ``pose=<name>``) belongs
+to that pose whatever the file is called. Read by :func:`read_frf_set`:
+
+* UFF58 ordinate types 8 (displacement), 11 (velocity), 12 (acceleration) over force (13), in the
+  units of ``ordinate_axis_units_lab`` (m, mm, um; m/s, mm/s; m/s^2, mm/s^2, g; ``NONE`` = SI)
+  and ``orddenom_axis_units_lab`` (N, kN; ``NONE`` = N), converted to receptance in m/N
+  (``H_x = H_v / (i w) = -H_a / w^2``; lines at 0 Hz of mobility or accelerance are dropped);
+* directions ``rsp_dir`` / ``ref_dir`` = +-1, 2, 3 for the frame's x, y, z, sign kept; the frame
+  from ``id2`` (``frame base`` or ``frame cut``), base by default;
+* CSV: the columns :func:`write_frf` writes (any subset of the pairs), frame from the header;
+* any subset of the pairs, and poses (even pairs) with different frequency axes.
+
+Bad input raises :class:`~robolobes.core.errors.BadInput` naming the file and the value: NaN,
+a frequency axis not increasing, a pose not in ``poses.csv``, unknown ordinate types, units or
+directions.
 """
 
 from __future__ import annotations
 
+import csv
 import math
+import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from robolobes.core.io import atomic_path, pyplot, save_figure
+from robolobes.core.errors import BadInput
+from robolobes.core.io import atomic_path, provenance_text, pyplot, save_figure
 from .linear import FRF
 
-__all__ = ["write_frf", "read_frf", "plot_bode"]
+__all__ = ["write_frf", "read_frf", "plot_bode", "MeasuredPair", "PoseFRF", "FRFSet", "read_frf_set",
+           "write_frf_set", "G_M_PER_S2"]
+
+G_M_PER_S2 = 9.80665  # standard gravity, for accelerances in g
 
 _FMT = {".csv": "csv", ".uff": "uff", ".unv": "uff"}
 
@@ -32,8 +57,11 @@ def _fmt(path: Path) -> str:
         raise ValueError(f"FRF file {path} must end in .csv, .uff or .unv (UFF58)") from None
 
 
-def write_frf(frf: FRF, path: str | Path) -> Path:
-    """Write an FRF to ``path`` (format from the suffix), atomically. Returns the path."""
+def write_frf(frf: FRF, path: str | Path, provenance: dict | None = None) -> Path:
+    """Write an FRF to ``path`` (format from the suffix), atomically. Returns the path.
+
+    ``provenance`` (``core.io.provenance(inputs)``) is recorded in the CSV's first header line or
+    in the UFF58 id4 / id5 lines (80 characters each)."""
     path = Path(path)
     fmt = _fmt(path)
     H = np.asarray(frf.H)
@@ -47,7 +75,8 @@ def write_frf(frf: FRF, path: str | Path) -> Path:
                     cols += [H[i, j].real, H[i, j].imag]
                     names += [f"H_{frf.labels[i]}_{frf.labels[j]}_re_m_per_n", f"H_{frf.labels[i]}_{frf.labels[j]}_im_m_per_n"]
             header = f"# tool-tip receptance (m/N), frame {frf.frame}, axes rows (base coords): " + \
-                     "; ".join(" ".join(f"{v:.12g}" for v in row) for row in np.asarray(frf.axes)) + "\n" + ",".join(names)
+                     "; ".join(" ".join(f"{v:.12g}" for v in row) for row in np.asarray(frf.axes)) + \
+                     (f"; {provenance_text(provenance)}" if provenance else "") + "\n" + ",".join(names)
             np.savetxt(tmp, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.12e")
         else:
             import pyuff
@@ -65,7 +94,8 @@ def write_frf(frf: FRF, path: str | Path) -> Path:
                 for j in range(n_in):
                     sets.append(pyuff.prepare_58(
                         binary=0, id1=f"robolobes receptance H_{frf.labels[i]}_{frf.labels[j]}",
-                        id2=f"frame {frf.frame}", func_type=4, rsp_node=1, rsp_dir=i + 1, ref_node=1,
+                        id2=f"frame {frf.frame}", func_type=4, **_uff_ids(provenance), ordinate_axis_units_lab="m",
+                        orddenom_axis_units_lab="N", rsp_node=1, rsp_dir=i + 1, ref_node=1,
                         ref_dir=j + 1, ord_data_type=6, num_pts=nf, abscissa_spacing=1,
                         abscissa_min=float(f[0]), abscissa_inc=float(df[0]), abscissa_spec_data_type=18,
                         ordinate_spec_data_type=8, orddenom_spec_data_type=13,
@@ -74,36 +104,332 @@ def write_frf(frf: FRF, path: str | Path) -> Path:
     return path
 
 
-def read_frf(path: str | Path, frame: str = "base") -> FRF:
-    """Read an FRF written by :func:`write_frf` (CSV or UFF58). Shape (n_out, n_in, F)."""
+def _uff_ids(provenance: dict | None) -> dict:
+    if not provenance:
+        return {}
+    return {"id4": f"robolobes_version={provenance['robolobes_version']}",
+            "id5": f"inputs_sha256={provenance['inputs_sha256']}"}
+
+
+def read_frf(path: str | Path, frame: str | None = None) -> FRF:
+    """Read an FRF written by :func:`write_frf` (CSV or UFF58), shape (n_out, n_in, F), m/N.
+
+    The frame is the file's (``frame`` overrides it). Every pair of the square matrix must be
+    present on one frequency axis; for subsets and other ordinate types see :func:`read_frf_set`.
+    """
     path = Path(path)
-    fmt = _fmt(path)
-    if fmt == "csv":
-        with open(path) as fh:
-            first = fh.readline()
-            names = fh.readline().strip().split(",")
-        data = np.loadtxt(path, delimiter=",", skiprows=2)
-        f = data[:, 0]
-        n = int(round(math.sqrt((len(names) - 1) / 2)))
-        H = (data[:, 1::2] + 1j * data[:, 2::2]).T.reshape(n, n, -1)
-        labels = tuple(names[1 + 2 * i].split("_")[2] for i in range(0, n * n, n))
-    else:
-        import pyuff
+    file_frame, pairs = _read_pairs(path)
+    if not pairs:
+        raise BadInput(f"{path}: no FRF data")
+    n = int(round(math.sqrt(len(pairs))))
+    omega = pairs[0].omega
+    H = np.zeros((n, n, len(omega)), dtype=complex)
+    seen = set()
+    for p in pairs:
+        if p.out_axis >= n or p.in_axis >= n or len(p.omega) != len(omega) or not np.allclose(p.omega, omega):
+            raise BadInput(f"{path}: not a full square FRF matrix on one frequency axis; use read_frf_set")
+        H[p.out_axis, p.in_axis] = p.out_sign * p.in_sign * p.H
+        seen.add((p.out_axis, p.in_axis))
+    if len(seen) != n * n:
+        raise BadInput(f"{path}: pairs {sorted(seen)} do not form a full {n} x {n} matrix; use read_frf_set")
+    frame = frame or file_frame
+    labels = ("x", "y", "z")[:n] if frame == "base" else ("feed", "normal", "axial")[:n]
+    return FRF(omega=omega, H=H, frame=frame, axes=np.eye(3), labels=labels)
+
+
+# ----------------------------------------------------------------------------------------------
+# measured sets
+
+
+@dataclass(frozen=True)
+class MeasuredPair:
+    """One measured FRF: response along ``out_sign`` x axis ``out_axis`` per force along ``in_sign`` x ``in_axis``.
+
+    Attributes
+    ----------
+    out_axis, in_axis : int
+        0, 1, 2 = the frame's x, y, z (cut frame: feed, normal, axial).
+    out_sign, in_sign : {+1, -1}
+    omega : array (F,), rad/s, increasing
+    H : complex array (F,), m/N: the receptance as measured along the signed directions, i.e.
+        ``out_sign * in_sign * H_frame[out_axis, in_axis]``.
+    """
+
+    out_axis: int
+    out_sign: int
+    in_axis: int
+    in_sign: int
+    omega: np.ndarray
+    H: np.ndarray
+
+
+@dataclass(frozen=True)
+class PoseFRF:
+    """The pairs measured at one pose.
+
+    Attributes
+    ----------
+    pose : str
+    theta : array (n_joints,), rad     commanded motor angles (``poses.csv``)
+    frame : {"base", "cut"}
+    pairs : tuple of MeasuredPair
+    """
+
+    pose: str
+    theta: np.ndarray
+    frame: str
+    pairs: tuple
+
+
+@dataclass(frozen=True)
+class FRFSet:
+    """A tool-tip FRF measurement set (``kind = "frf"``)."""
+
+    path: Path
+    poses: tuple
+    case: str | None = None
+    variant: str | None = None
+    kind: str = "frf"
+
+    @property
+    def n_lines(self) -> int:
+        return sum(len(p.omega) for pf in self.poses for p in pf.pairs)
+
+
+_LEN = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "none": 1.0, "": 1.0}
+_UNITS = {8: _LEN,
+          11: {"m/s": 1.0, "mm/s": 1e-3, "none": 1.0, "": 1.0},
+          12: {"m/s^2": 1.0, "m/s2": 1.0, "m/s**2": 1.0, "mm/s^2": 1e-3, "g": G_M_PER_S2, "none": 1.0, "": 1.0}}
+_FORCE = {"n": 1.0, "kn": 1e3, "none": 1.0, "": 1.0}
+_POSE_RE = re.compile(r"\bpose\s*[=:]?\s*([A-Za-z0-9_.+-]+)")
+_FRAME_RE = re.compile(r"\bframe\s*[=:]?\s*([A-Za-z]+)")
+
+
+def _frame_of(text: str, where: str) -> str:
+    m = _FRAME_RE.search(text or "")
+    if not m:
+        return "base"
+    fr = m.group(1).lower()
+    if fr not in ("base", "cut"):
+        raise BadInput(f"{where}: frame {m.group(1)!r}; valid: base, cut")
+    return fr
+
+
+def _check_axis(f_hz, H, where: str) -> None:
+    if len(f_hz) < 2:
+        raise BadInput(f"{where}: needs at least 2 frequency lines, got {len(f_hz)}")
+    if not np.all(np.isfinite(f_hz)) or not np.all(np.isfinite(H)):
+        raise BadInput(f"{where}: NaN or inf in the frequencies or the FRF values")
+    if np.any(np.diff(f_hz) <= 0) or f_hz[0] < 0:
+        i = int(np.argmax(np.diff(f_hz) <= 0)) if np.any(np.diff(f_hz) <= 0) else 0
+        raise BadInput(f"{where}: the frequency axis must be >= 0 and increasing; it is not at line {i} "
+                       f"({f_hz[i]:g} Hz)")
+
+
+def _dir(code, where: str, which: str) -> tuple[int, int]:
+    try:
+        c = int(code)
+    except (TypeError, ValueError):
+        c = 0
+    if abs(c) not in (1, 2, 3):
+        raise BadInput(f"{where}: {which} = {code!r}; valid: +-1, +-2, +-3 (x, y, z translations)")
+    return abs(c) - 1, 1 if c > 0 else -1
+
+
+def _to_receptance(f_hz, H, ordinate: int, units: str, denom: str, where: str):
+    """Convert a UFF ordinate (8/11/12 over force) in its units to receptance in m/N; drop 0 Hz lines
+    that cannot be converted. Returns (f_hz, H)."""
+    table = _UNITS.get(ordinate)
+    if table is None:
+        raise BadInput(f"{where}: ordinate_spec_data_type = {ordinate}; valid: 8 (displacement), 11 (velocity), "
+                       "12 (acceleration) over force")
+    u = (units or "").strip().lower()
+    if u not in table:
+        raise BadInput(f"{where}: ordinate unit {units!r} for type {ordinate}; valid: "
+                       f"{', '.join(k for k in table if k)} (or NONE = SI)")
+    d = (denom or "").strip().lower()
+    if d not in _FORCE:
+        raise BadInput(f"{where}: force unit {denom!r}; valid: N, kN (or NONE = N)")
+    H = np.asarray(H, dtype=complex) * table[u] / _FORCE[d]
+    if ordinate == 8:
+        return f_hz, H
+    keep = f_hz > 0
+    f_hz, H = f_hz[keep], H[keep]
+    w = 2 * math.pi * f_hz
+    return f_hz, (H / (1j * w) if ordinate == 11 else -H / w ** 2)
+
+
+def _uff_sets(path: Path) -> list[dict]:
+    import pyuff
+
+    try:
         sets = pyuff.UFF(str(path)).read_sets()
-        sets = [sets] if isinstance(sets, dict) else sets
-        sets = [s for s in sets if s.get("type") == 58]
-        n = int(round(math.sqrt(len(sets))))
-        f = np.asarray(sets[0]["x"], dtype=float)
-        H = np.zeros((n, n, len(f)), dtype=complex)
-        for s in sets:
-            H[abs(int(s["rsp_dir"])) - 1, abs(int(s["ref_dir"])) - 1] = s["data"]
-        labels = ("x", "y", "z")[:n]
-    if not np.all(np.isfinite(f)) or not np.all(np.isfinite(H)):
-        raise ValueError(f"{path}: NaN or inf in the FRF data")
-    return FRF(omega=2 * math.pi * f, H=H, frame=frame, axes=np.eye(3), labels=labels)
+    except Exception as e:  # pyuff raises bare exceptions on malformed files
+        raise BadInput(f"{path}: not a readable UFF file ({e})") from None
+    sets = [sets] if isinstance(sets, dict) else list(sets)
+    return [s for s in sets if s.get("type") == 58]
 
 
-def plot_bode(frf: FRF, path: str | Path, title: str = "") -> Path:
+def _uff_pair(s: dict, where: str) -> tuple[str | None, str, MeasuredPair]:
+    if int(s.get("orddenom_spec_data_type", 13)) != 13:
+        raise BadInput(f"{where}: orddenom_spec_data_type = {s.get('orddenom_spec_data_type')}; valid: 13 (force)")
+    f = np.asarray(s["x"], dtype=float)
+    data = np.asarray(s["data"])
+    if not np.iscomplexobj(data):
+        raise BadInput(f"{where}: real data (ord_data_type {s.get('ord_data_type')}); an FRF must be complex (5 or 6)")
+    _check_axis(f, data, where)
+    f, H = _to_receptance(f, data, int(s.get("ordinate_spec_data_type", 8)), str(s.get("ordinate_axis_units_lab", "")),
+                          str(s.get("orddenom_axis_units_lab", "")), where)
+    o, so = _dir(s.get("rsp_dir"), where, "rsp_dir")
+    i, si = _dir(s.get("ref_dir"), where, "ref_dir")
+    m = _POSE_RE.search(str(s.get("id1", "")))
+    pose = m.group(1) if m else None
+    return pose, _frame_of(str(s.get("id2", "")), where), MeasuredPair(o, so, i, si, 2 * math.pi * f, H)
+
+
+_CSV_LABELS = {"x": 0, "y": 1, "z": 2, "feed": 0, "normal": 1, "axial": 2}
+
+
+def _csv_pairs(path: Path) -> tuple[str, list[MeasuredPair]]:
+    with open(path) as fh:
+        first = fh.readline()
+        names = fh.readline().strip().split(",")
+    if not first.startswith("#") or not names or names[0] != "freq_hz":
+        raise BadInput(f"{path}: not an FRF CSV written by robolobes frf (a '# ...' line, then freq_hz,H_<out>_<in>_re_m_per_n,...)")
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=2, ndmin=2)
+    except ValueError as e:
+        raise BadInput(f"{path}: {e}") from None
+    if data.shape[1] != len(names):
+        raise BadInput(f"{path}: {data.shape[1]} columns of numbers for {len(names)} names")
+    frame = _frame_of(first, str(path))
+    f = data[:, 0]
+    pairs = []
+    for c in range(1, len(names), 2):
+        m = re.fullmatch(r"H_(-?)([a-z]+)_(-?)([a-z]+)_re(_m_per_n)?", names[c])
+        if not m or m.group(2) not in _CSV_LABELS or m.group(4) not in _CSV_LABELS or c + 1 >= len(names) \
+                or names[c + 1] != names[c].replace("_re", "_im"):
+            raise BadInput(f"{path}: column {names[c]!r}; valid: H_<out>_<in>_re_m_per_n then _im_m_per_n, "
+                           "<out>/<in> among x, y, z, feed, normal, axial (a leading - flips the sign)")
+        H = data[:, c] + 1j * data[:, c + 1]
+        _check_axis(f, H, f"{path} column {names[c]}")
+        pairs.append(MeasuredPair(_CSV_LABELS[m.group(2)], -1 if m.group(1) else 1, _CSV_LABELS[m.group(4)],
+                                  -1 if m.group(3) else 1, 2 * math.pi * f, H))
+    return frame, pairs
+
+
+def _read_pairs(path: Path) -> tuple[str, list[MeasuredPair]]:
+    """(frame, pairs) of one FRF file, any pose."""
+    if _fmt(path) == "csv":
+        return _csv_pairs(path)
+    frames, pairs = set(), []
+    for k, s in enumerate(_uff_sets(path)):
+        _, fr, pair = _uff_pair(s, f"{path} dataset {k + 1}")
+        frames.add(fr)
+        pairs.append(pair)
+    if len(frames) > 1:
+        raise BadInput(f"{path}: datasets in different frames {sorted(frames)}")
+    return (frames.pop() if frames else "base"), pairs
+
+
+def _read_poses_csv(path: Path) -> tuple[dict, str | None]:
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+            names = rows[0].keys() if rows else []
+    except (OSError, UnicodeDecodeError) as e:
+        raise BadInput(f"{path}: cannot read ({e})") from None
+    qcols = [c for c in names if re.fullmatch(r"q\d+_deg", c or "")]
+    if "pose" not in names or not qcols:
+        raise BadInput(f"{path}: needs columns pose,q1_deg,...,q6_deg (commanded motor angles, degrees)")
+    qcols.sort(key=lambda c: int(c[1:-4]))
+    poses, cases = {}, set()
+    for k, row in enumerate(rows, start=2):
+        name = (row["pose"] or "").strip()
+        if not name or name in poses:
+            raise BadInput(f"{path} line {k}: pose name {name!r} empty or repeated")
+        try:
+            q = np.array([float(row[c]) for c in qcols])
+        except (TypeError, ValueError):
+            raise BadInput(f"{path} line {k}: angles {[row[c] for c in qcols]} must be numbers (degrees)") from None
+        if not np.all(np.isfinite(q)):
+            raise BadInput(f"{path} line {k}: angles must be finite, got {q.tolist()}")
+        poses[name] = np.radians(q)
+        if row.get("case"):
+            cases.add(row["case"].strip())
+    if not poses:
+        raise BadInput(f"{path}: no poses")
+    if len(cases) > 1:
+        raise BadInput(f"{path}: column case names several cases {sorted(cases)}; one set is one case")
+    return poses, (cases.pop() if cases else None)
+
+
+def read_frf_set(path: str | Path) -> FRFSet:
+    """Read a measured FRF set (a directory, see the module doc). Files are only read.
+
+    Returns
+    -------
+    FRFSet with one :class:`PoseFRF` per pose that has data, in ``poses.csv`` order.
+    """
+    d = Path(path)
+    if d.is_file():
+        d = d.parent
+    poses, case = _read_poses_csv(d / "poses.csv")
+    found: dict[str, list] = {name: [] for name in poses}
+    frames: dict[str, set] = {name: set() for name in poses}
+    for f in sorted(d.iterdir()):
+        if f.name == "poses.csv" or f.suffix.lower() not in _FMT:
+            continue
+        if _fmt(f) == "csv":
+            if f.stem not in poses:
+                raise BadInput(f"{f}: pose {f.stem!r} is not in {d / 'poses.csv'} (poses: {', '.join(poses)})")
+            fr, pairs = _csv_pairs(f)
+            found[f.stem] += pairs
+            frames[f.stem].add(fr)
+            continue
+        for k, s in enumerate(_uff_sets(f)):
+            where = f"{f} dataset {k + 1}"
+            pose, fr, pair = _uff_pair(s, where)
+            pose = pose or f.stem
+            if pose not in poses:
+                raise BadInput(f"{where}: pose {pose!r} is not in {d / 'poses.csv'} (poses: {', '.join(poses)})")
+            found[pose].append(pair)
+            frames[pose].add(fr)
+    out = []
+    for name, pairs in found.items():
+        if not pairs:
+            continue
+        if len(frames[name]) > 1:
+            raise BadInput(f"{d}: pose {name} measured in several frames {sorted(frames[name])}")
+        out.append(PoseFRF(pose=name, theta=poses[name], frame=frames[name].pop(), pairs=tuple(pairs)))
+    if not out:
+        raise BadInput(f"{d}: no FRF file for any pose of poses.csv (<pose>.uff, .unv or .csv)")
+    return FRFSet(path=d, poses=tuple(out), case=case)
+
+
+def write_frf_set(directory: str | Path, poses_deg: dict, frfs: dict, *, fmt: str = "uff",
+                  case: str | None = None) -> Path:
+    """Write a measurement set: ``poses.csv`` and ``<pose>.<fmt>`` (full matrices, :func:`write_frf`).
+
+    ``poses_deg``: pose -> motor angles (deg); ``frfs``: pose -> :class:`FRF`. The directory must
+    not exist yet (nothing a user owns is overwritten).
+    """
+    d = Path(directory)
+    if d.exists():
+        raise BadInput(f"{d} exists; give a new directory for the FRF set")
+    d.mkdir(parents=True)
+    n = len(next(iter(poses_deg.values())))
+    lines = ["pose," + ",".join(f"q{i + 1}_deg" for i in range(n)) + (",case" if case else "")]
+    for name, q in poses_deg.items():
+        lines.append(name + "," + ",".join(f"{float(v):.12g}" for v in q) + (f",{case}" if case else ""))
+    with atomic_path(d / "poses.csv") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    for name, frf in frfs.items():
+        write_frf(frf, d / f"{name}.{fmt}")
+    return d
+
+
+def plot_bode(frf: FRF, path: str | Path, title: str = "", provenance: dict | None = None) -> Path:
     """Bode plot (magnitude in um/N, phase in deg) of the direct and cross terms, saved atomically."""
     plt = pyplot()
 
@@ -125,6 +451,6 @@ def plot_bode(frf: FRF, path: str | Path, title: str = "") -> Path:
     ax2.grid(True, alpha=0.3)
     ax1.set_title(title or f"tool-tip receptance, {frf.frame} frame")
     fig.tight_layout()
-    save_figure(fig, path, dpi=120)
+    save_figure(fig, path, provenance=provenance, dpi=120)
     plt.close(fig)
     return Path(path)

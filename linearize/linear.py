@@ -27,6 +27,8 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
+from robolobes.core.threads import blas_single_threaded
+
 from .model import FlexibleRobot, element_forces, element_tangents, rigid_q, tcp_jacobian, tcp_pose
 
 __all__ = [
@@ -475,6 +477,7 @@ class LinearBatch:
     def __len__(self):
         return self.M.shape[0]
 
+    @blas_single_threaded
     def modes(self) -> Modes:
         """Complex modes at every pose (base frame), leading axis P."""
         return modal_analysis(self.M, self.C, self.K, self.J)
@@ -483,11 +486,13 @@ class LinearBatch:
         """Static TCP compliance (P, 3, 3), m/N, base frame."""
         return self.J @ np.linalg.solve(self.K, np.swapaxes(self.J, -1, -2))
 
+    @blas_single_threaded
     def frf(self, omega_rad_s: np.ndarray, modes: Modes | None = None) -> np.ndarray:
         """Tool-tip receptance (P, 3, 3, F), m/N, base frame, by modal superposition."""
         return frf_modal(self.modes() if modes is None else modes, omega_rad_s)
 
 
+@blas_single_threaded
 def linearize_many(robot: FlexibleRobot, thetas: np.ndarray, progress=None) -> LinearBatch:
     """Linearize at many poses. ``thetas``: (P, n_joints) motor angles in rad.
 

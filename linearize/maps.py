@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robolobes.core.threads import blas_single_threaded
+
 from .kinematics import KinematicsError, JointLimitWarning, ik
 from .linear import linearize_many
 from .model import FlexibleRobot
@@ -72,6 +74,7 @@ def _fill(robot, thetas, positions, s, failures, progress) -> PoseMap:
                    tcp_stiffness_n_per_m=stiff, path_s_m=s, failures=tuple(failures), variant=robot.variant)
 
 
+@blas_single_threaded
 def pass_map(robot: FlexibleRobot, pas, n: int = 25, progress=None) -> PoseMap:
     """Modes and TCP stiffness at ``n`` evenly spaced points of the pass (start to end, inclusive).
 
@@ -89,6 +92,7 @@ def pass_map(robot: FlexibleRobot, pas, n: int = 25, progress=None) -> PoseMap:
     return _fill(robot, thetas, np.array([pas.tcp_position_at_s(si) for si in s]), s, [], progress)
 
 
+@blas_single_threaded
 def grid_map(robot: FlexibleRobot, positions_m: np.ndarray, orientation: np.ndarray, q_ref: np.ndarray,
              progress=None) -> PoseMap:
     """Modes and TCP stiffness over a user grid of TCP positions at one tool orientation.

@@ -348,6 +348,9 @@ def variant_elements(spec: RobotSpec, variant: str, damping_scale: float = 1.0) 
         els += [Gravity(spec.gravity_m_per_s2), GravityCompensation(axes)]
     if variant in ("orthogonal", "backlash"):
         els.append(VirtualJoints(spec.orthogonal_stiffness_n_m_per_rad, spec.orthogonal_damping_n_m_s_per_rad))
+    if spec.elements:  # [[elements]] of the robot/case TOML (tool modes, identified corrections)
+        from .extra_elements import element_from_spec
+        els += [element_from_spec(e, f"elements[{i}]") for i, e in enumerate(spec.elements)]
     return tuple(els)
 
 

@@ -15,14 +15,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import tomllib
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from robolobes.core.io import to_jsonable
+from robolobes.cases import DEFAULT_CASE, load_case
+from robolobes.core.io import Progress, provenance, to_jsonable
+from robolobes.core.outdir import check_output_file, cli_inputs, user_path_errors
 from robolobes.cases.milling import Cut, CuttingLaw, MillingError, Tool
 
 from ._errors import LobeError
@@ -34,7 +35,17 @@ from .solve import solve, stability
 from .structure import Mode, ModalStructure, PhysicalStructure
 from .zoa import ZeroOrder
 
-__all__ = ["register", "run", "read_modal_toml"]
+__all__ = ["register", "run", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
+
+# Bounds on what sets memory and run time (checked before any work). The SDM's monodromy matrix is
+# (2 n + m n_delay)^2 per speed and its cost grows as m^3: m = 400 is 10x the default and far past
+# convergence (m = 20..160 agree to 1e-3 /s on the TX200); 5000 speeds is 25x the default.
+MAX_M = 400
+MAX_N_RPM = 5000
+_MODAL_ONLY = {"--teeth": "teeth", "--diameter-mm": "diameter_mm", "--ktc-mpa": "ktc_mpa", "--krc-mpa": "krc_mpa",
+               "--kac-mpa": "kac_mpa", "--helix-deg": "helix_deg", "--pitch-deg": "pitch_deg"}
+_ROBOT_ONLY = {"--case": "case", "--variant": "variant", "--pose": "pose", "--path-s": "path_s", "--q-deg": "q_deg"}
+_FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -45,17 +56,17 @@ def register(subparsers) -> argparse.ArgumentParser:
     add_pose_arguments(p)
     p.add_argument("--method", choices=("sdm", "zoa"), default="sdm",
                    help="sdm: first-order semi-discretization (default); zoa: Altintas-Budak zero-order")
-    p.add_argument("--scheme", choices=("sdm", "free-exact"), default="sdm",
+    p.add_argument("--scheme", choices=("sdm", "free-exact"), default=None,
                    help="SDM scheme: sdm (Insperger-Stepan, default) or free-exact (exact free decay, faster)")
-    p.add_argument("--m", type=int, default=40, help="SDM steps per principal period (default 40)")
+    p.add_argument("--m", type=int, default=None, help=f"SDM steps per principal period (default 40, at most {MAX_M})")
     p.add_argument("--rpm-min", type=float, default=2000.0, help="lowest spindle speed, rpm (default 2000)")
     p.add_argument("--rpm-max", type=float, default=25000.0, help="highest spindle speed, rpm (default 25000)")
-    p.add_argument("--n-rpm", type=int, default=200, help="number of speeds (default 200)")
+    p.add_argument("--n-rpm", type=int, default=200, help=f"number of speeds (default 200, at most {MAX_N_RPM})")
     p.add_argument("--depth-max-mm", type=float, default=10.0, help="largest depth searched, mm (default 10)")
     p.add_argument("--at-rpm", type=float, default=None, help="operating point speed, rpm")
     p.add_argument("--at-depth-mm", type=float, default=None, help="operating point axial depth, mm")
     p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
-    p.add_argument("--out", default=None, metavar="PNG", help="write the lobe diagram to this PNG")
+    p.add_argument("--out", default=None, metavar="PNG", help="write the lobe diagram to this PNG (or .pdf, .svg)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     g = p.add_argument_group("user's modal model (instead of the robot)")
     g.add_argument("--modal", default=None, metavar="FILE.toml", help="[[modes]] tables: freq_hz, damping_ratio, "
@@ -71,7 +82,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     g.add_argument("--kac-mpa", type=float, default=None, help="axial cutting coefficient, MPa (default 0)")
     g.add_argument("--helix-deg", type=float, default=None, help="helix angle, deg (default 0)")
     g.add_argument("--pitch-deg", default=None, metavar="A,B,...", help="pitch angles, deg, summing to 360")
-    p.set_defaults(run=run, milling_mode=None)
+    p.set_defaults(run=run, milling_mode=None, case=None, variant=None)  # None: not given (see _check_flags)
     return p
 
 
@@ -81,8 +92,8 @@ def read_modal_toml(path: str | Path) -> ModalStructure:
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"modal file {path} not found") from None
+    except OSError as e:
+        raise LobeError(f"cannot read the modal file {path}: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise LobeError(f"{path}: not valid TOML: {e}") from None
     modes = data.get("modes")
@@ -164,9 +175,36 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
 def _method(args):
     if args.method == "zoa":
         return ZeroOrder()
-    if isinstance(args.m, bool) or args.m < 2:
-        raise LobeError(f"--m must be an integer >= 2 (steps per principal period), got {args.m}")
-    return SemiDiscretization(m=args.m, scheme=args.scheme)
+    m = 40 if args.m is None else args.m
+    if not 2 <= m <= MAX_M:
+        raise LobeError(f"--m must be an integer from 2 to {MAX_M} (steps per principal period), got {m}")
+    return SemiDiscretization(m=m, scheme=args.scheme or "sdm")
+
+
+def _check_flags(args) -> None:
+    """Refuse options that would have no effect in the chosen mode (a user would think they did)."""
+    if args.modal is None:
+        given = [flag for flag, k in _MODAL_ONLY.items() if getattr(args, k) is not None]
+        if given:
+            raise LobeError(f"{given[0]} applies only with --modal FILE.toml (the robot's tool and material come "
+                            "from --case)")
+        args.case = args.case or DEFAULT_CASE
+        args.variant = args.variant or "basic"
+    else:
+        given = [flag for flag, k in _ROBOT_ONLY.items() if getattr(args, k) is not None]
+        if given:
+            raise LobeError(f"{given[0]} selects the robot and has no effect with --modal FILE.toml")
+    if args.method == "zoa":
+        given = [flag for flag, v in (("--m", args.m), ("--scheme", args.scheme)) if v is not None]
+        if given:
+            raise LobeError(f"{given[0]} applies only to --method sdm, not to zoa")
+
+
+def _inputs(args) -> dict:
+    """The run's inputs for provenance: options, and the case or the modal file's content."""
+    if args.modal is not None:
+        return cli_inputs(args, files={"modal": args.modal})
+    return cli_inputs(args, case=load_case(args.case))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -179,13 +217,16 @@ def run(args: argparse.Namespace) -> int:
             raise LobeError(f"--{name.replace('_', '-')} must be finite and > 0, got {v}")
     if args.rpm_max < args.rpm_min:
         raise LobeError(f"--rpm-max ({args.rpm_max}) must be >= --rpm-min ({args.rpm_min})")
-    if args.n_rpm < 1:
-        raise LobeError(f"--n-rpm must be >= 1, got {args.n_rpm}")
+    if not 1 <= args.n_rpm <= MAX_N_RPM:
+        raise LobeError(f"--n-rpm must be from 1 to {MAX_N_RPM} speeds, got {args.n_rpm}")
     if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and args.at_rpm > 0):
         raise LobeError(f"--at-rpm must be a speed > 0 rpm, got {args.at_rpm}")
     if args.at_depth_mm is not None and not (math.isfinite(args.at_depth_mm) and args.at_depth_mm > 0):
         raise LobeError(f"--at-depth-mm must be a depth > 0 mm, got {args.at_depth_mm}")
+    _check_flags(args)
     method = _method(args)
+    inputs = _inputs(args)
+    out_path = check_output_file(args.out, _FIGURE_SUFFIXES, inputs) if args.out else None
     if args.modal is not None:
         problem, label = _modal_problem(args)
         has_op = args.at_rpm is not None
@@ -194,18 +235,20 @@ def run(args: argparse.Namespace) -> int:
         has_op = True  # the case's own cut, or --at-*
     speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
 
-    def progress(done, total):
-        if not args.quiet:
-            print(f"lobes: {done}/{total} speeds", file=sys.stderr, flush=True)
-
-    result = solve(problem, method, speeds, depth_max_m=args.depth_max_mm * 1e-3, progress=progress)
-    op = None
-    if has_op:
-        op = stability(problem, method, depth_max_m=max(args.depth_max_mm * 1e-3, 4 * problem.cut.ap_m))
-    if args.out:
+    with Progress(f"lobes {method.name}", enabled=not args.quiet) as bar:
+        result = solve(problem, method, speeds, depth_max_m=args.depth_max_mm * 1e-3,
+                       progress=lambda done, total: bar(0.9 * done / total, "speeds"))
+        op = None
+        if has_op:
+            bar(0.9, "operating point")
+            op = stability(problem, method, depth_max_m=max(args.depth_max_mm * 1e-3, 4 * problem.cut.ap_m))
+        bar.done()
+    prov = provenance(inputs)
+    if out_path is not None:
         from .plot import plot_lobes
 
-        plot_lobes(result, args.out, op, title=label)
+        with user_path_errors(out_path):
+            plot_lobes(result, out_path, op, title=label, provenance=prov)
     if args.json:
         out = {
             "structure": label,
@@ -217,6 +260,7 @@ def run(args: argparse.Namespace) -> int:
             "chatter_freq_hz": result.chatter_freq_hz,
             "bifurcation": result.bifurcation.tolist(),
             "stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float, str))},
+            "provenance": prov,
         }
         if op is not None:
             out["operating_point"] = {

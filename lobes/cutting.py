@@ -10,8 +10,8 @@ and slices at the mid-heights ``z_s = (s + 1/2) db``. Tooth ``j`` regenerates on
 :func:`cases.milling.regeneration` (delay ``tau_j = delay_rad_j / Omega``); a tooth that does not
 reach the surface (runout) carries no force and the next tooth's delay is longer.
 
-The principal period is the tooth period ``2 pi / (N Omega)`` when the pitch is uniform and every
-tooth regenerates on its predecessor, else one spindle revolution.
+The principal period is :func:`cases.milling.principal_period`: the tooth period ``2 pi / (N Omega)``
+when the pitch is uniform and every tooth regenerates on its predecessor, else one spindle revolution.
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ from typing import Literal
 
 import numpy as np
 
-from robolobes.cases.milling import CuttingLaw, Cut, Tool, directional_matrix, engagement_rad, in_cut, regeneration
+from robolobes.cases.milling import (ANGLE_TOL_RAD, CuttingLaw, Cut, PeriodName, Tool, directional_matrix, engagement_rad,
+                                     in_cut, principal_period, regeneration)
 
 from ._errors import LobeError
 
@@ -53,6 +54,8 @@ class CuttingPlan:
     ----------
     period_rad : float
         Principal period as a spindle angle (``2 pi / N`` or ``2 pi``), rad.
+    period_name : {"tooth", "revolution"}
+        Which period it is (:func:`cases.milling.principal_period`, or "revolution" when forced).
     m : int
         Steps per principal period; step angle ``period_rad / m``.
     quadrature : int
@@ -75,6 +78,7 @@ class CuttingPlan:
     cut: Cut
     law: CuttingLaw
     period_rad: float
+    period_name: PeriodName
     m: int
     quadrature: int
     slices: int
@@ -97,17 +101,11 @@ class CuttingPlan:
         cutting = [r for r in regs if r.cuts]
         if not cutting:
             raise LobeError("no tooth cuts (runout larger than the feed for every tooth); nothing to regenerate")
-        n = tool.teeth
-        pitch = np.array(tool.pitch_rad)
-        uniform = bool(np.all(np.abs(pitch - 2 * math.pi / n) < 1e-12)) and len(cutting) == n and all(
-            abs(r.delay_rad - 2 * math.pi / n) < 1e-12 for r in cutting)
         if period not in ("auto", "revolution"):
             raise LobeError(f"period must be 'auto' or 'revolution', got {period!r}")
+        name: PeriodName = principal_period(tool, cut)[1] if period == "auto" else "revolution"
+        period_rad = 2 * math.pi / tool.teeth if name == "tooth" else 2 * math.pi
         theta_all = np.array(tool.tooth_angle_rad)
-        if uniform and period == "auto":
-            period_rad = 2 * math.pi / n
-        else:
-            period_rad = 2 * math.pi
         angles = np.array([theta_all[r.tooth] for r in cutting])
         delays = np.array([r.delay_rad for r in cutting])
         # group equal delays
@@ -115,7 +113,7 @@ class CuttingPlan:
         grp = []
         for d in delays:
             for gi, v in enumerate(gd):
-                if abs(v - d) < 1e-12:
+                if abs(v - d) <= ANGLE_TOL_RAD:
                     grp.append(gi)
                     break
             else:
@@ -138,7 +136,7 @@ class CuttingPlan:
             rs.append(r)
             fs.append(f)
         ro = lambda a: (a.setflags(write=False), a)[1]
-        return cls(tool=tool, cut=cut, law=law, period_rad=period_rad, m=int(m), quadrature=int(quadrature),
+        return cls(tool=tool, cut=cut, law=law, period_rad=period_rad, period_name=name, m=int(m), quadrature=int(quadrature),
                    slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=ro(angles),
                    tooth_group=ro(np.array(grp, dtype=int)), group_delay_rad=ro(np.array(gd)),
                    group_r=ro(np.array(rs, dtype=int)), group_f=ro(np.array(fs)), k_force=int(k_force), rule=rule)

@@ -11,7 +11,8 @@ from robolobes.core.io import pyplot, save_figure
 __all__ = ["plot_lobes"]
 
 
-def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str | None = None) -> None:
+def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str | None = None,
+               provenance: dict | None = None) -> None:
     """Write a PNG of a :class:`lobes.LobeResult`.
 
     Parameters
@@ -22,6 +23,8 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
     operating_point : StabilityPoint, optional
         Marked on the diagram (green circle if stable, red cross if not, orange if marginal).
     title : str, optional
+    provenance : dict, optional
+        ``core.io.provenance(inputs)``, recorded in the PNG's metadata.
     """
     plt = pyplot()
 
@@ -59,6 +62,6 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
     fig.tight_layout()
 
     try:
-        save_figure(fig, path, dpi=110)  # atomic: temp file + os.replace
+        save_figure(fig, path, provenance=provenance, dpi=110)  # atomic: temp file + os.replace
     finally:
         plt.close(fig)

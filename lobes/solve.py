@@ -9,6 +9,9 @@ from typing import Callable, Literal, Union
 
 import numpy as np
 
+from robolobes.core.numerics import richardson
+from robolobes.core.threads import blas_single_threaded
+
 from ._errors import LobeError
 from .problem import LobeProblem
 from .sdm import Bifurcation, SDMEngine, SemiDiscretization, classify_multiplier
@@ -124,7 +127,8 @@ class LobeResult:
     depth_limit_m : array (S,), m
         Smallest unstable axial depth at each speed (``inf``: stable up to ``stats['depth_max_m']``).
     depth_error_m : array (S,), m
-        Richardson error estimate (NaN unless ``SemiDiscretization(richardson=True)``).
+        Richardson error bound ``|b_2m - b_m|`` (:func:`robolobes.core.numerics.richardson`; NaN unless
+        ``SemiDiscretization(richardson=True)``; inf where only one level found a limit).
     chatter_freq_hz : array (S,), Hz
     bifurcation : array (S,) of str in {"hopf", "flip", "fold", "none"}
     stats : dict
@@ -326,6 +330,7 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     return depth, freq, bif
 
 
+@blas_single_threaded
 def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *, depth_max_m: float = 0.01,
           coarse_points: int = 16, rtol: float = 1e-3, progress: ProgressCallback | None = None,
           chunk: int = 50) -> LobeResult:
@@ -381,7 +386,7 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
         eng = SDMEngine(problem, method, depth_max)
         stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
                      axial_slices=eng.plan.slices, monodromy_size=eng.n_red,
-                     principal_period=("tooth" if eng.plan.period_rad < 2 * math.pi - 1e-12 else "revolution"),
+                     principal_period=eng.plan.period_name,
                      engaged_steps=len(eng.cand))
         total = len(rpm) * (2 if method.richardson else 1)
         depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
@@ -390,12 +395,7 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
             eng2 = SDMEngine(problem, m2, depth_max)
             d2, f2, b2 = _sdm_limits(eng2, rpm, depth_max, coarse_points, rtol, stats, progress, chunk,
                                      len(rpm), total)
-            with np.errstate(invalid="ignore"):
-                ext = d2 + (d2 - depth) / 3.0
-                err = np.abs(d2 - depth) / 3.0
-            both = np.isfinite(depth) & np.isfinite(d2)
-            depth = np.where(both, ext, d2)
-            err = np.where(both, err, np.nan)
+            depth, err = richardson(depth, d2)
             freq, bif = f2, b2
             stats["m_richardson"] = 2 * method.m
     stats["wall_s"] = time.perf_counter() - t0
@@ -403,14 +403,15 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
                       chatter_freq_hz=freq, bifurcation=bif, depth_error_m=err, stats=stats)
 
 
+@blas_single_threaded
 def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m: float | None = None,
               adaptive: bool = True, m_max: int = 640, rtol: float = 1e-7, coarse_points: int = 24) -> StabilityPoint:
     """Stability of the problem's own cut (``cut.spindle_rpm``, ``cut.ap_m``), decided robustly.
 
     For :class:`SemiDiscretization` the critical depth at this speed is computed for ``m``,
-    ``2m`` (and more when ``adaptive``) and extrapolated (Richardson, order 2):
-    ``b = b_2m + (b_2m - b_m) / 3``, with the error bound ``err = |b_2m - b_m|`` (three times the
-    usual estimate). The verdict compares the depth with ``b +- err``; while it is "marginal"
+    ``2m`` (and more when ``adaptive``) and extrapolated by :func:`robolobes.core.numerics.richardson`
+    (order 2): ``b = b_2m + (b_2m - b_m) / 3``, with its error bound ``err = |b_2m - b_m|`` (valid
+    for any convergence order >= 1). The verdict compares the depth with ``b +- err``; while it is "marginal"
     and ``adaptive``, ``m`` is doubled up to ``m_max``. The spectral radius of the operating point
     is reported too, but it is not what decides: for a robot whose modes sit at ``|mu| ~ 1 - 1e-3``
     the radius differs from 1 in the fifth decimal, while the depth ratio stays far from 0.
@@ -469,14 +470,7 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
             lvl["limit_bifurcation"], lvl["limit_chatter_freq_hz"] = "none", math.nan
         levels.append(lvl)
         if len(levels) >= 2:
-            b1, b2 = levels[-2]["depth_limit_m"], levels[-1]["depth_limit_m"]
-            if math.isinf(b1) and math.isinf(b2):
-                b_ext, err = math.inf, 0.0
-            elif math.isinf(b1) or math.isinf(b2):
-                b_ext, err = min(b1, b2), math.inf
-            else:
-                b_ext = b2 + (b2 - b1) / 3.0
-                err = abs(b2 - b1)
+            b_ext, err = richardson(levels[-2]["depth_limit_m"], levels[-1]["depth_limit_m"])
             if depth < b_ext - err:
                 verdict = "stable"
             elif depth > b_ext + err:

@@ -54,7 +54,7 @@ def test_modes_table_and_variants(capsys):
     (["modes", "--pose", "home"], "has no pose 'home'"),
     (["modes", "--case", "nope"], "no cut named 'nope'"),
     (["modes", "--path-s", "5"], "s = 5 m is outside the pass [0, 0.102] m"),
-    (["frf", "--out", "x.txt"], "must end in .csv, .uff or .unv"),
+    (["frf", "--out", "x.txt"], "the extension must be one of .csv, .uff, .unv"),
     (["frf", "--out", "x.csv", "--fmin-hz", "10", "--fmax-hz", "5"], "fmin"),
 ])
 def test_cli_bad_input_is_one_clear_line(capsys, tmp_path, monkeypatch, argv, msg):

@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from robolobes.core.outdir import MARKER
 from robolobes.main import main as robolobes_main
 
 
@@ -20,7 +21,11 @@ def test_simulate_writes_series_plots_and_summary(tmp_path, capsys):
     assert set(s["force_stats"]["y"]) == {"min", "max", "mean", "rms"}
     assert s["wall_s"] > 0
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["closeup.png", "forces.png", "series.csv", "summary.json", "wall.csv", "wall.png"]
+    assert names == [MARKER, "closeup.png", "forces.png", "series.csv", "summary.json", "wall.csv", "wall.png"]
+    # summary.json and the printed JSON record the provenance; the marker lists every file
+    on_disk = json.loads((out / "summary.json").read_text())
+    assert on_disk["provenance"] == s["provenance"] == json.loads((out / MARKER).read_text())["provenance"]
+    assert json.loads((out / MARKER).read_text())["files"] == names[1:]
     data = np.loadtxt(out / "series.csv", delimiter=",", skiprows=1)
     # 2 deg of spindle rotation per step at 18 700 rpm: 0.3 s -> 16 830 steps + the start
     assert data.shape == (16831, 8)
@@ -33,12 +38,15 @@ def test_simulate_writes_series_plots_and_summary(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv, msg", [
     (["simulate", "--duration", "-1"], "--duration must be a simulated time > 0 s"),
-    (["simulate", "--damping-scale", "nan"], "damping_scale must be a finite number >= 0"),
-    (["simulate", "--deg-per-step", "20"], "deg_per_step must be in (0, 10]"),
+    (["simulate", "--damping-scale", "nan"], "--damping-scale must be a finite number >= 0"),
+    (["simulate", "--deg-per-step", "20"], "--deg-per-step must be in (0, 10]"),
+    (["simulate", "--duration", "5"], "at most the pass, 1.754 s"),
+    (["simulate", "--deg-per-step", "0.0001"], "time steps, more than"),
     (["simulate", "--case", "nope"], "no cut named 'nope'"),
 ])
 def test_simulate_bad_input(tmp_path, capsys, argv, msg):
     rc = robolobes_main(argv + ["--quiet", "--out", str(tmp_path / "o")])
     assert rc == 2
-    assert msg in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert msg in err and err.count("\n") == 1
     assert not (tmp_path / "o").exists()

@@ -12,7 +12,7 @@ from scipy.optimize import brentq
 
 from robolobes.cases import load_case
 from robolobes.cases.milling import Cut, CuttingLaw, Tool, engagement_rad, regeneration
-from robolobes.timedomain.cutting import MillingForce, run_prescribed, straight_path
+from robolobes.timedomain.workpiece_force import MillingForce, run_prescribed, straight_path
 from robolobes.timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError
 
 R = 5e-3
@@ -228,7 +228,7 @@ def test_variable_pitch_alternates_the_force_peaks():
 
 def test_rigid_aluminium_statistics_match_the_papers_model_rows():
     """Tab. 10 (0.4-1.4 s, steady cut): the paper's four robot models; a rigid tool is their stiff
-    limit. Mapping (module docstring of timedomain.cutting): paper Fx = F_tool . x_c,
+    limit. Mapping (module docstring of timedomain.workpiece_force): paper Fx = F_tool . x_c,
     paper Fy = -F_tool . y_c. Our rigid statistics must fall within the spread of the paper's rows
     widened by 2 % (the robot models differ among themselves by 2-9 %)."""
     case = load_case("tx200-aluminium")

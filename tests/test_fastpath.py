@@ -1,5 +1,5 @@
 """The compiled linearized path (timedomain.fastpath) against the Python linearized path it compiles
-(simulate._run_linearized_python) and against the full nonlinear path; chunking, progress,
+(drivers.run_linearized_python) and against the full nonlinear path; chunking, progress,
 interruption, failure reporting, the removal kernel's culling and the compile-cache guard."""
 
 from __future__ import annotations
@@ -20,8 +20,10 @@ from robolobes.cases.milling import Cut, Tool
 from robolobes.timedomain import fastpath
 from robolobes.timedomain.fastpath import FastPathConvergenceError, FastPathError, run_linear_milling
 from robolobes.timedomain.newmark import NewmarkConvergenceError, NewmarkInterrupted
-from robolobes.timedomain.simulate import (SimulationProblem, _run_full, _run_linearized, _run_linearized_python, _Setup,
-                                 linear_system_data)
+from robolobes.linearize.model import build_model
+from robolobes.timedomain.drivers import run_full, run_linearized, run_linearized_python
+from robolobes.timedomain.equations import PassSetup, linear_system_data
+from robolobes.timedomain.problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
 from robolobes.timedomain.workpiece import Workpiece, _remove_kernel
 
 ALU = cases.load_case("tx200-aluminium")
@@ -31,7 +33,9 @@ STEEL = cases.load_case("tx200-steel")
 def _setup(case, variant, t_end, linearized=True):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the Tab. 7 pose is 2.86 deg past A3's limit (accepted, warned)
-        return _Setup(SimulationProblem(case, variant=variant, t_end_s=t_end, linearized=linearized))
+        robot = build_model(case.robot, variant)
+        method = LinearizedNewmark() if linearized else NonlinearNewmark()
+        return PassSetup(SimulationProblem(robot, case, t_end_s=t_end), method)
 
 
 # The tool enters the aluminium part at 0.063 s and the steel part at 0.264 s (1 mm approach after
@@ -52,8 +56,8 @@ def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_en
     # wall column is the minimum of chords through the tips, which move with the centre).
     S_c = _setup(case, variant, t_end)
     S_p = _setup(case, variant, t_end)
-    rc = _run_linearized(S_c, None)
-    rp = _run_linearized_python(S_p, None)
+    rc = run_linearized(S_c, None)
+    rp = run_linearized_python(S_p, None)
     n = S_c.n_steps + 1
     assert rc.t_s.shape == (n,) and rc.force_tool_n.shape == (n, 3) and rc.center_m.shape == (n, 2)
     assert rc.tcp_m.shape == (n, 3) and np.all(np.isnan(rc.tcp_m))
@@ -83,8 +87,8 @@ def test_linearized_path_agrees_with_the_full_path_on_the_aluminium_cut():
     # 0.5 % of the peak force (measured 0.16 %; a time shift of one step would give ~10 %).
     S_l = _setup(ALU, "basic", 0.3)
     S_f = _setup(ALU, "basic", 0.3, linearized=False)
-    rl = _run_linearized(S_l, None)
-    rf = _run_full(S_f, None)
+    rl = run_linearized(S_l, None)
+    rf = run_full(S_f, None)
     sel = rl.t_s >= S_l.steady[0]
     assert sel.sum() > 3000
     fl, ff = rl.force_tool_n[sel, :2], rf.force_tool_n[sel, :2]

@@ -11,7 +11,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from robolobes.cases.milling import (Cut, CuttingLaw, MillingError, Tool, check_cut, cut_frame, directional_matrix,
-                           edge_forces, engagement_rad, in_cut, regeneration, tool_force_cut_frame)
+                           edge_forces, engagement_rad, in_cut, principal_period, regeneration,
+                                     tool_force_cut_frame)
 
 D = 0.01
 LAW = CuttingLaw(ktc_pa=6e8, krc_pa=2e8, kac_pa=1e8, name="test")
@@ -138,3 +139,27 @@ def test_helix_lag_and_tooth_angles():
     # psi(z) = 2 z tan(beta) / D
     assert_allclose(tool.lag_rad(1.6e-3), 2 * 1.6e-3 * math.tan(math.radians(30)) / D, rtol=1e-15)
     assert_allclose(tool.tooth_angle_rad, [0.0, -2 * math.pi / 3, -4 * math.pi / 3], rtol=1e-15)
+
+
+def test_principal_period_one_decision():
+    """Tooth period T/N when every tooth regenerates one equal pitch back, else the revolution T.
+
+    Hand-derived cases at 6000 rpm (T = 10 ms): uniform 3 teeth -> 10/3 ms "tooth"; pitch
+    110/130/120 deg -> 10 ms "revolution"; runout 20 um on one tooth of 2 with fz = 10 um: the other
+    tooth's chip 10 - 20 < 0 um, it skips -> "revolution"; runout 2 um < fz -> still "tooth". The
+    tolerance (ANGLE_TOL_RAD = 1e-9 rad) tells floating-point rounding (pitches that are 2 pi / 3 up to
+    1e-15 rad after a degree conversion) from a real variable pitch (1e-6 rad).
+    """
+    cut = Cut(ae_m=0.5 * D, ap_m=1e-3, spindle_rpm=6000.0, feed_per_tooth_m=10e-6)
+    T = 60.0 / 6000.0
+    period, name = principal_period(Tool(diameter_m=D, teeth=3), cut)
+    assert name == "tooth"
+    assert_allclose(period, T / 3, rtol=1e-15)
+    assert principal_period(Tool(diameter_m=D, teeth=3, pitch_rad=tuple(np.radians([110, 130, 120]))),
+                            cut) == (pytest.approx(T, rel=1e-15), "revolution")
+    assert principal_period(Tool(diameter_m=D, teeth=2, runout_m=(20e-6, 0.0)), cut)[1] == "revolution"
+    assert principal_period(Tool(diameter_m=D, teeth=2, runout_m=(2e-6, 0.0)), cut)[1] == "tooth"
+    rounded = tuple(np.radians([120.0, 120.0, 120.0]) * (1 + np.array([1, -1, 0]) * 2e-16))
+    assert principal_period(Tool(diameter_m=D, teeth=3, pitch_rad=rounded), cut)[1] == "tooth"
+    off = (2 * math.pi / 3 + 1e-6, 2 * math.pi / 3 - 1e-6, 2 * math.pi / 3)
+    assert principal_period(Tool(diameter_m=D, teeth=3, pitch_rad=off), cut)[1] == "revolution"

@@ -175,23 +175,29 @@ def test_backlash_newton_converges_through_contact_loss(n_per_period):
 
 
 def test_backlash_spring_curve_shows_the_dead_zone():
+    # The spring force is NOT evaluated with the model's spring function (that would echo the input):
+    # it is recovered from the integrated states through the dynamic balance of the oscillator,
+    # f_spring = F(t) - m a - c v, with a and v Newmark's own outputs. If the integrator solved the
+    # dead-zone equation (eq. 12), these pairs (q, f_spring) show zero force for |q| < s and, on each
+    # loaded branch, lines of slope k crossing zero at +-s. Tolerance: the balance holds to the
+    # Newton residual, |r| <= (m / (beta h^2)) atol = 1.4e8 x 1e-15 = 1.4e-7 N, i.e. < 1e-8 of the
+    # 19.7 N force amplitude; the assertions allow 1e-6 of it (force) and 1e-6 relative (fits).
     h = 2 * math.pi / WB / 2000
     rec, hook = _recorder()
     integrate(_bl_residual, [0.0], [0.0], t0_s=0.0, h_s=h, n_steps=4000, tangent=_bl_tangent, on_step=hook,
               options=NewmarkOptions(atol=1e-15))
-    q = np.array(rec["q"])[:, 0]
-    f = _spring(q)
-    free = f == 0
-    # The simulated deflection covers the zone and both loaded branches ...
+    t, q = np.array(rec["t"]), np.array(rec["q"])[:, 0]
+    v, a = np.array(rec["v"])[:, 0], np.array(rec["a"])[:, 0]
+    f = FB * np.sin(WB * t) - MB * a - CB * v
+    # the simulated deflection covers the zone and both loaded branches
     assert q.min() < -2 * SB and q.max() > 2 * SB
-    # ... and the unloaded samples span the whole dead zone (-s, s), up to one step of travel
-    dq_max = np.max(np.abs(np.diff(q)))
-    assert_allclose([q[free].min(), q[free].max()], [-SB, SB], atol=dq_max)
-    # the loaded branches extrapolate to zero force at +-s (their intercepts: q = +-s)
+    inside = np.abs(q) < SB
+    assert inside.sum() > 100
+    assert_allclose(f[inside], 0.0, atol=1e-6 * FB)  # no force transmitted in the dead zone
     for side in (1, -1):
         sel = side * q > 1.5 * SB
         slope, icpt = np.polyfit(q[sel], f[sel], 1)
-        assert_allclose([slope, -icpt / slope], [KB, side * SB], rtol=1e-9)
+        assert_allclose([slope, -icpt / slope], [KB, side * SB], rtol=1e-6)
 
 
 def _bl_run(h, n, halvings=0, hook=None):
@@ -351,7 +357,7 @@ def test_sigint_during_hook_is_deferred_until_the_hook_returns():
         (dict(h_s=float("nan")), "step size h_s must be finite"),
         (dict(n_steps=0), "n_steps must be an integer >= 1, got 0"),
         (dict(q0=[float("nan")]), "q0 must be finite"),
-        (dict(v0=[0.0, 1.0]), "v0 must be a 1-D array of length 1"),
+        (dict(v0=[0.0, 1.0]), "v0 must have shape (1,), got (2,)"),
     ],
 )
 def test_bad_input_is_named(kw, match):

@@ -18,12 +18,19 @@ from robolobes.lobes.problem import LobeProblem
 from robolobes.lobes.sdm import SemiDiscretization
 from robolobes.lobes.solve import stability
 from robolobes.lobes.structure import PhysicalStructure
-from robolobes.timedomain.simulate import SimulationProblem, principal_period, simulate
+from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+from robolobes.timedomain.summary import principal_period
 
 warnings.filterwarnings("ignore", category=L.JointLimitWarning)  # Tab. 7's A3, accepted and tested elsewhere
 STEEL = cases.load_case("tx200-steel")
 ALU = cases.load_case("tx200-aluminium")
 PAPER = cases.load_reference("tx200-paper-results")
+
+
+def _run(case, damping_scale=1.0, **kw):
+    """The linearized fast path on the 6-DOF basic model."""
+    robot = L.build_model(case.robot, "basic", damping_scale=damping_scale)
+    return simulate(SimulationProblem(robot, case, **kw), LinearizedNewmark()).summary
 
 
 def _steel_structure():
@@ -51,10 +58,10 @@ def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(rpm):
     assert op.depth_limit_m < 0.01
     for factor, expect_stable in ((0.8, True), (1.25, False)):
         case = replace(STEEL, tool=tool, cut=replace(cut, ap_m=factor * op.depth_limit_m))
-        s = simulate(SimulationProblem(case, "basic", linearized=True)).summary
-        assert s["stable"] is expect_stable, (rpm, factor, s["stability"])
+        s = _run(case)
+        assert s.stable is expect_stable, (rpm, factor, s.stability)
         if not expect_stable:
-            assert_allclose(s["chatter_freq_hz"], op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
+            assert_allclose(s.chatter_freq_hz, op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
 
 
 def test_principal_period():
@@ -70,10 +77,10 @@ def test_aluminium_pass_is_stable_and_matches_the_paper_model_forces():
     # paper's basic-model row of Tab. 10 (0.4-1.4 s), same model and coefficients: mean and RMS
     # within 2 %, extremes within 5 % (the paper's disc count, time step and feed ramp are not
     # stated; ours: 22 discs, 2 deg per step, 0.1 s jerk-limited ramp).
-    s = simulate(SimulationProblem(ALU, "basic", linearized=True, stats_window_s=(0.4, 1.4))).summary
-    assert s["stable"] is True
+    s = _run(ALU, stats_window_s=(0.4, 1.4))
+    assert s.stable is True
     fx_min, fy_min, fx_max, fy_max, fx_mean, fy_mean, fx_rms, fy_rms = PAPER["aluminium"]["tab10"]["basic"]
-    fs = s["force_stats_paper_axes"]
+    fs = s.force_stats_paper_axes
     assert_allclose([fs["x"]["mean"], fs["y"]["mean"], fs["x"]["rms"], fs["y"]["rms"]],
                     [fx_mean, fy_mean, fx_rms, fy_rms], rtol=0.02)
     assert_allclose([fs["x"]["min"], fs["y"]["min"], fs["x"]["max"]], [fx_min, fy_min, fx_max], rtol=0.05)
@@ -88,11 +95,10 @@ def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
     # 103.3 Hz tooth passing).
     runs = {}
     for scale in (1.0, 10.0, 15.0):
-        runs[scale] = simulate(SimulationProblem(STEEL, "basic", linearized=True, t_end_s=4.5,
-                                                 damping_scale=scale)).summary
-    assert runs[1.0]["stable"] is False and runs[10.0]["stable"] is False and runs[15.0]["stable"] is True
-    assert_allclose(runs[1.0]["chatter_freq_hz"], 3100 / 60, atol=0.5)
-    assert runs[1.0]["verdict_basis"].startswith("companion run without runout")
+        runs[scale] = _run(STEEL, damping_scale=scale, t_end_s=4.5)
+    assert runs[1.0].stable is False and runs[10.0].stable is False and runs[15.0].stable is True
+    assert_allclose(runs[1.0].chatter_freq_hz, 3100 / 60, atol=0.5)
+    assert runs[1.0].verdict_basis.startswith("companion run without runout")
     # the lobes agree: x10 unstable, x15 stable
     for scale, expect in ((10.0, "unstable"), (15.0, "stable")):
         robot = L.build_model(STEEL.robot, "basic", damping_scale=scale)

@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
 from robolobes.cases.milling import Cut, Tool
-from robolobes.timedomain.cutting import MillingForce, run_prescribed, straight_path
+from robolobes.timedomain.workpiece_force import MillingForce, run_prescribed, straight_path
 from robolobes.timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError, default_disc_count
 from robolobes.cases.milling import CuttingLaw
 

@@ -1,13 +1,26 @@
-"""Timedomain: Newmark simulation of the nonlinear flexible robot with regenerative milling.
+"""Timedomain: Newmark simulation of the flexible robot with regenerative milling, in the lobes'
+shape: ``simulate(SimulationProblem(robot, case), LinearizedNewmark())``.
 
-* :mod:`timedomain.simulate` -- :class:`SimulationProblem`, :func:`simulate` (full nonlinear path,
-  and the linearized fast path compiled in :mod:`timedomain.fastpath`);
+* :mod:`timedomain.problem` -- :class:`SimulationProblem`, the methods :class:`LinearizedNewmark`
+  and :class:`NonlinearNewmark`, and the bounds on what sets memory and run time;
+* :mod:`timedomain.result` -- :class:`SimulationResult`, :class:`SimulationSummary`;
+* :mod:`timedomain.simulation` -- :func:`simulate`;
+* :mod:`timedomain.equations` -- the full and the linearized equations of a pass;
+* :mod:`timedomain.drivers` -- the time loops (full, linearized in Python, compiled fast path);
+* :mod:`timedomain.fastpath` -- the compiled linearized loop (numba);
+* :mod:`timedomain.summary` -- statistics, verdict policy, roughness of a run;
+* :mod:`timedomain.runout` -- the companion run that decides stability for a tool with runout;
 * :mod:`timedomain.workpiece` -- the eraser-of-matter part (axial slices, column boundaries);
-* :mod:`timedomain.cutting` -- the milling force of the tool on the part (law from :mod:`cases.milling`);
+* :mod:`timedomain.workpiece_force` -- the milling force on the eroded part (law from
+  :mod:`cases.milling`), prescribed runs;
 * :mod:`timedomain.newmark` -- average-acceleration Newmark in residual form;
-* :mod:`timedomain.signals` -- force statistics, stability verdict, chatter frequency, roughness;
+* :mod:`timedomain.signals` -- force statistics, stability test, chatter frequency, roughness;
 * :mod:`timedomain.output` -- series, wall, JSON summary and plots of a run.
-
-Import from the submodules (``from timedomain.simulate import SimulationProblem, simulate``); the
-package does not re-export ``simulate``, which would shadow the submodule of the same name.
 """
+
+from .problem import LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem
+from .result import SimulationResult, SimulationSummary
+from .simulation import simulate
+
+__all__ = ["simulate", "SimulationProblem", "SimulationResult", "SimulationSummary", "LinearizedNewmark",
+           "NonlinearNewmark", "SimulationError"]

@@ -2,9 +2,9 @@
 
 What it integrates
 ------------------
-Exactly the equations of :class:`timedomain.simulate.LinearSystemData` (read its
+Exactly the equations of :class:`timedomain.equations.LinearSystemData` (read its
 ``residual(dq, v, a, t, f_cut_tool)`` and ``center(dq, t)``): the robot linearized at the start
-pose, the nonlinear milling force of :class:`timedomain.cutting.MillingForce` on the eroded
+pose, the nonlinear milling force of :class:`timedomain.workpiece_force.MillingForce` on the eroded
 :class:`timedomain.workpiece.Workpiece`, and the backlash dead zone of the motion springs::
 
     r(dq, v, a, t) = M a + C v + K_rest dq - J^T R_c^T F_tool(c(dq, t), Omega t) + f_nom(t)
@@ -22,7 +22,7 @@ Nothing of the physics is defined here. The compiled loop calls
 
 The time integration is the compiled form of ``newmark.integrate(residual, 0, 0, h_s=h,
 constant_tangent=(K, C, M), options=NewmarkOptions(atol=1e-11, rtol=1e-8, max_iter=20))`` for this
-system, i.e. of the Python reference ``simulate._run_linearized_python``: average acceleration
+system, i.e. of the Python reference ``drivers.run_linearized_python``: average acceleration
 (gamma = 1/2, beta = 1/4, :mod:`timedomain.newmark`), Newton on ``q1`` from the
 constant-acceleration predictor with the effective matrix ``S = K + 2/h C + 4/h^2 M`` factorized
 once (modified Newton: the true tangent differs from ``S`` only by the cutting stiffness,
@@ -79,16 +79,18 @@ from numba import njit
 
 import robolobes.cases.milling as _milling
 import robolobes.linearize.model as _model
+from robolobes.core.validate import finite_array
+
 from . import workpiece as _workpiece
-from .cutting import MillingForce
 from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats, integrate,
                       effective_matrix, initial_acceleration)
 from .workpiece import _chip_kernel, _remove_kernel
+from .workpiece_force import MillingForce
 
 __all__ = ["FastPathError", "FastPathConvergenceError", "LinearRun", "run_linear_milling", "DEFAULT_ATOL_M",
            "DEFAULT_RTOL", "DEFAULT_MAX_ITER", "MAX_CHUNK_STEPS"]
 
-#: Newton tolerances of the reference path (``simulate._run_newmark``): absolute on the increment
+#: Newton tolerances of the reference path (``drivers._run_newmark``): absolute on the increment
 #: of every coordinate (rad or m), relative to the step's change of that coordinate.
 DEFAULT_ATOL_M = 1e-11
 DEFAULT_RTOL = 1e-8
@@ -418,12 +420,225 @@ class LinearRun:
 
 
 def _f64(name, x, shape=None):
-    a = np.ascontiguousarray(x, dtype=np.float64)
-    if shape is not None and a.shape != shape:
-        raise FastPathError(f"{name} must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise FastPathError(f"{name} must be finite")
-    return a
+    """``x`` as a C-contiguous finite float64 array of ``shape`` (FastPathError otherwise)."""
+    return finite_array(name, x, shape, error=FastPathError, contiguous=True)
+
+
+def _is_int(x, lo: int, hi: int | None = None) -> bool:
+    return (not isinstance(x, bool) and isinstance(x, (int, np.integer)) and x >= lo
+            and (hi is None or x <= hi))
+
+
+def _check_run_args(h_s, n_steps, omega_rad_s, chunk_steps, atol, rtol, max_iter,
+                    fallback_halvings) -> tuple[float, int, float, int]:
+    """Validated ``(h, n_steps, omega, chunk)`` of :func:`run_linear_milling`."""
+    try:
+        h = float(h_s)
+        omega = float(omega_rad_s)
+    except (TypeError, ValueError):
+        raise FastPathError(f"h_s and omega_rad_s must be numbers, got {h_s!r}, {omega_rad_s!r}") from None
+    if not (math.isfinite(h) and h > 0):
+        raise FastPathError(f"time step h_s must be finite and > 0 s, got {h_s!r}")
+    if not math.isfinite(omega):
+        raise FastPathError(f"spindle speed omega_rad_s must be finite, got {omega_rad_s!r}")
+    if not _is_int(n_steps, 1):
+        raise FastPathError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+    n_steps = int(n_steps)
+    if chunk_steps is None:
+        chunk = min(MAX_CHUNK_STEPS, max(1, math.ceil(n_steps / 100)))
+    elif not _is_int(chunk_steps, 1):
+        raise FastPathError(f"chunk_steps must be an integer >= 1, got {chunk_steps!r}")
+    else:
+        chunk = int(chunk_steps)
+    if not (math.isfinite(atol) and atol > 0 and math.isfinite(rtol) and rtol >= 0):
+        raise FastPathError(f"atol must be > 0 and rtol >= 0, got {atol!r}, {rtol!r}")
+    if not _is_int(max_iter, 1):
+        raise FastPathError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    if not _is_int(fallback_halvings, 0, 40):
+        raise FastPathError(f"fallback_halvings must be an integer in [0, 40], got {fallback_halvings!r}")
+    return h, n_steps, omega, chunk
+
+
+def _system_arrays(data, end_s: float) -> tuple:
+    """The linearized system's arrays, validated and contiguous, in the kernel's argument order:
+    ``(M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab, idx, k_motion, backlash, d0)``, and K."""
+    M = _f64("M", data.M)
+    nd = M.shape[0]
+    if M.shape != (nd, nd):
+        raise FastPathError(f"M must be square, got {M.shape}")
+    C = _f64("C", data.C, (nd, nd))
+    K = _f64("K", data.K, (nd, nd))
+    K_rest = _f64("K_rest", data.K_rest, (nd, nd))
+    JtRt = _f64("JtRt", data.JtRt, (nd, 3))
+    Jc = _f64("Jc", data.Jc, (2, nd))
+    c_off = _f64("c_off", data.c_off, (2,))
+    idx = np.ascontiguousarray(data.motion_dofs, dtype=np.int64)
+    if idx.ndim != 1 or np.any(idx < 0) or np.any(idx >= nd) or len(set(idx.tolist())) != idx.size:
+        raise FastPathError(f"motion_dofs must be distinct indices into q (n = {nd}), got {data.motion_dofs!r}")
+    k_motion = _f64("k_motion", data.k_motion, idx.shape)
+    d0 = _f64("d0", data.d0, idx.shape)
+    backlash = float(data.backlash_rad)
+    if not (math.isfinite(backlash) and backlash >= 0):
+        raise FastPathError(f"backlash_rad must be finite and >= 0, got {data.backlash_rad!r}")
+    t_tab = _f64("t_tab", data.t_tab)
+    if t_tab.ndim != 1 or t_tab.size < 2:
+        raise FastPathError("t_tab must be a 1-D table of at least 2 times")
+    s_tab = _f64("s_tab", data.s_tab, t_tab.shape)
+    f_nom_tab = _f64("f_nom_tab", data.f_nom_tab, (t_tab.size, nd))
+    if end_s > t_tab[-1] * (1 + 1e-12):
+        raise FastPathError(f"the run ends at {end_s:.6g} s, after the end of the tables ({t_tab[-1]:.6g} s)")
+    return (M, C, K_rest, JtRt, Jc, c_off, float(data.dt_tab), s_tab, f_nom_tab, idx, k_motion, backlash, d0), K
+
+
+def _milling_arrays(milling: MillingForce) -> tuple:
+    """The tool and the live workpiece arrays in the kernel's argument order: ``(offset, radius, db,
+    law, wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n)``."""
+    wp_state = milling.workpiece._kernel_state()
+    offset = np.ascontiguousarray(milling.immersion_rad(0.0))
+    radius = np.ascontiguousarray(milling.tooth_radius_m)
+    law = milling.law
+    law_arr = np.array([law.ktc_pa, law.krc_pa, law.kac_pa, law.kte_n_per_m, law.kre_n_per_m, law.kae_n_per_m])
+    return (offset, radius, float(milling.db_m), law_arr) + tuple(wp_state)
+
+
+def _factorized(K, C, M, JtRt, Jc, h: float) -> tuple:
+    """LU of the effective matrix ``S`` and the Woodbury factors ``Z = S^-1 J^T R_c^T``, ``Jc Z``."""
+    lu, piv = sla.lu_factor(effective_matrix(K, C, M, h, _GAMMA, _BETA))
+    lu = np.ascontiguousarray(lu)
+    Z = np.ascontiguousarray(sla.lu_solve((lu, piv), JtRt))  # S^-1 J^T R_c^T, (n, 3)
+    JcZ = np.ascontiguousarray(Jc @ Z)
+    return lu, np.ascontiguousarray(piv, dtype=np.int64), Z, JcZ
+
+
+class _Loop:
+    """State of a compiled run (updated in place by the kernel), its records and counters, the
+    workpiece bookkeeping and the Python fallback for a step the kernel could not converge."""
+
+    def __init__(self, data, milling: MillingForce, h: float, n_steps: int, omega: float, K, C, M, *, atol: float,
+                 rtol: float, max_iter: int, fallback_halvings: int):
+        self.data, self.milling, self.h, self.n_steps, self.omega = data, milling, h, n_steps, omega
+        self.KCM = (K, C, M)
+        self.atol, self.rtol, self.max_iter, self.fallback_halvings = atol, rtol, max_iter, fallback_halvings
+        nd = M.shape[0]
+        # initial state: rest, consistent acceleration (as the reference path)
+        self.q_n = np.zeros(nd)
+        self.v_n = np.zeros(nd)
+        self.c_n = np.asarray(data.center(self.q_n, 0.0), dtype=float).copy()
+        f0, _ = milling.force(omega * 0.0, self.c_n)
+        self.a_n = np.array(initial_acceleration(self._residual({}), self.q_n, self.v_n, 0.0, constant_tangent=self.KCM),
+                            dtype=float)
+        N = n_steps + 1
+        self.rec_f = np.empty((N, 3))
+        self.rec_c = np.empty((N, 2))
+        self.rec_f[0] = np.array(f0)
+        self.rec_c[0] = self.c_n
+        # accepted steps, Newton iterations, max iterations, removed cells, overflows, failed step
+        self.counters = np.zeros(6, dtype=np.int64)
+        self.counters[5] = -1
+        self.chunks = 0
+        self.acct = [0, 0, 0]  # kernel commits, column updates, overflows already reported to the workpiece
+        self.fb = {"steps": 0, "substeps": 0, "rejected": 0, "iterations": 0}
+
+    def _residual(self, last: dict):
+        data, milling, omega = self.data, self.milling, self.omega
+
+        def res(q, v, a, t):
+            f, _ = milling.force(omega * t, data.center(q, t))
+            last["f"] = f
+            return data.residual(q, v, a, t, f)
+
+        return res
+
+    def state(self) -> NewmarkResult:
+        """The last accepted state as a :class:`NewmarkResult`."""
+        c, h = self.counters, self.h
+        st = NewmarkStats(accepted=int(c[0]), rejected=0, newton_iterations=int(c[1]),
+                          max_iterations=int(c[2]), min_step_s=h if c[0] else math.inf)
+        return NewmarkResult(int(c[0]) * h, self.q_n.copy(), self.v_n.copy(), self.a_n.copy(), st, False)
+
+    def account(self) -> None:
+        """Report the kernel's removal steps to the workpiece (revision, counters)."""
+        c, fb, acct = self.counters, self.fb, self.acct
+        self.milling.workpiece._account_removal(int(c[0]) - fb["steps"] - acct[0], int(c[3]) - acct[1],
+                                                int(c[4]) - acct[2])
+        acct[:] = [int(c[0]) - fb["steps"], int(c[3]), int(c[4])]
+
+    def fallback_step(self, status: int) -> None:
+        """One nominal step with the Python reference (step halving) from the last accepted state."""
+        kf = int(self.counters[5])
+        k_acc = int(self.counters[0])
+        h, milling, omega, data = self.h, self.milling, self.omega, self.data
+        self.account()  # the workpiece revision must be current before the Python force is evaluated
+        last = {}
+        prev = {"t": k_acc * h, "c": self.c_n.copy()}
+
+        def on_step(st):
+            c = np.asarray(data.center(st.q, st.t_s), dtype=float)
+            if st.on_grid:
+                self.rec_f[k_acc + 1] = last["f"]
+                self.rec_c[k_acc + 1] = c
+            milling.commit(omega * prev["t"], prev["c"], omega * st.t_s, c)
+            prev.update(t=st.t_s, c=c)
+
+        opts = NewmarkOptions(atol=self.atol, rtol=self.rtol, max_iter=self.max_iter, defer_interrupts=False,
+                              max_halvings=int(self.fallback_halvings))
+        try:
+            out = integrate(self._residual(last), self.q_n, self.v_n, a0=self.a_n, t0_s=k_acc * h, h_s=h, n_steps=1,
+                            constant_tangent=self.KCM, options=opts, on_step=on_step)
+        except NewmarkConvergenceError:
+            why = ("did not converge in %d iterations" % self.max_iter if status == _NO_CONVERGENCE
+                   else "gave a non-finite residual or increment")
+            raise FastPathConvergenceError(
+                f"linearized fast path: Newton {why} at the step to t = {kf * h:.9g} s (step {kf} of {self.n_steps}, "
+                f"h = {h:.6g} s), also with step halving; the last accepted state is t = {k_acc * h:.9g} s",
+                self.state()) from None
+        self.q_n[:], self.v_n[:], self.a_n[:] = out.q, out.v, out.a
+        self.c_n[:] = prev["c"]
+        self.counters[0] += 1
+        self.counters[1] += out.stats.newton_iterations
+        self.counters[2] = max(int(self.counters[2]), out.stats.max_iterations)
+        self.counters[5] = -1
+        for key, val in (("steps", 1), ("substeps", out.stats.accepted), ("rejected", out.stats.rejected),
+                         ("iterations", out.stats.newton_iterations)):
+            self.fb[key] += val
+
+    def stats(self) -> dict:
+        c, fb = self.counters, self.fb
+        return dict(steps=int(c[0]), rejected=fb["rejected"], newton_iterations=int(c[1]),
+                    max_iterations=int(c[2]), removed_cells=int(c[3]), removal_overflows=int(c[4]),
+                    chunks=self.chunks, python_fallback_steps=fb["steps"], python_fallback_substeps=fb["substeps"])
+
+
+def _run_chunks(loop: _Loop, chunk: int, system: tuple, tool_part: tuple, factors: tuple, progress) -> None:
+    """Run the kernel chunk by chunk to the end, redoing failed steps with the Python fallback;
+    Ctrl-C lands between chunks as :class:`NewmarkInterrupted`."""
+    lu, piv, Z, JcZ = factors
+    (M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab, idx, k_motion, backlash, d0) = system
+    (offset, radius, db, law_arr, wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n) = tool_part
+    n_steps, h, omega = loop.n_steps, loop.h, loop.omega
+    k = 0
+    try:
+        while k < n_steps:
+            k1 = min(n_steps, k + chunk)
+            status = _run_chunk(k, k1, h, omega, int(loop.max_iter), float(loop.atol), float(loop.rtol),
+                                lu, piv, M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab,
+                                idx, k_motion, backlash, d0,
+                                offset, radius, db, law_arr,
+                                wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
+                                loop.q_n, loop.v_n, loop.a_n, loop.c_n, loop.rec_f, loop.rec_c, loop.counters, Z, JcZ)
+            loop.chunks += 1
+            if status != _OK:
+                loop.fallback_step(status)
+            k = int(loop.counters[0])
+            if progress is not None:
+                progress(k / n_steps)
+    except KeyboardInterrupt as e:
+        if isinstance(e, NewmarkInterrupted):
+            raise
+        raise NewmarkInterrupted(loop.state()) from e
+    finally:
+        # Each compiled call is atomic, so the counters match the eroded part whatever stopped the loop.
+        loop.account()
 
 
 def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int, omega_rad_s: float,
@@ -434,7 +649,7 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
 
     Parameters
     ----------
-    data : timedomain.simulate.LinearSystemData
+    data : timedomain.equations.LinearSystemData
         The equations (n DOF).
     milling : MillingForce
         Force law, tool and part; its workpiece is eroded in place, step by step.
@@ -474,179 +689,16 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
         the workpiece is eroded up to it.
     """
     if not isinstance(milling, MillingForce):
-        raise FastPathError(f"milling must be a timedomain.cutting.MillingForce, got {type(milling).__name__}")
-    try:
-        h = float(h_s)
-        omega = float(omega_rad_s)
-    except (TypeError, ValueError):
-        raise FastPathError(f"h_s and omega_rad_s must be numbers, got {h_s!r}, {omega_rad_s!r}") from None
-    if not (math.isfinite(h) and h > 0):
-        raise FastPathError(f"time step h_s must be finite and > 0 s, got {h_s!r}")
-    if not math.isfinite(omega):
-        raise FastPathError(f"spindle speed omega_rad_s must be finite, got {omega_rad_s!r}")
-    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
-        raise FastPathError(f"n_steps must be an integer >= 1, got {n_steps!r}")
-    n_steps = int(n_steps)
-    if chunk_steps is None:
-        chunk = min(MAX_CHUNK_STEPS, max(1, math.ceil(n_steps / 100)))
-    elif isinstance(chunk_steps, bool) or not isinstance(chunk_steps, (int, np.integer)) or chunk_steps < 1:
-        raise FastPathError(f"chunk_steps must be an integer >= 1, got {chunk_steps!r}")
-    else:
-        chunk = int(chunk_steps)
-    if not (math.isfinite(atol) and atol > 0 and math.isfinite(rtol) and rtol >= 0):
-        raise FastPathError(f"atol must be > 0 and rtol >= 0, got {atol!r}, {rtol!r}")
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise FastPathError(f"max_iter must be an integer >= 1, got {max_iter!r}")
-    if (isinstance(fallback_halvings, bool) or not isinstance(fallback_halvings, (int, np.integer))
-            or not 0 <= fallback_halvings <= 40):
-        raise FastPathError(f"fallback_halvings must be an integer in [0, 40], got {fallback_halvings!r}")
-
-    M = _f64("M", data.M)
-    nd = M.shape[0]
-    if M.shape != (nd, nd):
-        raise FastPathError(f"M must be square, got {M.shape}")
-    C = _f64("C", data.C, (nd, nd))
-    K = _f64("K", data.K, (nd, nd))
-    K_rest = _f64("K_rest", data.K_rest, (nd, nd))
-    JtRt = _f64("JtRt", data.JtRt, (nd, 3))
-    Jc = _f64("Jc", data.Jc, (2, nd))
-    c_off = _f64("c_off", data.c_off, (2,))
-    idx = np.ascontiguousarray(data.motion_dofs, dtype=np.int64)
-    if idx.ndim != 1 or np.any(idx < 0) or np.any(idx >= nd) or len(set(idx.tolist())) != idx.size:
-        raise FastPathError(f"motion_dofs must be distinct indices into q (n = {nd}), got {data.motion_dofs!r}")
-    k_motion = _f64("k_motion", data.k_motion, idx.shape)
-    d0 = _f64("d0", data.d0, idx.shape)
-    backlash = float(data.backlash_rad)
-    if not (math.isfinite(backlash) and backlash >= 0):
-        raise FastPathError(f"backlash_rad must be finite and >= 0, got {data.backlash_rad!r}")
-    t_tab = _f64("t_tab", data.t_tab)
-    if t_tab.ndim != 1 or t_tab.size < 2:
-        raise FastPathError("t_tab must be a 1-D table of at least 2 times")
-    dt_tab = float(data.dt_tab)
-    s_tab = _f64("s_tab", data.s_tab, t_tab.shape)
-    f_nom_tab = _f64("f_nom_tab", data.f_nom_tab, (t_tab.size, nd))
-    if n_steps * h > t_tab[-1] * (1 + 1e-12):
-        raise FastPathError(f"the run ends at {n_steps * h:.6g} s, after the end of the tables ({t_tab[-1]:.6g} s)")
-
-    wp = milling.workpiece
-    wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n = wp._kernel_state()
-    offset = np.ascontiguousarray(milling.immersion_rad(0.0))
-    radius = np.ascontiguousarray(milling.tooth_radius_m)
-    law = milling.law
-    law_arr = np.array([law.ktc_pa, law.krc_pa, law.kac_pa, law.kte_n_per_m, law.kre_n_per_m, law.kae_n_per_m])
-    db = float(milling.db_m)
-
-    lu, piv = sla.lu_factor(effective_matrix(K, C, M, h, _GAMMA, _BETA))
-    lu = np.ascontiguousarray(lu)
-    Z = np.ascontiguousarray(sla.lu_solve((lu, piv), JtRt))  # S^-1 J^T R_c^T, (n, 3)
-    JcZ = np.ascontiguousarray(Jc @ Z)
-    piv = np.ascontiguousarray(piv, dtype=np.int64)
-
-    # initial state: rest, consistent acceleration (as the reference path)
-    q_n = np.zeros(nd)
-    v_n = np.zeros(nd)
-    c_n = np.asarray(data.center(q_n, 0.0), dtype=float).copy()
-    f0, _ = milling.force(omega * 0.0, c_n)
-    f0 = np.array(f0)
-
-    def residual0(q, v, a, t):
-        f, _ = milling.force(omega * t, data.center(q, t))
-        return data.residual(q, v, a, t, f)
-
-    a_n = np.array(initial_acceleration(residual0, q_n, v_n, 0.0, constant_tangent=(K, C, M)), dtype=float)
-
-    N = n_steps + 1
-    rec_f = np.empty((N, 3))
-    rec_c = np.empty((N, 2))
-    rec_f[0] = f0
-    rec_c[0] = c_n
-    counters = np.zeros(6, dtype=np.int64)
-    counters[5] = -1
-    def state() -> NewmarkResult:
-        st = NewmarkStats(accepted=int(counters[0]), rejected=0, newton_iterations=int(counters[1]),
-                          max_iterations=int(counters[2]), min_step_s=h if counters[0] else math.inf)
-        return NewmarkResult(int(counters[0]) * h, q_n.copy(), v_n.copy(), a_n.copy(), st, False)
-
-    chunks = 0
-    k = 0
-    acct = [0, 0, 0]  # kernel commits, column updates, overflows already reported to the workpiece
-    fb = {"steps": 0, "substeps": 0, "rejected": 0, "iterations": 0}
-
-    def account():
-        wp._account_removal(int(counters[0]) - fb["steps"] - acct[0], int(counters[3]) - acct[1],
-                            int(counters[4]) - acct[2])
-        acct[:] = [int(counters[0]) - fb["steps"], int(counters[3]), int(counters[4])]
-
-    def fallback_step(kf: int, status: int) -> None:
-        """One nominal step with the Python reference (step halving) from the last accepted state."""
-        k_acc = int(counters[0])
-        account()  # the workpiece revision must be current before the Python force is evaluated
-        last = {}
-        prev = {"t": k_acc * h, "c": c_n.copy()}
-
-        def res(q, v, a, t):
-            f, _ = milling.force(omega * t, data.center(q, t))
-            last["f"] = f
-            return data.residual(q, v, a, t, f)
-
-        def on_step(st):
-            c = np.asarray(data.center(st.q, st.t_s), dtype=float)
-            if st.on_grid:
-                rec_f[k_acc + 1] = last["f"]
-                rec_c[k_acc + 1] = c
-            milling.commit(omega * prev["t"], prev["c"], omega * st.t_s, c)
-            prev.update(t=st.t_s, c=c)
-
-        try:
-            out = integrate(res, q_n, v_n, a0=a_n, t0_s=k_acc * h, h_s=h, n_steps=1, constant_tangent=(K, C, M),
-                            options=NewmarkOptions(atol=atol, rtol=rtol, max_iter=max_iter, defer_interrupts=False,
-                                                   max_halvings=int(fallback_halvings)),
-                            on_step=on_step)
-        except NewmarkConvergenceError:
-            why = ("did not converge in %d iterations" % max_iter if status == _NO_CONVERGENCE
-                   else "gave a non-finite residual or increment")
-            raise FastPathConvergenceError(
-                f"linearized fast path: Newton {why} at the step to t = {kf * h:.9g} s (step {kf} of {n_steps}, "
-                f"h = {h:.6g} s), also with step halving; the last accepted state is t = {k_acc * h:.9g} s",
-                state()) from None
-        q_n[:], v_n[:], a_n[:] = out.q, out.v, out.a
-        c_n[:] = prev["c"]
-        counters[0] += 1
-        counters[1] += out.stats.newton_iterations
-        counters[2] = max(int(counters[2]), out.stats.max_iterations)
-        counters[5] = -1
-        fb["steps"] += 1
-        fb["substeps"] += out.stats.accepted
-        fb["rejected"] += out.stats.rejected
-        fb["iterations"] += out.stats.newton_iterations
-
-    try:
-        while k < n_steps:
-            k1 = min(n_steps, k + chunk)
-            status = _run_chunk(k, k1, h, omega, int(max_iter), float(atol), float(rtol),
-                                lu, piv, M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab,
-                                idx, k_motion, backlash, d0,
-                                offset, radius, db, law_arr,
-                                wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
-                                q_n, v_n, a_n, c_n, rec_f, rec_c, counters, Z, JcZ)
-            chunks += 1
-            if status != _OK:
-                fallback_step(int(counters[5]), status)
-            k = int(counters[0])
-            if progress is not None:
-                progress(k / n_steps)
-    except KeyboardInterrupt as e:
-        if isinstance(e, NewmarkInterrupted):
-            raise
-        raise NewmarkInterrupted(state()) from e
-    finally:
-        # Report the kernel's removal steps to the workpiece (revision, counters). Each compiled
-        # call is atomic, so the counters match the eroded part whatever stopped the loop.
-        account()
-
-    stats = dict(steps=int(counters[0]), rejected=fb["rejected"], newton_iterations=int(counters[1]),
-                 max_iterations=int(counters[2]), removed_cells=int(counters[3]),
-                 removal_overflows=int(counters[4]), chunks=chunks, python_fallback_steps=fb["steps"],
-                 python_fallback_substeps=fb["substeps"])
-    t = np.arange(N) * h
-    return LinearRun(t_s=t, force_tool_n=rec_f, center_m=rec_c, q=q_n, v=v_n, a=a_n, stats=stats)
+        raise FastPathError(f"milling must be a timedomain.workpiece_force.MillingForce, got {type(milling).__name__}")
+    h, n_steps, omega, chunk = _check_run_args(h_s, n_steps, omega_rad_s, chunk_steps, atol, rtol, max_iter,
+                                               fallback_halvings)
+    system, K = _system_arrays(data, n_steps * h)
+    M, C, _, JtRt, Jc = system[:5]
+    tool_part = _milling_arrays(milling)
+    factors = _factorized(K, C, M, JtRt, Jc, h)
+    loop = _Loop(data, milling, h, n_steps, omega, K, C, M, atol=atol, rtol=rtol, max_iter=max_iter,
+                 fallback_halvings=fallback_halvings)
+    _run_chunks(loop, chunk, system, tool_part, factors, progress)
+    t = np.arange(n_steps + 1) * h
+    return LinearRun(t_s=t, force_tool_n=loop.rec_f, center_m=loop.rec_c, q=loop.q_n, v=loop.v_n, a=loop.a_n,
+                     stats=loop.stats())

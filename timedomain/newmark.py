@@ -70,6 +70,8 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.linalg.lapack import dgetrs as _getrs
 
+from robolobes.core.validate import finite_array, readonly
+
 __all__ = [
     "NewmarkError",
     "NewmarkConvergenceError",
@@ -120,12 +122,6 @@ class NewmarkInterrupted(KeyboardInterrupt):
     def __init__(self, result: "NewmarkResult"):
         super().__init__(f"integration interrupted at t = {result.t_s:.9g} s after {result.stats.accepted} steps")
         self.result = result
-
-
-def _ro(a) -> np.ndarray:
-    a = np.array(a, dtype=float, copy=True)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
@@ -291,7 +287,7 @@ class LinearSystem:
             if m.shape != (n, n) or not np.all(np.isfinite(m)):
                 raise NewmarkError(f"{name} must be a finite square matrix like M {mats[0].shape}, got {m.shape}")
         for name, m in zip("MCK", mats):
-            object.__setattr__(self, name, _ro(m))
+            object.__setattr__(self, name, readonly(m))
 
     def residual(self, q, v, a, t) -> np.ndarray:
         return self.M @ a + self.C @ v + self.K @ q - np.asarray(self.force(t), dtype=float)
@@ -351,12 +347,8 @@ class _InterruptGuard:
 
 
 def _vec(name, x, n=None) -> np.ndarray:
-    a = np.array(x, dtype=float, copy=True)
-    if a.ndim != 1 or (n is not None and a.shape != (n,)):
-        raise NewmarkError(f"{name} must be a 1-D array" + (f" of length {n}" if n is not None else "") + f", got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise NewmarkError(f"{name} must be finite, got {a}")
-    return a
+    """A finite 1-D float copy of ``x`` (of length n if given)."""
+    return finite_array(name, x, None if n is None else (n,), ndim=1, error=NewmarkError)
 
 
 def initial_acceleration(
@@ -398,8 +390,167 @@ def initial_acceleration(
         return a
     raise NewmarkConvergenceError(
         f"initial acceleration did not converge in {max_iter} iterations (last |da| = {np.abs(da).max():.3g})",
-        NewmarkResult(float(t0_s), _ro(q), _ro(v), _ro(a), NewmarkStats(), False),
+        NewmarkResult(float(t0_s), readonly(q), readonly(v), readonly(a), NewmarkStats(), False),
     )
+
+
+def _check_start(q0, v0, t0_s, h_s, n_steps) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Validated initial state, start time and nominal step of :func:`integrate`."""
+    q_n = _vec("q0", q0)
+    v_n = _vec("v0", v0, q_n.size)
+    try:
+        t0 = float(t0_s)
+        h_nom = float(h_s)
+    except (TypeError, ValueError):
+        raise NewmarkError(f"t0_s and h_s must be numbers, got {t0_s!r}, {h_s!r}") from None
+    if not math.isfinite(t0):
+        raise NewmarkError(f"t0_s must be finite, got {t0}")
+    if not math.isfinite(h_nom) or h_nom <= 0:
+        raise NewmarkError(f"step size h_s must be finite and > 0, got {h_nom}")
+    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
+        raise NewmarkError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+    return q_n, v_n, t0, h_nom
+
+
+def _check_tangents(n: int, tangent, constant_tangent, linear: bool) -> tuple | None:
+    """The constant tangent as float arrays (n, n), or None when full Newton uses ``tangent``."""
+    if tangent is None and constant_tangent is None:
+        raise NewmarkError("give tangent (full Newton) or constant_tangent (prefactored)")
+    if linear and constant_tangent is None:
+        raise NewmarkError("linear=True needs constant_tangent")
+    if constant_tangent is None:
+        return None
+    if len(constant_tangent) != 3:
+        raise NewmarkError("constant_tangent must be (dr/dq, dr/dv, dr/da)")
+    const = tuple(np.asarray(m, dtype=float) for m in constant_tangent)
+    for m in const:
+        if m.shape != (n, n) or not np.all(np.isfinite(m)):
+            raise NewmarkError(f"constant_tangent matrices must be finite ({n}, {n}), got {m.shape}")
+    return const
+
+
+class _NewtonStep:
+    """Newton on ``q1`` for one Newmark step from an accepted state (module docstring)."""
+
+    def __init__(self, residual, tangent, const, opt: NewmarkOptions, n: int, h_nom: float, linear: bool):
+        self.residual, self.tangent, self.const, self.opt, self.n = residual, tangent, const, opt, n
+        self.h_nom, self.linear = h_nom, linear
+        self.gamma, self.beta = float(opt.gamma), float(opt.beta)
+        self.atol = np.broadcast_to(np.asarray(opt.atol, dtype=float), (n,))
+        self.ratol = None if opt.residual_atol is None else np.broadcast_to(np.asarray(opt.residual_atol, float), (n,))
+        self.lu_cache: dict[int, tuple] = {}
+
+    def _factor(self, h: float):
+        """LU of the constant effective matrix for step h (cached per halving level), or None."""
+        if self.const is None:
+            return None
+        key = round(math.log2(self.h_nom / h))
+        lu = self.lu_cache.get(key)
+        if lu is None:
+            lu = sla.lu_factor(effective_matrix(*self.const, h, self.gamma, self.beta))
+            self.lu_cache[key] = lu
+        return lu
+
+    def _effective(self, q, v, a, t1, ca: float, cv: float) -> np.ndarray:
+        jq, jv, ja = self.tangent(q, v, a, t1)
+        s_mat = np.asarray(jq, dtype=float) + cv * np.asarray(jv, dtype=float) + ca * np.asarray(ja, dtype=float)
+        if s_mat.shape != (self.n, self.n):
+            raise NewmarkError(f"tangent gives an effective matrix of shape {s_mat.shape}, expected ({self.n}, {self.n})")
+        return s_mat
+
+    def _converged(self, dq, r, q, q_n) -> bool:
+        if self.linear:
+            return True
+        ok = bool((np.abs(dq) <= self.atol + self.opt.rtol * np.abs(q - q_n)).all())
+        if ok and self.ratol is not None:
+            ok = bool((np.abs(r) <= self.ratol).all())
+        return ok
+
+    def solve(self, q_n, v_n, a_n, h: float, t1: float):
+        """Returns (q, v, a, iterations), or (None, None, None, iterations) on failure."""
+        gamma, beta, opt = self.gamma, self.beta, self.opt
+        ca = 1.0 / (beta * h * h)
+        cv = gamma / (beta * h)
+        base_a = (0.5 / beta - 1.0) * a_n
+        vpred = v_n + h * (1.0 - gamma) * a_n
+        q = q_n + h * v_n + 0.5 * h * h * a_n
+        lu = self._factor(h)
+        s_mat = None
+        for it in range(1, opt.max_iter + 1):
+            a = ca * (q - q_n - h * v_n) - base_a
+            v = vpred + gamma * h * a
+            r = np.asarray(self.residual(q, v, a, t1), dtype=float)
+            if r.shape != (self.n,):
+                raise NewmarkError(f"residual returned shape {r.shape}, expected ({self.n},)")
+            if not np.isfinite(r).all():
+                return None, None, None, it
+            if lu is not None:
+                dq, _info = _getrs(lu[0], lu[1], r)
+                dq = -dq
+            else:
+                if s_mat is None or not opt.modified_newton:
+                    s_mat = self._effective(q, v, a, t1, ca, cv)
+                try:
+                    dq = -np.linalg.solve(s_mat, r)
+                except np.linalg.LinAlgError:
+                    return None, None, None, it
+            if not np.isfinite(dq).all():
+                return None, None, None, it
+            q = q + dq
+            if self._converged(dq, r, q, q_n):
+                a = ca * (q - q_n - h * v_n) - base_a
+                v = vpred + gamma * h * a
+                return q, v, a, it
+        return None, None, None, opt.max_iter
+
+
+class _StepSize:
+    """Dyadic step control: the step is ``h / 2**level``; time is counted in ticks of
+    ``h / 2**max_halvings`` so that every nominal grid time is hit exactly."""
+
+    def __init__(self, opt: NewmarkOptions, n_steps: int, h_nom: float):
+        self.H = int(opt.max_halvings)
+        self.regrow_after = opt.regrow_after
+        self.ticks_nom = 1 << self.H
+        self.p_end = int(n_steps) * self.ticks_nom
+        self.tick = h_nom / self.ticks_nom
+        self.p = 0
+        self.level = 0
+        self.streak = 0
+
+    @property
+    def step_ticks(self) -> int:
+        return 1 << (self.H - self.level)
+
+    @property
+    def at_smallest(self) -> bool:
+        return self.level >= self.H
+
+    @property
+    def on_grid(self) -> bool:
+        return self.p % self.ticks_nom == 0
+
+    def halve(self) -> None:
+        self.level += 1
+        self.streak = 0
+
+    def advance(self, step_ticks: int) -> None:
+        """After an accepted step: move on by its ticks."""
+        self.p += step_ticks
+
+    def regrow(self) -> None:
+        """Double the step again after ``regrow_after`` accepted steps at a reduced size, at a time
+        on the coarser grid."""
+        if self.level > 0:
+            self.streak += 1
+            if self.streak >= self.regrow_after and self.p % (1 << (self.H - self.level + 1)) == 0:
+                self.level -= 1
+                self.streak = 0
+
+
+def _frozen(*arrays) -> None:
+    for arr in arrays:
+        arr.setflags(write=False)
 
 
 def integrate(
@@ -466,166 +617,68 @@ def integrate(
     opt = NewmarkOptions() if options is None else options
     if not isinstance(opt, NewmarkOptions):
         raise NewmarkError(f"options must be NewmarkOptions, got {type(opt).__name__}")
-    q_n = _vec("q0", q0)
+    q_n, v_n, t0, h_nom = _check_start(q0, v0, t0_s, h_s, n_steps)
     n = q_n.size
-    v_n = _vec("v0", v0, n)
-    try:
-        t0 = float(t0_s)
-        h_nom = float(h_s)
-    except (TypeError, ValueError):
-        raise NewmarkError(f"t0_s and h_s must be numbers, got {t0_s!r}, {h_s!r}") from None
-    if not math.isfinite(t0):
-        raise NewmarkError(f"t0_s must be finite, got {t0}")
-    if not math.isfinite(h_nom) or h_nom <= 0:
-        raise NewmarkError(f"step size h_s must be finite and > 0, got {h_nom}")
-    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
-        raise NewmarkError(f"n_steps must be an integer >= 1, got {n_steps!r}")
-    if tangent is None and constant_tangent is None:
-        raise NewmarkError("give tangent (full Newton) or constant_tangent (prefactored)")
-    if linear and constant_tangent is None:
-        raise NewmarkError("linear=True needs constant_tangent")
-    if constant_tangent is not None:
-        if len(constant_tangent) != 3:
-            raise NewmarkError("constant_tangent must be (dr/dq, dr/dv, dr/da)")
-        const = tuple(np.asarray(m, dtype=float) for m in constant_tangent)
-        for m in const:
-            if m.shape != (n, n) or not np.all(np.isfinite(m)):
-                raise NewmarkError(f"constant_tangent matrices must be finite ({n}, {n}), got {m.shape}")
-    else:
-        const = None
-    atol = np.broadcast_to(np.asarray(opt.atol, dtype=float), (n,))
-    ratol = None if opt.residual_atol is None else np.broadcast_to(np.asarray(opt.residual_atol, float), (n,))
-    gamma, beta = float(opt.gamma), float(opt.beta)
-
+    const = _check_tangents(n, tangent, constant_tangent, linear)
     if a0 is None:
         a_n = initial_acceleration(residual, q_n, v_n, t0, tangent=tangent, constant_tangent=const)
     else:
         a_n = _vec("a0", a0, n)
-
-    H = int(opt.max_halvings)
-    ticks_nom = 1 << H
-    p_end = int(n_steps) * ticks_nom
-    tick = h_nom / ticks_nom
-    p = 0
-    level = 0
-    streak = 0
+    newton = _NewtonStep(residual, tangent, const, opt, n, h_nom, linear)
+    ctl = _StepSize(opt, n_steps, h_nom)
     t_n = t0
     g_n = None if events is None else np.asarray(events(q_n, v_n, t_n), dtype=float)
     stats = dict(accepted=0, rejected=0, event_refinements=0, newton_iterations=0, max_iterations=0, min_step_s=math.inf)
-    lu_cache: dict[int, tuple] = {}
     next_progress = opt.progress_every
 
     def result(done: bool) -> NewmarkResult:
-        return NewmarkResult(t_n, _ro(q_n), _ro(v_n), _ro(a_n), NewmarkStats(**stats), done)
+        return NewmarkResult(t_n, readonly(q_n), readonly(v_n), readonly(a_n), NewmarkStats(**stats), done)
 
-    def attempt(h: float, t1: float):
-        """Newton for one step; returns (q, v, a, iterations) or (None, ..., iterations) on failure."""
-        ca = 1.0 / (beta * h * h)
-        cv = gamma / (beta * h)
-        base_a = (0.5 / beta - 1.0) * a_n
-        vpred = v_n + h * (1.0 - gamma) * a_n
-        q = q_n + h * v_n + 0.5 * h * h * a_n
-        lu = None
-        if const is not None:
-            key = round(math.log2(h_nom / h))
-            lu = lu_cache.get(key)
-            if lu is None:
-                lu = sla.lu_factor(effective_matrix(*const, h, gamma, beta))
-                lu_cache[key] = lu
-        s_mat = None
-        for it in range(1, opt.max_iter + 1):
-            a = ca * (q - q_n - h * v_n) - base_a
-            v = vpred + gamma * h * a
-            r = np.asarray(residual(q, v, a, t1), dtype=float)
-            if r.shape != (n,):
-                raise NewmarkError(f"residual returned shape {r.shape}, expected ({n},)")
-            if not np.isfinite(r).all():
-                return None, None, None, it
-            if lu is not None:
-                dq, _info = _getrs(lu[0], lu[1], r)
-                dq = -dq
-            else:
-                if s_mat is None or not opt.modified_newton:
-                    jq, jv, ja = tangent(q, v, a, t1)
-                    s_mat = np.asarray(jq, dtype=float) + cv * np.asarray(jv, dtype=float) + ca * np.asarray(ja, dtype=float)
-                    if s_mat.shape != (n, n):
-                        raise NewmarkError(f"tangent gives an effective matrix of shape {s_mat.shape}, expected ({n}, {n})")
-                try:
-                    dq = -np.linalg.solve(s_mat, r)
-                except np.linalg.LinAlgError:
-                    return None, None, None, it
-            if not np.isfinite(dq).all():
-                return None, None, None, it
-            q = q + dq
-            if linear:
-                converged = True
-            else:
-                converged = bool((np.abs(dq) <= atol + opt.rtol * np.abs(q - q_n)).all())
-                if converged and ratol is not None:
-                    converged = bool((np.abs(r) <= ratol).all())
-            if converged:
-                a = ca * (q - q_n - h * v_n) - base_a
-                v = vpred + gamma * h * a
-                return q, v, a, it
-        return None, None, None, opt.max_iter
-
-    q_n.setflags(write=False)
-    v_n.setflags(write=False)
     a_n = np.array(a_n, dtype=float)
-    a_n.setflags(write=False)
+    _frozen(q_n, v_n, a_n)
     guard = _InterruptGuard(opt.defer_interrupts)
     try:
         with guard:
-            while p < p_end:
-                step_ticks = 1 << (H - level)
-                h = step_ticks * tick
-                t1 = t0 + (p + step_ticks) * tick
-                q1, v1, a1, its = attempt(h, t1)
+            while ctl.p < ctl.p_end:
+                step_ticks = ctl.step_ticks
+                h = step_ticks * ctl.tick
+                t1 = t0 + (ctl.p + step_ticks) * ctl.tick
+                q1, v1, a1, its = newton.solve(q_n, v_n, a_n, h, t1)
                 stats["newton_iterations"] += its
                 if q1 is None:
                     stats["rejected"] += 1
-                    if level >= H:
+                    if ctl.at_smallest:
                         raise NewmarkConvergenceError(
                             f"Newton did not converge at t = {t_n:.9g} s even with the smallest step "
-                            f"h = {h:.3g} s ({opt.max_iter} iterations, {H} halvings); check the tangent, "
+                            f"h = {h:.3g} s ({opt.max_iter} iterations, {ctl.H} halvings); check the tangent, "
                             f"loosen atol/rtol, raise max_iter or max_halvings",
                             result(False),
                         )
-                    level += 1
-                    streak = 0
+                    ctl.halve()
                     continue
                 if events is not None:
                     g1 = np.asarray(events(q1, v1, t1), dtype=float)
-                    if level < opt.event_halvings and np.any(np.sign(g1) != np.sign(g_n)):
+                    if ctl.level < opt.event_halvings and np.any(np.sign(g1) != np.sign(g_n)):
                         stats["event_refinements"] += 1
-                        level += 1
-                        streak = 0
+                        ctl.halve()
                         continue
+                    g_n = g1
                 # accept (the new arrays are owned here and never modified: freeze them, no copies)
-                for arr in (q1, v1, a1):
-                    arr.setflags(write=False)
+                _frozen(q1, v1, a1)
                 stats["accepted"] += 1
                 stats["max_iterations"] = max(stats["max_iterations"], its)
                 stats["min_step_s"] = min(stats["min_step_s"], h)
                 q_prev, v_prev, a_prev, t_prev = q_n, v_n, a_n, t_n
                 q_n, v_n, a_n, t_n = q1, v1, a1, t1
-                p += step_ticks
-                if events is not None:
-                    g_n = g1
+                ctl.advance(step_ticks)
                 if on_step is not None:
-                    info = AcceptedStep(
+                    guard.run_hook(on_step, AcceptedStep(
                         index=stats["accepted"], t_prev_s=t_prev, t_s=t1, h_s=h, q_prev=q_prev, v_prev=v_prev,
-                        a_prev=a_prev, q=q1, v=v1, a=a1, iterations=its, on_grid=(p % ticks_nom == 0),
-                    )
-                    guard.run_hook(on_step, info)
-                if level > 0:
-                    streak += 1
-                    if streak >= opt.regrow_after and p % (1 << (H - level + 1)) == 0:
-                        level -= 1
-                        streak = 0
-                if progress is not None and (p / p_end >= next_progress or p == p_end):
-                    progress(p / p_end)
-                    next_progress = (math.floor(p / p_end / opt.progress_every) + 1) * opt.progress_every
+                        a_prev=a_prev, q=q1, v=v1, a=a1, iterations=its, on_grid=ctl.on_grid))
+                ctl.regrow()
+                if progress is not None and (ctl.p / ctl.p_end >= next_progress or ctl.p == ctl.p_end):
+                    progress(ctl.p / ctl.p_end)
+                    next_progress = (math.floor(ctl.p / ctl.p_end / opt.progress_every) + 1) * opt.progress_every
     except KeyboardInterrupt as e:
         if isinstance(e, NewmarkInterrupted):
             raise

@@ -7,12 +7,17 @@ Files (in ``out_dir``):
   deviation from the commanded path (cut frame); ``spindle_angle_rad``;
 * ``wall.csv``: ``x_m`` and the wall ``y_m`` of each slice (cut frame), at most 20000 points (the
   roughness in the summary is computed on the full 1 um grid);
-* ``summary.json``: the numbers of :func:`timedomain.simulate.summarize` plus the run statistics;
+* ``summary.json``: :meth:`SimulationSummary.to_json` (every field, ``None`` with a reason when
+  not computable; ``provenance``) plus the case, the frames and the run statistics;
 * ``forces.png`` (the whole pass), ``closeup.png`` (three spindle revolutions in the steady cut),
   ``wall.png`` (the machined lateral wall).
 
 Everything is first written to a temporary directory beside ``out_dir`` and moved into place file
-by file only when all of it exists: an interruption leaves no partial file in ``out_dir``.
+by file only when all of it exists: an interruption leaves no partial file in ``out_dir``. When
+``out_dir`` holds the outputs of an earlier run (its ``summary.json`` was written by robolobes),
+the earlier run's output files that this run does not write (e.g. ``series.csv`` when this run
+writes ``series.npz``) are removed, so the directory never mixes two runs. Other files are never
+touched.
 """
 
 from __future__ import annotations
@@ -25,24 +30,34 @@ from typing import Literal
 import numpy as np
 
 from robolobes.core.io import pyplot, save_figure, to_jsonable, write_json
-from .simulate import PAPER_AXES, SimulationResult
+from .result import SimulationResult
 
-__all__ = ["save_result", "summary_dict", "plot_forces", "plot_closeup", "plot_wall"]
+__all__ = ["save_result", "summary_dict", "plot_forces", "plot_closeup", "plot_wall", "OUTPUT_FILES"]
+
+#: Every file name :func:`save_result` may write.
+OUTPUT_FILES = ("series.npz", "series.csv", "wall.csv", "summary.json", "forces.png", "closeup.png", "wall.png")
 
 
 def summary_dict(result: SimulationResult) -> dict:
     """JSON-ready summary: case, model, derived numbers, run statistics."""
-    p = result.problem
-    out = {"case": p.case.name, "variant": p.variant, "damping_scale": p.damping_scale,
-           "linearized": p.linearized, "t_end_s": float(result.t_s[-1]),
+    out = {"case": result.problem.case.name,
            "force_frame": "workpiece (dynamometer) = cut frame: x feed, y normal, z up; force on the workpiece",
            "paper_axes_note": "force_stats_paper_axes: (Fx, Fy) as the paper's Tab. 10, Fx = -F_workpiece.x, "
-                              "Fy = +F_workpiece.y (timedomain.cutting)"}
-    out.update(result.summary)
+                              "Fy = +F_workpiece.y (timedomain.workpiece_force)"}
+    out.update(result.summary.to_json())
     out["run"] = dict(result.stats)
     return to_jsonable(out)
 
 
+def _is_earlier_run(out: Path) -> bool:
+    """Whether ``out`` holds a summary.json written by robolobes simulate."""
+    import json
+
+    try:
+        s = json.loads((out / "summary.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(s, dict) and "force_frame" in s and ("provenance" in s or "run" in s)
 
 
 def plot_forces(result: SimulationResult, path) -> None:
@@ -56,9 +71,10 @@ def plot_forces(result: SimulationResult, path) -> None:
     ax.axvspan(*result.steady_window_s, color="0.9", zorder=0, label="steady cut")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("cutting force (N)")
-    p = result.problem
-    st = result.summary.get("stable")
-    ax.set_title(f"{p.case.name} [{p.variant}{', x%g damping' % p.damping_scale if p.damping_scale != 1 else ''}]"
+    p, s = result.problem, result.summary
+    st = s.stable
+    damping = f", x{s.damping_scale:g} damping" if s.damping_scale not in (None, 1.0) else ""
+    ax.set_title(f"{p.case.name} [{s.variant}{damping}]"
                  f" - {'stable' if st else 'unstable' if st is False else 'no verdict'}")
     ax.legend(fontsize=8, loc="lower right")
     ax.grid(alpha=0.3)
@@ -103,7 +119,7 @@ def plot_wall(result: SimulationResult, path) -> None:
     ax.plot(x[done] * 1e3, (y[k][done] - nominal) * 1e6, lw=0.6)
     ax.set_xlabel("x along the feed (mm)")
     ax.set_ylabel("wall - nominal (um)")
-    r = result.summary.get("roughness_um")
+    r = result.summary.roughness_um
     ax.set_title("machined lateral wall" + (f": Ra {r['Ra']:.2f} um, Rq {r['Rq']:.2f} um, Rt {r['Rt']:.2f} um"
                                             if r else ""))
     ax.grid(alpha=0.3)
@@ -117,6 +133,7 @@ def save_result(result: SimulationResult, out_dir, series: Literal["npz", "csv"]
     out = Path(out_dir)
     out.parent.mkdir(parents=True, exist_ok=True) if str(out.parent) else None
     out.mkdir(parents=True, exist_ok=True)
+    earlier = _is_earlier_run(out)
     tmp = Path(tempfile.mkdtemp(prefix=".robolobes-", dir=out))
     try:
         t = np.asarray(result.t_s)
@@ -144,6 +161,9 @@ def save_result(result: SimulationResult, out_dir, series: Literal["npz", "csv"]
             dest = out / f.name
             f.replace(dest)
             written.append(dest)
+        if earlier:
+            for name in set(OUTPUT_FILES) - {w.name for w in written}:
+                (out / name).unlink(missing_ok=True)
         return written
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

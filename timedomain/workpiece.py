@@ -68,11 +68,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 from typing import Literal
 
 import numpy as np
 
 from robolobes.cases.milling import Cut, MillingError, Tool, check_cut
+from robolobes.core.errors import BadInput
+from robolobes.core.validate import finite, readonly
 
 try:  # numba is optional: the kernels are plain Python without it.
     from numba import njit
@@ -104,26 +107,11 @@ _PAD_COLUMNS = 2
 _MAX_CELLS = 200_000_000
 
 
-class WorkpieceError(ValueError):
+class WorkpieceError(BadInput):
     """A workpiece that cannot be built or a query with impossible arguments."""
 
 
-def _finite(name: str, value, *, positive: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise WorkpieceError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise WorkpieceError(f"{name} must be finite, got {v}")
-    if positive and v <= 0:
-        raise WorkpieceError(f"{name} must be > 0, got {v}")
-    return v
-
-
-def _ro(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float, copy=True)
-    a.setflags(write=False)
-    return a
+_finite = partial(finite, error=WorkpieceError)  # core.validate.finite raising WorkpieceError
 
 
 @dataclass(frozen=True)
@@ -559,13 +547,13 @@ class Workpiece:
 
         Columns without material (outside the part) hold ``y = -+1 m`` (1 m beyond the edge).
         """
-        return _ro(self._sgn * self._wb)
+        return readonly(self._sgn * self._wb)
 
     def removed_area_m2(self) -> np.ndarray:
         """Area removed from each slice so far (trapezoid rule over the columns, pending updates
         included), shape (K,), m^2."""
         depth = self._w_edge - self._settled()[:, self._part_cols]
-        return _ro(np.trapezoid(depth, dx=self._dx, axis=1))
+        return readonly(np.trapezoid(depth, dx=self._dx, axis=1))
 
     def copy(self) -> "Workpiece":
         """An independent copy (same geometry, same eroded state)."""
@@ -699,7 +687,7 @@ class Workpiece:
         """
         x = self.x_columns_m[self._part_cols]
         wb = self._settled()
-        return WallProfile(x_m=_ro(x), y_m=_ro(self._sgn * wb[:, self._part_cols]), z_m=self._discs.z_m)
+        return WallProfile(x_m=readonly(x), y_m=readonly(self._sgn * wb[:, self._part_cols]), z_m=self._discs.z_m)
 
     def roughness(self, disc: int | None = None, *, x_range_m: tuple[float, float] | None = None, **kwargs):
         """ISO 4287 roughness of the lateral wall of one slice (see :func:`timedomain.signals.roughness`).

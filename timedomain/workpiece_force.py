@@ -1,4 +1,5 @@
-"""Cutting forces of a discretized end mill on the eroded workpiece (paper eq. 13-15).
+"""The milling force of a discretized end mill on the eroded workpiece (paper eq. 13-15), and runs
+along a prescribed (rigid-tool) motion.
 
 The force law, the angle convention and the projection are those of :mod:`cases.milling`
 (:func:`~cases.milling.edge_forces`, :func:`~cases.milling.tool_force_cut_frame`,
@@ -64,17 +65,13 @@ import numpy as np
 from robolobes.cases.milling import (Cut, CuttingLaw, MillingError, Tool, check_cut, directional_matrix, edge_forces,
                            tool_force_cut_frame)
 
+from robolobes.core.validate import readonly
+
 from .workpiece import Workpiece, WorkpieceError
 
 __all__ = ["TangentKind", "CutForce", "MillingForce", "PrescribedRun", "run_prescribed", "straight_path"]
 
 TangentKind = Literal["geometric", "directional"]
-
-
-def _ro(a) -> np.ndarray:
-    a = np.array(a, dtype=float, copy=True)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
@@ -158,11 +155,11 @@ class MillingForce:
     @property
     def tooth_radius_m(self) -> np.ndarray:
         """Tip radius of each tooth ``D/2 + runout``, shape (T,), m."""
-        return _ro(self._radius)
+        return readonly(self._radius)
 
     def immersion_rad(self, spindle_angle_rad: float) -> np.ndarray:
         """Immersion angle ``phi_jk`` of every element, shape (T, K), rad (not wrapped)."""
-        return _ro(float(spindle_angle_rad) + self._offset)
+        return readonly(float(spindle_angle_rad) + self._offset)
 
     def _state(self, spindle_angle_rad, center_m):
         a = float(spindle_angle_rad)
@@ -236,7 +233,8 @@ class MillingForce:
         """Force on the tool and on the workpiece, tangent, chips and angles (copies)."""
         a, c = self._state(spindle_angle_rad, center_m)
         f, d, h, phi = self._evaluate(a, c, self.tangent)
-        return CutForce(tool_n=_ro(f), workpiece_n=_ro(-f), dtool_dcenter_n_per_m=_ro(d), chip_m=_ro(h), phi_rad=_ro(phi))
+        return CutForce(tool_n=readonly(f), workpiece_n=readonly(-f), dtool_dcenter_n_per_m=readonly(d),
+                        chip_m=readonly(h), phi_rad=readonly(phi))
 
     def commit(self, spindle_angle0_rad: float, center0_m, spindle_angle1_rad: float, center1_m) -> int:
         """Erode the workpiece along the tooth tips' paths of one accepted step (t0 -> t1).
@@ -275,7 +273,7 @@ class PrescribedRun:
     @property
     def force_workpiece_n(self) -> np.ndarray:
         """Force on the workpiece ``-force_tool_n``, (n, 3), N."""
-        return _ro(-self.force_tool_n)
+        return readonly(-self.force_tool_n)
 
 
 def run_prescribed(model: MillingForce, t_s, center_m, spindle_angle_rad) -> PrescribedRun:
@@ -316,7 +314,7 @@ def run_prescribed(model: MillingForce, t_s, center_m, spindle_angle_rad) -> Pre
         hmax[i] = h.max(axis=1)
         if i + 1 < n:
             model.commit(ang[i], c[i], ang[i + 1], c[i + 1])
-    return PrescribedRun(t_s=_ro(t), force_tool_n=_ro(f), tooth_chip_m=_ro(hmax))
+    return PrescribedRun(t_s=readonly(t), force_tool_n=readonly(f), tooth_chip_m=readonly(hmax))
 
 
 def straight_path(tool: Tool, cut: Cut, t_s, x0_m: float, y_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

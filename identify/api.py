@@ -1,0 +1,120 @@
+"""``identify(measurement, model, ...)``: recognise the measurement, run its pipeline, return typed results.
+
+Kinds of measurement sets (recognised from their files, see :func:`measurement_kind`):
+
+=============== ============================================= ==========================================
+kind            files                                         reader / pipeline
+=============== ============================================= ==========================================
+``frf``         ``poses.csv`` + ``<pose>.uff|.unv|.csv``      ``linearize.frf_io.read_frf_set`` /
+                                                              ``identify.frf.identify_frf``
+``forces``      ``forces.csv`` + ``cut.toml``                 ``identify.forces``
+``force_stats`` ``force_stats.toml``                          ``identify.forces``
+``stability``   ``stability.csv``                             ``identify.forces``
+=============== ============================================= ==========================================
+
+Every pipeline has the signature ``pipeline(measurement, model: ModelState, *, alpha, max_effects,
+progress) -> Identification``; every reader ``reader(path) -> measurement`` with attributes ``kind``,
+``path``, ``case`` (the case named in the files, or None) and ``variant`` (or None).
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any, Callable
+
+from robolobes.core.errors import BadInput
+
+from .effects import ModelState
+from .result import Identification
+
+__all__ = ["identify", "read_measurement", "measurement_kind", "model_state", "READERS", "PIPELINES"]
+
+READERS = {"frf": ("robolobes.linearize.frf_io", "read_frf_set"),
+           "forces": ("robolobes.identify.forces", "read_forces"),
+           "force_stats": ("robolobes.identify.forces", "read_force_stats"),
+           "stability": ("robolobes.identify.forces", "read_stability")}
+PIPELINES = {"frf": ("robolobes.identify.frf", "identify_frf"),
+             "forces": ("robolobes.identify.forces", "identify_forces"),
+             "force_stats": ("robolobes.identify.forces", "identify_force_stats"),
+             "stability": ("robolobes.identify.forces", "identify_stability")}
+
+# a file that identifies its set's kind
+_MARKERS = {"poses.csv": "frf", "forces.csv": "forces", "cut.toml": "forces", "force_stats.toml": "force_stats",
+            "stability.csv": "stability"}
+
+
+def _load(table, kind) -> Callable:
+    module, name = table[kind]
+    return getattr(importlib.import_module(module), name)
+
+
+def measurement_kind(path: str | Path) -> tuple[str, Path]:
+    """``(kind, path to hand to the reader)`` for a set's directory or one of its files."""
+    p = Path(path)
+    if not p.exists():
+        raise BadInput(f"--measured {path}: no such file or directory")
+    if p.is_file():
+        if p.name in _MARKERS:
+            kind = _MARKERS[p.name]
+            return kind, p.parent if kind in ("frf", "forces") else p
+        if p.suffix.lower() in (".uff", ".unv", ".csv") and (p.parent / "poses.csv").is_file():
+            return "frf", p.parent
+        raise BadInput(f"--measured {path}: not a measurement file; valid: a directory or one of "
+                       f"{', '.join(_MARKERS)}, or a pose's .uff/.unv/.csv beside poses.csv")
+    found = [k for name, k in _MARKERS.items() if (p / name).is_file()]
+    kinds = sorted(set(found))
+    if len(kinds) != 1:
+        raise BadInput(f"--measured {path}: {'no' if not kinds else 'more than one'} measurement set in the "
+                       f"directory ({', '.join(kinds) or 'none of ' + ', '.join(_MARKERS)})")
+    kind = kinds[0]
+    target = p if kind in ("frf", "forces") else p / next(n for n, k in _MARKERS.items() if k == kind)
+    return kind, target
+
+
+def read_measurement(path: str | Path) -> Any:
+    """Read a measurement set of any kind (files are never modified)."""
+    kind, target = measurement_kind(path)
+    return _load(READERS, kind)(target)
+
+
+def model_state(measurement, case: str | None = None, variant: str | None = None) -> tuple[ModelState, list[str]]:
+    """The starting model: the case named by ``case`` (overrides the file's, with a note), else the file's.
+
+    Returns the state and notes for stderr.
+    """
+    from robolobes.cases.loader import DEFAULT_CASE, load_case
+    from robolobes.linearize.model import VARIANTS
+
+    notes = []
+    named = getattr(measurement, "case", None)
+    if case is not None and named is not None and case != named:
+        notes.append(f"--case {case} overrides the case {named!r} named in the measurement")
+    ref = case or named or DEFAULT_CASE
+    var = variant or getattr(measurement, "variant", None) or "basic"
+    if var not in VARIANTS:
+        raise BadInput(f"--variant {var}: valid: {', '.join(VARIANTS)}")
+    return ModelState(case=load_case(ref), variant=var, case_ref=str(ref)), notes
+
+
+def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
+             progress: Callable[[str], None] | None = None) -> Identification:
+    """Identify the effects ``model`` lacks from ``measurement`` (any kind).
+
+    Parameters
+    ----------
+    measurement : a measurement object from :func:`read_measurement` (``kind`` selects the pipeline)
+    model : ModelState
+    alpha : float
+        Family-wise false-positive rate of the selection over the library (default 1 %).
+    max_effects : int
+        At most this many effects are added (greedy).
+    """
+    if not 0 < alpha < 1:
+        raise BadInput(f"alpha = {alpha}: must be in (0, 1)")
+    if max_effects < 0:
+        raise BadInput(f"max_effects = {max_effects}: must be >= 0")
+    kind = measurement.kind
+    if kind not in PIPELINES:
+        raise BadInput(f"measurement kind {kind!r}; valid: {', '.join(PIPELINES)}")
+    return _load(PIPELINES, kind)(measurement, model, alpha=alpha, max_effects=max_effects, progress=progress)

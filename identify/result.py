@@ -1,0 +1,94 @@
+"""Typed results of identification (shared by the FRF and the force pipelines).
+
+``identify(measurement, model, ...)`` returns an :class:`Identification`; the command line writes
+``Identification.to_json()``. Errors are relative (dimensionless) and always held out: computed on
+data the fit did not see (leave-one-pose-out for FRF sets, held-out blocks of revolutions for
+force series); statistics-only data (8 numbers) have no held-out part and report AICc instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["EffectFit", "SelectionStep", "Identification"]
+
+
+@dataclass(frozen=True)
+class EffectFit:
+    """One effect found in the data, with its fitted parameters.
+
+    Attributes
+    ----------
+    name : str
+        The effect's registry name (e.g. ``"tcp_mode"``, ``"joint_damping"``, ``"edge_coefficients"``).
+    params : dict[str, float]
+        Fitted values, SI units, unit in the key (``freq_hz``, ``stiffness_n_per_m``, ``kte_n_per_m``).
+    uncertainty : dict[str, float]
+        One standard deviation of each parameter (same keys and units).
+    evidence : dict
+        Why it was chosen: the signature it explains, the held-out error with and without it, the
+        test statistic and its threshold.
+    """
+
+    name: str
+    params: dict
+    uncertainty: dict
+    evidence: dict
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "params": dict(self.params), "uncertainty": dict(self.uncertainty),
+                "evidence": dict(self.evidence)}
+
+
+@dataclass(frozen=True)
+class SelectionStep:
+    """One greedy step: candidates tried, their held-out errors, the one kept (or none)."""
+
+    candidates: dict  # name -> held-out error with that effect added
+    kept: str | None
+    error_before: float
+    error_after: float
+    statistic: float
+    threshold: float
+
+    def to_json(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class Identification:
+    """What identification found.
+
+    Attributes
+    ----------
+    kind : {"frf", "forces", "force_stats", "stability"}
+    effects : tuple of EffectFit
+        Best first; empty when the model already explains the data within its noise.
+    error_before, error_after : float
+        Held-out error of the model before and after (same metric, dimensionless).
+    metric : str
+        The metric in words.
+    noise_floor : float
+        The error a perfect model would have on the held-out data, estimated from the data.
+    steps : tuple of SelectionStep
+    model_toml : str
+        The updated case / robot TOML (loads under the strict key check).
+    extra : dict
+        Kind-specific numbers (per-pose errors, FRAC, poles...).
+    """
+
+    kind: str
+    effects: tuple
+    error_before: float
+    error_after: float
+    metric: str
+    noise_floor: float
+    steps: tuple = ()
+    model_toml: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return {"kind": self.kind, "effects": [e.to_json() for e in self.effects],
+                "error_before": self.error_before, "error_after": self.error_after, "metric": self.metric,
+                "noise_floor": self.noise_floor, "steps": [s.to_json() for s in self.steps],
+                "model": self.model_toml, **self.extra}

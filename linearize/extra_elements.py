@@ -1,0 +1,272 @@
+"""Extra model elements for effects the built-in variants lack (added by identify or by hand).
+
+Each is an :class:`~robolobes.linearize.model.Element`, so lobes, simulate and the workspace maps
+build a model with them like any other. In a robot or case TOML they are ``[[elements]]`` tables,
+``type`` naming the element and the other keys its parameters (units in the keys)::
+
+    [[elements]]
+    type = "tcp_mode"              # a tool-holder / spindle mode at the TCP
+    freq_hz = 900.0
+    damping_ratio = 0.03
+    stiffness_n_per_m = 2.0e7
+    direction = [1.0, 0.0, 0.0]    # in the TCP (tool) frame
+
+    [[elements]]
+    type = "joint_correction"      # motion-axis spring and damper scaled (axis 1..n)
+    joint = 2
+    stiffness_scale = 0.8
+    damping_scale = 1.5
+
+    [[elements]]
+    type = "orthogonal_correction" # virtual-joint (orthogonal) spring and damper scaled
+    stiffness_scale = 0.5          # needs the orthogonal or backlash variant
+    damping_scale = 1.0
+
+    [[elements]]
+    type = "payload_mass"          # a point mass added at the payload's centre of mass (may be < 0)
+    delta_mass_kg = 5.0
+
+:data:`ELEMENT_TYPES` maps each ``type`` to its class; :func:`element_from_spec` checks the keys
+strictly (unknown or missing keys, values out of range: :class:`BadInput` naming them).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, dataclass, fields
+
+import numpy as np
+import pinocchio as pin
+
+from robolobes.cases.spec import ElementSpec
+from robolobes.core.errors import BadInput
+
+from .model import Element, ModelBuilder, VirtualJoints
+
+__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ELEMENT_TYPES",
+           "element_from_spec", "element_table"]
+
+
+def _unit(v, what: str) -> np.ndarray:
+    d = np.asarray(v, dtype=float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0:
+        raise BadInput(f"{what} must be a non-zero 3-vector, got {v!r}")
+    return d / np.linalg.norm(d)
+
+
+def _positive(name, v, *, zero_ok=False):
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 or (v == 0 and not zero_ok):
+        raise BadInput(f"{name} must be a finite number {'>= 0' if zero_ok else '> 0'}, got {v!r}")
+
+
+@dataclass(frozen=True)
+class TcpMode(Element):
+    """A tool-holder / spindle mode at the TCP: a mass on a spring and damper along ``direction``.
+
+    A body of mass ``m = k / (2 pi f)^2`` rides on a prismatic joint at the TCP along ``direction``
+    (unit vector, TCP frame: z is the tool axis), held by a spring ``k`` and a damper
+    ``c = 2 zeta sqrt(k m)``; the TCP frame moves onto that body. On a base much stiffer and
+    heavier than the mode (a robot at the mode's frequency) the TCP receptance along ``direction``
+    adds ``1 / (k - w^2 m + i w c)``: the closed form of a single-DOF oscillator with natural
+    frequency ``freq_hz`` and damping ratio ``damping_ratio``. Several modes chain in series.
+
+    Parameters
+    ----------
+    freq_hz : float > 0          natural frequency of the mode on a fixed base, Hz
+    damping_ratio : float >= 0
+    stiffness_n_per_m : float > 0
+    direction : (3,)             TCP frame, normalized here
+    """
+
+    freq_hz: float
+    damping_ratio: float
+    stiffness_n_per_m: float
+    direction: tuple = (1.0, 0.0, 0.0)
+    name: str = "tcp mode"
+
+    def __post_init__(self):
+        _positive("tcp_mode freq_hz", self.freq_hz)
+        _positive("tcp_mode damping_ratio", self.damping_ratio, zero_ok=True)
+        _positive("tcp_mode stiffness_n_per_m", self.stiffness_n_per_m)
+        object.__setattr__(self, "direction", tuple(_unit(self.direction, "tcp_mode direction")))
+
+    @property
+    def mass_kg(self) -> float:
+        return self.stiffness_n_per_m / (2 * math.pi * self.freq_hz) ** 2
+
+    @property
+    def damping_n_s_per_m(self) -> float:
+        return 2 * self.damping_ratio * math.sqrt(self.stiffness_n_per_m * self.mass_kg)
+
+    def finish(self, b: ModelBuilder) -> None:
+        parent = b.tail if b.tcp_parent is None else b.tcp_parent
+        placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
+        name = f"tcp_mode_{b.model.njoints}"
+        jid = b.model.addJoint(parent, pin.JointModelPrismaticUnaligned(np.asarray(self.direction)), placement, name)
+        b.model.appendBodyToJoint(jid, pin.Inertia(self.mass_kg, np.zeros(3), np.zeros((3, 3))), pin.SE3.Identity())
+        b.tcp_parent, b.tcp_placement = jid, pin.SE3.Identity()
+        object.__setattr__(self, "_joint_name", name)
+
+    def bind(self, robot):
+        jid = robot.model.getJointId(self._joint_name)
+        object.__setattr__(self, "_iv", robot.model.joints[jid].idx_v)
+
+    def force(self, robot, q, v, theta):
+        tau = np.zeros(robot.nv)
+        tau[self._iv] = -self.stiffness_n_per_m * q[self._iv] - self.damping_n_s_per_m * v[self._iv]
+        return tau
+
+    def tangent(self, robot, q, v, theta, engaged=False):
+        kq = np.zeros((robot.nv, robot.nv))
+        kv = np.zeros((robot.nv, robot.nv))
+        kq[self._iv, self._iv] = -self.stiffness_n_per_m
+        kv[self._iv, self._iv] = -self.damping_n_s_per_m
+        return kq, kv
+
+
+@dataclass(frozen=True)
+class JointCorrection(Element):
+    """Motion axis ``joint`` (1-based) with its spring and damper scaled.
+
+    Adds ``-(s_k - 1) k_j (q_j - theta_j) - (s_d - 1) d_j qd_j`` to the axis, ``k_j, d_j`` from the
+    robot's joint table: the axis then has stiffness ``s_k k_j`` and damping ``s_d d_j`` (engaged
+    gears; the backlash dead zone of the variant is not scaled).
+    """
+
+    joint: int
+    stiffness_scale: float = 1.0
+    damping_scale: float = 1.0
+    name: str = "joint correction"
+
+    def __post_init__(self):
+        if isinstance(self.joint, bool) or not isinstance(self.joint, int) or self.joint < 1:
+            raise BadInput(f"joint_correction joint must be an axis number 1, 2, ..., got {self.joint!r}")
+        _positive("joint_correction stiffness_scale", self.stiffness_scale)
+        _positive("joint_correction damping_scale", self.damping_scale, zero_ok=True)
+
+    def bind(self, robot):
+        n = robot.spec.n_joints
+        if self.joint > n:
+            raise BadInput(f"joint_correction joint = {self.joint}: the robot has axes 1..{n}")
+        j = self.joint - 1
+        object.__setattr__(self, "_iv", int(robot.motion_dofs[j]))
+        object.__setattr__(self, "_dk", (self.stiffness_scale - 1) * robot.spec.joints[j].stiffness_n_m_per_rad)
+        object.__setattr__(self, "_dd", (self.damping_scale - 1) * robot.spec.joints[j].damping_n_m_s_per_rad)
+
+    def force(self, robot, q, v, theta):
+        tau = np.zeros(robot.nv)
+        tau[self._iv] = -self._dk * (q[self._iv] - theta[self.joint - 1]) - self._dd * v[self._iv]
+        return tau
+
+    def tangent(self, robot, q, v, theta, engaged=False):
+        kq = np.zeros((robot.nv, robot.nv))
+        kv = np.zeros((robot.nv, robot.nv))
+        kq[self._iv, self._iv] = -self._dk
+        kv[self._iv, self._iv] = -self._dd
+        return kq, kv
+
+
+@dataclass(frozen=True)
+class OrthogonalCorrection(Element):
+    """The virtual (orthogonal) joints' spring and damper scaled; needs a variant with virtual joints."""
+
+    stiffness_scale: float = 1.0
+    damping_scale: float = 1.0
+    name: str = "orthogonal correction"
+
+    def __post_init__(self):
+        _positive("orthogonal_correction stiffness_scale", self.stiffness_scale)
+        _positive("orthogonal_correction damping_scale", self.damping_scale, zero_ok=True)
+
+    def bind(self, robot):
+        vj = [e for e in robot.elements if isinstance(e, VirtualJoints)]
+        if not vj:
+            raise BadInput("orthogonal_correction needs virtual joints: use variant 'orthogonal' or 'backlash'")
+        object.__setattr__(self, "_idx", vj[0]._idx)
+        object.__setattr__(self, "_dk", (self.stiffness_scale - 1) * vj[0].stiffness)
+        object.__setattr__(self, "_dd", (self.damping_scale - 1) * vj[0].damping)
+
+    def force(self, robot, q, v, theta):
+        tau = np.zeros(robot.nv)
+        tau[self._idx] = -self._dk * q[self._idx] - self._dd * v[self._idx]
+        return tau
+
+    def tangent(self, robot, q, v, theta, engaged=False):
+        kq = np.zeros((robot.nv, robot.nv))
+        kv = np.zeros((robot.nv, robot.nv))
+        kq[self._idx, self._idx] = -self._dk
+        kv[self._idx, self._idx] = -self._dd
+        return kq, kv
+
+
+@dataclass(frozen=True)
+class PayloadMass(Element):
+    """A point mass ``delta_mass_kg`` (may be negative: a payload lighter than declared) at the
+    payload's centre of mass; the payload's total mass must stay positive."""
+
+    delta_mass_kg: float
+    name: str = "payload mass"
+
+    def __post_init__(self):
+        if isinstance(self.delta_mass_kg, bool) or not isinstance(self.delta_mass_kg, (int, float)) \
+                or not math.isfinite(self.delta_mass_kg):
+            raise BadInput(f"payload_mass delta_mass_kg must be a finite number, got {self.delta_mass_kg!r}")
+
+    def finish(self, b: ModelBuilder) -> None:
+        p = b.spec.payload
+        if p.mass_kg + self.delta_mass_kg <= 0:
+            raise BadInput(f"payload_mass delta_mass_kg = {self.delta_mass_kg}: the payload ({p.mass_kg} kg) "
+                           "would have no mass left")
+        at_com = b.flange_placement * pin.SE3(np.eye(3), p.com_m)
+        b.model.appendBodyToJoint(b.tail, pin.Inertia(self.delta_mass_kg, at_com.translation, np.zeros((3, 3))),
+                                  pin.SE3.Identity())
+
+
+ELEMENT_TYPES = {"tcp_mode": TcpMode, "joint_correction": JointCorrection,
+                 "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass}
+
+
+def _keys(cls) -> list[str]:
+    return [f.name for f in fields(cls) if f.name != "name"]
+
+
+def element_from_spec(spec: ElementSpec, where: str = "elements") -> Element:
+    """Build the element an ``[[elements]]`` table describes; strict about its keys.
+
+    Raises
+    ------
+    BadInput
+        Unknown ``type``, unknown or missing keys, values of the wrong type or out of range.
+    """
+    cls = ELEMENT_TYPES.get(spec.type)
+    if cls is None:
+        raise BadInput(f"{where}: type = {spec.type!r} is not an element; valid: {', '.join(ELEMENT_TYPES)}")
+    valid = _keys(cls)
+    unknown = sorted(set(spec.params) - set(valid))
+    if unknown:
+        raise BadInput(f"{where} (type {spec.type}): unknown key(s) {unknown}; valid: {valid}")
+    required = [f.name for f in fields(cls) if f.name != "name" and f.default is MISSING]
+    missing = [k for k in required if k not in spec.params]
+    if missing:
+        raise BadInput(f"{where} (type {spec.type}): missing key(s) {missing}")
+    params = dict(spec.params)
+    if "direction" in params:
+        params["direction"] = tuple(params["direction"]) if isinstance(params["direction"], list) else params["direction"]
+    try:
+        return cls(**params)
+    except BadInput as e:
+        raise BadInput(f"{where}: {e}") from None
+    except (TypeError, ValueError) as e:
+        raise BadInput(f"{where} (type {spec.type}): {e}") from None
+
+
+def element_table(element: Element) -> dict:
+    """The ``[[elements]]`` table of an extra element (inverse of :func:`element_from_spec`)."""
+    for t, cls in ELEMENT_TYPES.items():
+        if type(element) is cls:
+            out = {"type": t}
+            for k in _keys(cls):
+                v = getattr(element, k)
+                out[k] = [float(x) for x in v] if isinstance(v, tuple) else v
+            return out
+    raise ValueError(f"{element!r} is not one of the extra elements ({', '.join(ELEMENT_TYPES)})")

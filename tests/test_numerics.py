@@ -1,0 +1,58 @@
+"""core.numerics.richardson against sequences with a known limit (closed forms, no code under test).
+
+b(h) = L + c h^p (+ d h^(p+1)) with chosen L, c, p: the extrapolation of order 2 is exact for p = 2,
+and its error bound |b(h/2) - b(h)| must contain L for every order p >= 1 (module doc).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from robolobes.core.errors import BadInput
+from robolobes.core.numerics import richardson
+
+
+def seq(L, c, p, h):
+    return L + c * h**p
+
+
+def test_exact_for_the_assumed_order():
+    # b = 1 + 3 h^2: value = b(h/2) + (b(h/2) - b(h)) / 3 = 1 exactly (up to rounding, 1e-15)
+    v, e = richardson(seq(1.0, 3.0, 2, 0.1), seq(1.0, 3.0, 2, 0.05))
+    assert_allclose(v, 1.0, rtol=1e-14)
+    assert_allclose(e, abs(3 * 0.05**2 - 3 * 0.1**2), rtol=1e-12)  # |b(h/2) - b(h)|, by hand
+
+
+@pytest.mark.parametrize("p", [1.0, 1.3, 2.0, 3.0, 4.0])
+def test_bound_contains_the_limit_for_any_order_at_least_one(p):
+    rng = np.random.default_rng(7)
+    L = rng.uniform(-1, 1, 50)
+    c = rng.uniform(-2, 2, 50)
+    h = rng.uniform(0.01, 0.2, 50)
+    v, e = richardson(seq(L, c, p, h), seq(L, c, p, h / 2))
+    assert np.all(np.abs(v - L) <= e * (1 + 1e-12) + 1e-15)
+
+
+def test_other_order_and_ratio():
+    # b = 2 + h^4, ratio 3, order 4: value exact; error = |diff| / (ratio - 1)
+    h = 0.3
+    v, e = richardson(2 + h**4, 2 + (h / 3) ** 4, order=4, ratio=3)
+    assert_allclose(v, 2.0, rtol=1e-14)
+    assert_allclose(e, (h**4 - (h / 3) ** 4) / 2, rtol=1e-12)
+
+
+def test_non_finite_levels():
+    v, e = richardson(np.array([math.inf, 1.0, math.inf]), np.array([math.inf, math.inf, 2.0]))
+    assert v[0] == math.inf and e[0] == 0.0  # both "no limit": agree exactly
+    assert v[1] == math.inf and e[1] == math.inf  # levels disagree on what they found
+    assert v[2] == 2.0 and e[2] == math.inf
+    assert isinstance(richardson(1.0, 1.5).value, float)
+
+
+@pytest.mark.parametrize("kw, match", [({"order": 0}, "order"), ({"ratio": 1.0}, "ratio"),
+                                       ({"ratio": float("nan")}, "ratio")])
+def test_bad_parameters(kw, match):
+    with pytest.raises(BadInput, match=match):
+        richardson(1.0, 2.0, **kw)

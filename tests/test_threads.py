@@ -1,0 +1,38 @@
+"""core.threads: the library's heavy entry points run with one BLAS thread unless the user chose."""
+
+import numpy as np
+from threadpoolctl import threadpool_info, threadpool_limits
+
+from robolobes.core.threads import USER_THREAD_VARIABLES, blas_single_threaded
+from robolobes.lobes import solve, stability
+from robolobes.linearize import grid_map, linearize_many, pass_map
+
+
+def blas_threads():
+    return sorted({i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"})
+
+
+@blas_single_threaded
+def inside():
+    return blas_threads()
+
+
+def test_decorator_limits_blas_and_restores(monkeypatch):
+    for v in USER_THREAD_VARIABLES:
+        monkeypatch.delenv(v, raising=False)
+    np.linalg.eigvals(np.eye(3))  # BLAS loaded
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert blas_threads() == [2]
+        assert inside() == [1]
+        assert blas_threads() == [2]  # restored after the call
+
+
+def test_user_choice_wins(monkeypatch):
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert inside() == [2]
+
+
+def test_heavy_entry_points_are_wrapped():
+    for f in (solve, stability, linearize_many, pass_map, grid_map):
+        assert f.__wrapped__.__name__ == f.__name__

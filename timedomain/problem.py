@@ -1,0 +1,191 @@
+"""What a time-domain simulation is asked to do: the problem (a built robot cutting a case's part)
+and the method (linearized or nonlinear Newmark, with its discretization), with their bounds.
+
+``simulate(SimulationProblem(robot, case), LinearizedNewmark())`` (:mod:`timedomain.simulation`)
+follows the lobes' shape ``solve(problem, method)``: the problem says what is simulated, the method
+how. The robot is built by the caller (:func:`linearize.build_model`), so that damping scales,
+``extra_elements`` and effects added by identification are simulated as they are linearized.
+
+Bounds (everything that sets memory or run time is bounded; each violation raises
+:class:`SimulationError`, a :class:`~robolobes.core.errors.BadInput`, before any work):
+
+* ``t_end_s`` in (0, pass duration]: past the end of the pass there is no motion to simulate;
+* the records of a run (time, force, centre, TCP: :data:`RECORD_BYTES_PER_STEP` bytes per step) stay
+  below :data:`MAX_RECORD_BYTES` = 2 GiB, which bounds ``t_end_s / h`` for a small ``deg_per_step``;
+* ``deg_per_step`` in (0, 10] deg of spindle rotation (coarser misses the tooth-tip arcs);
+* ``n_discs`` in [1, :data:`MAX_DISCS`] (the workpiece grid itself is bounded by
+  :data:`timedomain.workpiece._MAX_CELLS`);
+* ``dx_m`` in [0.1 um, 100 um].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import KW_ONLY, dataclass
+
+from robolobes.cases.spec import MillingCase
+from robolobes.core.errors import BadInput
+from robolobes.core.validate import finite, integer
+from robolobes.linearize.model import FlexibleRobot
+
+__all__ = ["SimulationError", "SimulationProblem", "LinearizedNewmark", "NonlinearNewmark", "Method",
+           "MAX_RECORD_BYTES", "RECORD_BYTES_PER_STEP", "MAX_DISCS", "max_steps", "step_count"]
+
+#: Memory of a run's records: t (8 B), force (3 x 8), centre (2 x 8), TCP (3 x 8) per step.
+RECORD_BYTES_PER_STEP = 8 * (1 + 3 + 2 + 3)
+#: The records of one run stay below 2 GiB (the part's grid is bounded separately).
+MAX_RECORD_BYTES = 2 * 1024 ** 3
+#: Axial discs of the tool: the default puts 0.5 deg of helix lag per disc (22 for the TX200 cuts).
+MAX_DISCS = 1000
+
+
+class SimulationError(BadInput):
+    """A simulation problem or method out of its valid range (the message says which and what is valid)."""
+
+
+def max_steps() -> int:
+    """Largest number of time steps whose records fit in :data:`MAX_RECORD_BYTES`."""
+    return MAX_RECORD_BYTES // RECORD_BYTES_PER_STEP
+
+
+@dataclass(frozen=True)
+class _NewmarkMethod:
+    deg_per_step: float = 2.0
+    n_discs: int | None = None
+    dx_m: float = 1e-6
+
+    def __post_init__(self):
+        d = finite("deg_per_step", self.deg_per_step, positive=True, error=SimulationError)
+        if d > 10:
+            raise SimulationError(f"deg_per_step must be in (0, 10] deg of spindle rotation per step, got {d}")
+        if self.n_discs is not None:
+            integer("n_discs", self.n_discs, minimum=1, maximum=MAX_DISCS, error=SimulationError)
+        dx = finite("dx_m", self.dx_m, positive=True, error=SimulationError)
+        if not 1e-7 <= dx <= 1e-4:
+            raise SimulationError(f"dx_m (workpiece column spacing) must be in [1e-7, 1e-4] m, got {dx:g}")
+
+
+@dataclass(frozen=True)
+class LinearizedNewmark(_NewmarkMethod):
+    """The robot linearized at the pass start (gears engaged, the dead zone kept), with the nonlinear
+    milling force on the eroded part; compiled (:mod:`timedomain.fastpath`). The fast path for sweeps.
+
+    Parameters
+    ----------
+    deg_per_step : float
+        Spindle rotation per time step, deg, in (0, 10] (default 2: 180 steps per revolution).
+    n_discs : int, optional
+        Axial discs of the tool and slices of the part (default: 0.5 deg of helix lag each).
+    dx_m : float
+        Column spacing of the workpiece along the feed, m (default 1 um).
+    """
+
+
+@dataclass(frozen=True)
+class NonlinearNewmark(_NewmarkMethod):
+    """Newmark (average acceleration) with Newton on the full nonlinear multibody equations.
+
+    Parameters
+    ----------
+    deg_per_step, n_discs, dx_m : as :class:`LinearizedNewmark`
+    atol : float
+        Newton increment tolerance, absolute, in the units of each q (rad), > 0 (default 1e-11).
+    rtol : float
+        Newton increment tolerance relative to the step's change of q, > 0 (default 1e-8).
+    max_iter : int
+        Newton iterations before a step is halved, in [1, 100] (default 20).
+    """
+
+    atol: float = 1e-11
+    rtol: float = 1e-8
+    max_iter: int = 20
+
+    def __post_init__(self):
+        super().__post_init__()
+        finite("atol", self.atol, positive=True, error=SimulationError)
+        finite("rtol", self.rtol, positive=True, error=SimulationError)
+        integer("max_iter", self.max_iter, minimum=1, maximum=100, error=SimulationError)
+
+
+Method = LinearizedNewmark | NonlinearNewmark
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationProblem:
+    """A time-domain simulation of a built robot cutting one case's pass.
+
+    Parameters
+    ----------
+    robot : linearize.FlexibleRobot
+        Built with :func:`linearize.build_model` (variant, ``damping_scale``, ``extra_elements``).
+    case : MillingCase
+        Tool, material, cut and pass (the robot's spec is taken from ``robot``).
+    t_end_s : float, optional
+        Simulate from 0 to this time, s, in (0, pass duration] (default: the whole pass).
+    stats_window_s : (float, float), optional
+        Window of the force statistics, s (default: the steady cut, full engagement).
+    """
+
+    robot: FlexibleRobot
+    case: MillingCase
+    _: KW_ONLY
+    t_end_s: float | None = None
+    stats_window_s: tuple[float, float] | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.robot, FlexibleRobot):
+            raise SimulationError(f"robot must be a linearize.FlexibleRobot (linearize.build_model(...)), "
+                                  f"got {type(self.robot).__name__}")
+        if not isinstance(self.case, MillingCase):
+            raise SimulationError(f"case must be a cases.MillingCase (cases.load_case(...)), "
+                                  f"got {type(self.case).__name__}")
+        if self.t_end_s is not None:
+            t = finite("t_end_s", self.t_end_s, positive=True, error=SimulationError)
+            duration = self.pass_duration_s
+            if t > duration * (1 + 1e-12):
+                raise SimulationError(f"t_end_s = {t:g} s is past the end of the pass ({duration:.6g} s for case "
+                                      f"{self.case.name!r}); valid: 0 < t_end_s <= {duration:.6g}")
+        if self.stats_window_s is not None:
+            w = self.stats_window_s
+            if len(w) != 2:
+                raise SimulationError(f"stats_window_s must be (start, end) in s, got {w!r}")
+            lo = finite("stats_window_s[0]", w[0], nonneg=True, error=SimulationError)
+            hi = finite("stats_window_s[1]", w[1], error=SimulationError)
+            if not hi > lo:
+                raise SimulationError(f"stats_window_s must have end > start, got ({lo:g}, {hi:g}) s")
+            object.__setattr__(self, "stats_window_s", (lo, hi))
+
+    @property
+    def pass_duration_s(self) -> float:
+        """Duration of the whole pass (S-curve feed over the path), s (the feed profile of
+        :class:`linearize.path.Pass`, without its inverse kinematics)."""
+        from robolobes.linearize.path import FeedProfile
+
+        c = self.case
+        feed = c.cut.feed_rate_m_per_s(c.tool)
+        if not feed > 0:
+            raise SimulationError(f"case {c.name!r}: the feed rate is {feed} m/s; a pass needs a feed rate > 0")
+        return float(FeedProfile(travel_m=c.path.travel_m(c.tool), feed_m_per_s=feed, ramp_s=c.path.ramp_s).duration_s)
+
+    @property
+    def end_time_s(self) -> float:
+        """The simulated end time, s: ``t_end_s`` or the pass duration."""
+        return float(self.t_end_s) if self.t_end_s is not None else self.pass_duration_s
+
+
+def step_count(problem: SimulationProblem, method: Method) -> tuple[float, int]:
+    """Nominal time step (s) and number of steps of ``problem`` with ``method``, bounded.
+
+    Raises :class:`SimulationError` when the records would exceed :data:`MAX_RECORD_BYTES`."""
+    if not isinstance(method, (LinearizedNewmark, NonlinearNewmark)):
+        raise SimulationError(f"method must be LinearizedNewmark(...) or NonlinearNewmark(...), got {method!r}")
+    h = math.radians(method.deg_per_step) / problem.case.cut.omega_rad_s
+    t_end = problem.end_time_s
+    n = max(1, int(math.ceil(t_end / h - 1e-9)))
+    if n + 1 > max_steps():
+        raise SimulationError(
+            f"deg_per_step = {method.deg_per_step:g} over {t_end:.4g} s needs {n} steps, whose records "
+            f"({(n + 1) * RECORD_BYTES_PER_STEP / 2 ** 30:.1f} GiB) exceed the {MAX_RECORD_BYTES / 2 ** 30:.0f} GiB "
+            f"limit; valid: deg_per_step >= {math.degrees(t_end / max_steps() * problem.case.cut.omega_rad_s):.3g} "
+            f"or a shorter t_end_s")
+    return h, n

@@ -1,0 +1,101 @@
+"""``simulate(problem, method)``: a milling pass in time domain, in the lobes' shape
+(``solve(problem, method)``).
+
+The equations are in :mod:`timedomain.equations`, the time loops in :mod:`timedomain.drivers`, the
+derived numbers in :mod:`timedomain.summary`, the runout companion run in :mod:`timedomain.runout`.
+
+Outputs (:class:`~timedomain.result.SimulationResult`): forces on the workpiece in the dynamometer
+frame (the cut frame: x along the feed, y normal, z along the spindle, up), the TCP deviation from
+the commanded path (cut frame), the machined wall, and the
+:class:`~timedomain.result.SimulationSummary` (force statistics, roughness, stability verdict,
+chatter frequency).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import Callable
+
+import numpy as np
+
+from robolobes.core.validate import readonly
+from robolobes.linearize.linear import linearize
+
+from .drivers import Records, run_full, run_linearized
+from .equations import PassSetup
+from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
+from .result import SimulationResult
+from .runout import needs_companion, with_companion_verdict
+from .summary import summarize
+
+__all__ = ["simulate"]
+
+
+def _slowest_decay(S: PassSetup) -> float:
+    """Smallest modal decay rate ``zeta w_n`` of the linearized robot at the start, 1/s."""
+    lin = linearize(S.robot, S.th_tab[0])
+    return float(np.min(-np.asarray(lin.modes().poles).real))
+
+
+def _deviation(S: PassSetup, rec: Records) -> np.ndarray:
+    """TCP deviation from the commanded path ``(s(t), 0, 0)``, cut frame, (N, 3), m (z is NaN on the
+    linearized path, which has no axial output)."""
+    t = rec.t_s
+    dev = np.zeros((len(t), 3))
+    dev[:, 0] = rec.center_m[:, 0] - S.pas.s(t)
+    dev[:, 1] = rec.center_m[:, 1]
+    dev[:, 2] = (rec.tcp_m - S.p_ref) @ S.Rc[2]
+    return dev
+
+
+def _result(problem, method, S: PassSetup, rec: Records, stats: dict) -> SimulationResult:
+    t = rec.t_s
+    wall = S.workpiece.wall_profile()
+    return SimulationResult(problem=problem, method=method, t_s=readonly(t),
+                            force_workpiece_n=readonly(-rec.force_tool_n),
+                            tcp_deviation_m=readonly(_deviation(S, rec)), spindle_angle_rad=readonly(S.omega * t),
+                            wall_x_m=readonly(wall.x_m), wall_y_m=readonly(wall.y_m), steady_window_s=S.steady,
+                            stats=stats)
+
+
+def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNewmark | None = None,
+             progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True) -> SimulationResult:
+    """Simulate the pass of ``problem`` with ``method`` (:mod:`timedomain.equations` for the equations).
+
+    Parameters
+    ----------
+    problem : SimulationProblem
+    method : LinearizedNewmark or NonlinearNewmark, optional
+        Default ``NonlinearNewmark()`` (the full nonlinear equations).
+    progress : callable ``(fraction) -> None``, optional
+        Called about every 1 % of the run.
+    verdict_companion : bool
+        For a tool with runout whose principal period is the tooth period, decide stability on a
+        companion run without runout (:mod:`timedomain.runout`, the summary's ``verdict_basis``).
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    timedomain.problem.SimulationError
+        Bad method or a run whose records would exceed the memory bound (before any work).
+    timedomain.newmark.NewmarkInterrupted
+        On Ctrl-C (KeyboardInterrupt), carrying the last accepted state; nothing is written.
+    """
+    method = NonlinearNewmark() if method is None else method
+    wall0 = time.perf_counter()
+    S = PassSetup(problem, method)
+    rec = (run_linearized(S, progress) if isinstance(method, LinearizedNewmark) else run_full(S, progress, method))
+    stats = dict(h_s=S.h, n_dof=S.robot.nv, n_discs=S.workpiece.discs.count,
+                 linearized=isinstance(method, LinearizedNewmark), **rec.stats)
+    result = _result(problem, method, S, rec, stats)
+    summary = summarize(result, S.workpiece, last_centre_x_m=float(rec.center_m[-1, 0]),
+                        slowest_decay_per_s=_slowest_decay(S))
+    if verdict_companion and needs_companion(problem, summary):
+        summary = with_companion_verdict(summary, lambda p: simulate(p, method, verdict_companion=False), problem,
+                                         float(rec.t_s[-1]), S.steady[0])
+    stats["wall_time_s"] = time.perf_counter() - wall0
+    return replace(result, summary=replace(summary, wall_s=stats["wall_time_s"]))
