@@ -256,3 +256,25 @@ def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     print(f"20 random poses: largest relative difference of the depth limit {worst:.3e}")
     assert worst < 0.01
     del sub
+
+
+def test_tool_modes_add_in_series(alu):
+    # A tool-tip mode in series with the robot: the receptances add. Closed form of the mode
+    # (Mode docstring): d d^T / (k (1 - r^2 + 2 i zeta r)); no truncation here: rtol 1e-9.
+    from robolobes.lobes import Mode
+    from robolobes.workspace import pose_structure
+
+    mode = Mode(900.0, 0.03, 2e7, (0.6, 0.8))
+    pr = MapProblem.make(alu, "basic", "pass", n=1, tool_modes=(mode,))
+    robot = linearize.build_model(alu.robot, "basic")
+    lin = linearize.linearize(robot, alu.path.start_q_rad)
+    feed = np.asarray(alu.cut.feed_direction)
+    st, report = pose_structure(pr, MapMethod(reduce_max_freq_hz=None), lin, feed)
+    f = np.array([50.0, 300.0, 900.0, 1500.0])
+    r = f / 900.0
+    d = np.array([0.6, 0.8])
+    tool = np.einsum("i,j,f->fij", d, d, 1.0 / (2e7 * (1 - r**2 + 2j * 0.03 * r)))
+    rob = PhysicalStructure.from_linear(lin, feed).frf(f)
+    want = rob.copy()
+    want[:, :2, :2] += tool
+    np.testing.assert_allclose(st.frf(f), want, rtol=1e-9, atol=1e-9 * np.abs(want).max())

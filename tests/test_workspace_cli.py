@@ -34,7 +34,8 @@ def test_map_cli_outputs_and_resume(tmp_path, capsys):
     (["--yaw-range-deg", "a,b"], "--yaw-range-deg"),
     (["--scheduler", "udp://x"], "--scheduler"),
     (["--rpm-min", "-3"], "--rpm-min"),
-    (["--model", "nothing.toml"], "--model"),
+    (["--model", "nothing.toml"], "nothing.toml"),
+    (["--tool-modes", "nothing.toml"], "nothing.toml"),
 ])
 def test_map_cli_bad_input_exit_2_nothing_written(tmp_path, capsys, bad, words):
     out = tmp_path / "m"
@@ -55,5 +56,5 @@ def test_map_cli_refuses_a_users_directory(tmp_path, capsys):
     out.mkdir()
     (out / "notes.txt").write_text("keep me")
     assert main(SMALL + ["--out", str(out)]) == 2
-    assert "non-empty directory" in capsys.readouterr().err
+    assert "did not write" in capsys.readouterr().err
     assert (out / "notes.txt").read_text() == "keep me" and len(list(out.iterdir())) == 1

@@ -44,7 +44,8 @@ def _common(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--case", default=DEFAULT_CASE, help=f"built-in case or case TOML (default {DEFAULT_CASE})")
     p.add_argument("--variant", default="basic", choices=VARIANTS, help="model variant (default basic)")
-    p.add_argument("--model", default=None, metavar="FILE", help="identified model TOML added to the robot")
+    p.add_argument("--model", default=None, metavar="FILE",
+                   help="identified model TOML (robolobes identify's case TOML with [[elements]]); replaces --case")
     p.add_argument("--tool-modes", default=None, metavar="FILE",
                    help="[[modes]] TOML of tool-tip modes (as lobes --modal), in series with the robot")
     p.add_argument("--at-rpm", type=float, default=None, help="operating speed, rpm (default: the case's)")
@@ -94,16 +95,6 @@ def _tool_modes(path: str | None) -> tuple:
     return read_modal_toml(path).modes
 
 
-def _check_out(out: Path) -> None:
-    """The output directory must be new, empty, or an earlier map's (resumed): never a user's."""
-    if out.exists() and not out.is_dir():
-        raise BadInput(f"--out {out} exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not (out / "map.zarr").exists():
-        raise BadInput(f"--out {out} is a non-empty directory without a map.zarr; choose a new or empty directory")
-    if not out.parent.exists():
-        raise BadInput(f"--out {out}: the parent directory {out.parent} does not exist")
-
-
 def problem_from_args(args):
     """MapProblem and MapMethod from the command line, every input checked before any work."""
     from robolobes.cases import load_case
@@ -125,9 +116,6 @@ def problem_from_args(args):
     if not 1 <= args.workers <= 64:
         raise BadInput(f"--workers must be from 1 to 64, got {args.workers}")
     _check_scheduler(args.scheduler)
-    if args.model is not None:
-        raise BadInput(f"--model {args.model}: identified models are not supported by maps yet "
-                       "(use --tool-modes for measured tool-tip modes)")
     ranges = dict(x_range_m=parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.2, 0.2)),
                   y_range_m=parse_range("--y-range-mm", args.y_range_mm, 1e-3, (-0.2, 0.2)),
                   z_range_m=parse_range("--z-range-mm", args.z_range_mm, 1e-3, (0.0, 0.0)),
@@ -138,12 +126,21 @@ def problem_from_args(args):
                                              (-math.radians(20), math.radians(20))))
     if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
         raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
-    case = load_case(args.case)
+    case = load_case(args.model if args.model is not None else args.case)
     modes = _tool_modes(args.tool_modes)
     speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
     problem = MapProblem.make(case, args.variant, args.over, n=args.n, speeds_rpm=speeds, op_rpm=args.at_rpm,
-                              tool_modes=modes, **ranges)
+                              tool_modes=modes, model_file=args.model, **ranges)
     return problem, MapMethod()
+
+
+def _out_dir(args, problem, method):
+    """The output directory protocol (core.outdir), checked before any work; resumable."""
+    from robolobes.core.outdir import OutputDir
+
+    inputs = {"command": "map", "problem": problem.describe(), "method": method.describe(),
+              "robot": repr(problem.case.robot)}
+    return OutputDir(args.out, "map", inputs, resume=True)
 
 
 def _progress(quiet: bool):
@@ -164,28 +161,27 @@ def _progress(quiet: bool):
 
 
 def run_map(args: argparse.Namespace) -> int:
-    from robolobes.core.io import provenance, write_json
+    from robolobes.core.io import write_json
 
     from .plot import plot_map
     from .solver import solve_map
 
     t0 = time.perf_counter()
     problem, method = problem_from_args(args)
-    out = Path(args.out)
-    _check_out(out)
-    out.mkdir(exist_ok=True)
+    out = _out_dir(args, problem, method)
     cb, close = _progress(args.quiet)
-    try:
-        result = solve_map(problem, method, path=out / "map.zarr", scheduler=args.scheduler, workers=args.workers,
-                           progress=cb)
-    finally:
-        close()
-    figures = plot_map(result, out)
-    summary = result.summary()
-    summary.update(wall_s=time.perf_counter() - t0, case=problem.case.name, variant=problem.variant,
-                   over=problem.over, store="map.zarr", figures=figures, method=method.describe(),
-                   **provenance({"problem": problem.describe(), "method": method.describe()}))
-    write_json(out / "map.json", summary)
+    with out:
+        try:
+            result = solve_map(problem, method, path=out.path / "map.zarr", scheduler=args.scheduler,
+                               workers=args.workers, progress=cb)
+        finally:
+            close()
+        figures = plot_map(result, out.path)
+        summary = result.summary()
+        summary.update(wall_s=time.perf_counter() - t0, case=problem.case.name, variant=problem.variant,
+                       over=problem.over, store="map.zarr", figures=figures, method=method.describe(),
+                       **out.provenance)
+        write_json(out.path / "map.json", summary)
     if args.json:
         from robolobes.core.io import to_jsonable
 
@@ -193,7 +189,7 @@ def run_map(args: argparse.Namespace) -> int:
     else:
         print(f"map over {problem.over}: {summary['n_poses']} poses x {summary['n_speeds']} speeds, "
               f"{summary['n_unreachable']} unreachable, {summary['computed_poses']} computed, "
-              f"{summary['wall_s']:.1f} s -> {out}")
+              f"{summary['wall_s']:.1f} s -> {out.target}")
         if summary["min_depth_limit_m"] is not None:
             print(f"lowest limit {summary['min_depth_limit_m'] * 1e3:.4g} mm at pose {summary['worst_pose']}; "
                   f"at {problem.op_rpm:.0f} rpm the limit ranges {summary['op_min_depth_limit_m'] * 1e3:.4g} to "

@@ -31,17 +31,14 @@ _ROBOTS: dict = {}
 
 
 def build_robot(problem: MapProblem):
-    """The flexible robot of the problem (cached per process). The one place a robot is built, so
-    that an identified model (``problem.model_file``) plugs in here."""
+    """The flexible robot of the problem (cached per process): the variant plus the case's
+    ``[[elements]]`` (an identified model TOML is a case TOML with its elements, loaded as the case).
+    The one place a map builds a robot."""
     key = hashlib.sha256(pickle.dumps((problem.case.robot, problem.variant, problem.model_file))).hexdigest()
     robot = _ROBOTS.get(key)
     if robot is None:
         from robolobes.linearize import build_model
 
-        if problem.model_file is not None:
-            from robolobes.core.errors import BadInput
-
-            raise BadInput(f"--model {problem.model_file}: identified models are not supported by maps yet")
         robot = _ROBOTS[key] = build_model(problem.case.robot, problem.variant)
     return robot
 
