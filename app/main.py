@@ -32,6 +32,7 @@ _COMMANDS = {
     "lobes": "robolobes.lobes.cli",
     "simulate": "robolobes.timedomain.cli",
     "map": "robolobes.workspace.cli",
+    "optimize": "robolobes.workspace.cli",
 }
 
 

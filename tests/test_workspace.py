@@ -278,3 +278,23 @@ def test_tool_modes_add_in_series(alu):
     want = rob.copy()
     want[:, :2, :2] += tool
     np.testing.assert_allclose(st.frf(f), want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+
+
+def test_optimizer_optimum_confirmed_by_lobes_solve(steel):
+    # Tool rotation only, tiny budget. The baseline (rotation 0) is a start, so the optimum is at
+    # least it; the reported minimum depth (full structure) equals an independent lobes.solve at
+    # the optimum's worst pass pose, at the chosen speed: rtol 1e-12 (the same computation).
+    from robolobes.workspace.optimize import OptimizeProblem, optimize_placement
+
+    mp = MapProblem.make(steel, "basic", "placement", n=1)
+    opt = OptimizeProblem(mp, ("tool_rotation_rad",), {"tool_rotation_rad": (-math.pi, math.pi)}, n_s=2)
+    res = optimize_placement(opt, n_starts=3, n_local=1, max_local_evals=4)
+    assert res.baseline.feasible and res.best.feasible
+    assert res.best.min_depth_m >= res.baseline.min_depth_m
+    # README: steel, basic, Tab. 7: 0.643 mm at 3100 rpm (stability(), Richardson); m = 40 here
+    np.testing.assert_allclose(res.baseline.depth_m[0], 0.643e-3, rtol=0.01)
+    robot = linearize.build_model(steel.robot, "basic")
+    lin = linearize.linearize(robot, res.best.theta[res.best.worst])
+    p = LobeProblem(PhysicalStructure.from_linear(lin, res.best.feed), steel.tool, steel.cut, steel.law)
+    ref = solve(p, SemiDiscretization(m=40), [3100.0], depth_max_m=opt.depth_max_m, rtol=1e-3).depth_limit_m[0]
+    np.testing.assert_allclose(res.best.min_depth_m, ref, rtol=1e-12)

@@ -58,3 +58,29 @@ def test_map_cli_refuses_a_users_directory(tmp_path, capsys):
     assert main(SMALL + ["--out", str(out)]) == 2
     assert "did not write" in capsys.readouterr().err
     assert (out / "notes.txt").read_text() == "keep me" and len(list(out.iterdir())) == 1
+
+
+def test_optimize_cli_json_contract(tmp_path, capsys):
+    out = tmp_path / "o"
+    args = ["optimize", "--case", "tx200-steel", "--over", "tool-rotation", "--n-starts", "1", "--max-local-evals",
+            "0", "--n-s", "2", "--quiet", "--json", "--out", str(out)]
+    assert main(args) == 0
+    js = json.loads(capsys.readouterr().out)
+    for k in ("baseline_min_depth_m", "optimized_min_depth_m", "gain", "placement_offset_m", "yaw_deg",
+              "tool_rotation_deg", "worst_pose_q_deg", "inputs_sha256"):
+        assert k in js, k
+    assert js["gain"] >= 1.0 and len(js["placement_offset_m"]) == 3
+    assert (out / "optimize.json").exists() and (out / "optimize.png").exists()
+
+
+@pytest.mark.parametrize("bad, words", [
+    (["--over", "everything"], "--over"),
+    (["--n-s", "1"], "--n-s"),
+    (["--x-range-mm", "10,20"], "must contain 0"),
+])
+def test_optimize_cli_bad_input(tmp_path, capsys, bad, words):
+    out = tmp_path / "o"
+    assert main(["optimize", "--case", "tx200-steel", "--quiet", "--out", str(out)] + bad) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+    assert not out.exists()

@@ -19,7 +19,7 @@ import numpy as np
 
 from robolobes.core.errors import BadInput
 
-__all__ = ["register", "run_map", "parse_range"]
+__all__ = ["register", "register_optimize", "run_map", "run_optimize", "parse_range"]
 
 MAX_N = 20_000
 MAX_N_RPM = 1_000
@@ -57,6 +57,9 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def register(subparsers) -> argparse.ArgumentParser:
+    """Add ``map`` and ``optimize`` (both commands live here; ``_COMMANDS`` names this module twice)."""
+    if "optimize" not in subparsers.choices:
+        register_optimize(subparsers)
     p = subparsers.add_parser("map", help="lobe maps across the workspace", description=__doc__,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     _common(p)
@@ -194,4 +197,184 @@ def run_map(args: argparse.Namespace) -> int:
             print(f"lowest limit {summary['min_depth_limit_m'] * 1e3:.4g} mm at pose {summary['worst_pose']}; "
                   f"at {problem.op_rpm:.0f} rpm the limit ranges {summary['op_min_depth_limit_m'] * 1e3:.4g} to "
                   f"{summary['op_max_depth_limit_m'] * 1e3:.4g} mm (cut {problem.case.cut.ap_m * 1e3:g} mm)")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ optimize
+def register_optimize(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "optimize", help="placement and tool rotation that maximize the minimum stable depth over the pass",
+        description="Choose the part's placement (x, y, z offset of the pass start, yaw) and the tool's rotation "
+                    "about its axis to maximize the smallest critical depth over the pass at the chosen speed "
+                    "(multistart + Nelder-Mead on the SDM limit; the optimum is checked by SDM on the full model "
+                    "and, with --time-domain, by the linearized time domain). Writes DIR/optimize.json and "
+                    "DIR/optimize.png.")
+    _common(p)
+    p.add_argument("--over", default="placement,tool-rotation",
+                   help="comma list of placement, tool-rotation (default both)")
+    p.add_argument("--x-range-mm", default=None, metavar="A,B", help="pass start offset x, mm (default -100,100)")
+    p.add_argument("--y-range-mm", default=None, metavar="A,B", help="pass start offset y, mm (default -100,100)")
+    p.add_argument("--z-range-mm", default=None, metavar="A,B", help="pass start offset z, mm (default 0,0: fixed)")
+    p.add_argument("--yaw-range-deg", default=None, metavar="A,B", help="part yaw, deg (default -30,30)")
+    p.add_argument("--rotation-range-deg", default=None, metavar="A,B", help="tool rotation, deg (default -180,180)")
+    p.add_argument("--n-s", type=int, default=5, help="poses along the pass (default 5)")
+    p.add_argument("--n-starts", type=int, default=12, help="multistart sample size (default 12)")
+    p.add_argument("--max-local-evals", type=int, default=40, help="Nelder-Mead evaluations per local run (default 40)")
+    p.add_argument("--strict", action="store_true", help="joint ranges without the 5 deg tolerance")
+    p.add_argument("--time-domain", action="store_true", help="verify baseline and optimum in the time domain")
+    p.add_argument("--td-end-s", type=float, default=4.0, help="simulated time of each verification run, s "
+                   "(default 4, capped at the pass duration)")
+    p.add_argument("--out", default="robolobes-optimize", metavar="DIR", help="output directory")
+    p.set_defaults(run=run_optimize)
+    return p
+
+
+def optimize_problem_from_args(args):
+    from robolobes.cases import load_case
+
+    from .optimize import OptimizeProblem
+    from .problem import MapProblem
+
+    over = [s.strip() for s in args.over.split(",") if s.strip()]
+    bad = [s for s in over if s not in ("placement", "tool-rotation")]
+    if bad or not over:
+        raise BadInput(f"--over must be a comma list of placement, tool-rotation, got {args.over!r}")
+    if not 2 <= args.n_s <= 50:
+        raise BadInput(f"--n-s must be from 2 to 50, got {args.n_s}")
+    if not 1 <= args.n_starts <= 500:
+        raise BadInput(f"--n-starts must be from 1 to 500, got {args.n_starts}")
+    if not 0 <= args.max_local_evals <= 2000:
+        raise BadInput(f"--max-local-evals must be from 0 to 2000, got {args.max_local_evals}")
+    if not (math.isfinite(args.td_end_s) and 0 < args.td_end_s <= 60):
+        raise BadInput(f"--td-end-s must be in (0, 60] s, got {args.td_end_s}")
+    if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and 0 < args.at_rpm <= 100_000):
+        raise BadInput(f"--at-rpm must be a speed in (0, 100000] rpm, got {args.at_rpm}")
+    _check_scheduler(args.scheduler)
+    rng = {"x_offset_m": parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.1, 0.1)),
+           "y_offset_m": parse_range("--y-range-mm", args.y_range_mm, 1e-3, (-0.1, 0.1)),
+           "z_offset_m": parse_range("--z-range-mm", args.z_range_mm, 1e-3, (0.0, 0.0)),
+           "yaw_rad": parse_range("--yaw-range-deg", args.yaw_range_deg, math.pi / 180,
+                                  (-math.radians(30), math.radians(30))),
+           "tool_rotation_rad": parse_range("--rotation-range-deg", args.rotation_range_deg, math.pi / 180,
+                                            (-math.pi, math.pi))}
+    names = []
+    if "placement" in over:
+        names += [k for k in ("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad") if rng[k][1] > rng[k][0]]
+    if "tool-rotation" in over and rng["tool_rotation_rad"][1] > rng["tool_rotation_rad"][0]:
+        names.append("tool_rotation_rad")
+    if not names:
+        raise BadInput("every range of --over is empty (A = B): nothing to optimize")
+    for k in names:
+        if not rng[k][0] <= 0.0 <= rng[k][1]:
+            raise BadInput(f"the range of {k} must contain 0 (the paper's placement is the baseline), got {rng[k]}")
+    case = load_case(args.model if args.model is not None else args.case)
+    mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
+                         op_rpm=args.at_rpm, tool_modes=_tool_modes(args.tool_modes), model_file=args.model)
+    return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict)
+
+
+def _time_domain(opt, ev, t_end_s: float) -> dict:
+    """Linearized time-domain run of the pass at a candidate (its start pose and feed), at the
+    case's depth and the chosen speed: the verdict and chatter frequency."""
+    import warnings
+    from dataclasses import replace
+
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+
+    from .compute import build_robot
+
+    mp = opt.map_problem
+    case = mp.case
+    case = replace(case, path=replace(case.path, start_q_rad=np.asarray(ev.theta[0])),
+                   cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=mp.op_rpm))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        prob = SimulationProblem(build_robot(mp), case, t_end_s=None)
+        t_end = min(t_end_s, prob.pass_duration_s)
+        run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
+    s = run.summary
+    return {"stable": s.stable, "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
+            "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
+
+
+def _plot_optimum(res, path) -> None:
+    from robolobes.core.io import pyplot, save_figure
+    from robolobes.linearize.kinematics import fk_frames
+
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    ax = axes[0]
+    for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        ax.plot(ev.s_m * 1e3, np.minimum(ev.depth_m, res.problem.depth_max_m) * 1e3, "o-", color=c, label=lab)
+    ax.axhline(res.problem.map_problem.case.cut.ap_m * 1e3, color="k", ls="--", label="cut depth")
+    ax.set_xlabel("travel along the pass, mm")
+    ax.set_ylabel(f"critical depth at {res.problem.map_problem.op_rpm:.0f} rpm, mm")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8)
+    ax.set_title(f"gain {res.gain:.3g}")
+    ax = axes[1]
+    spec = res.problem.map_problem.case.robot
+    for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        pts, _ = fk_frames(spec, ev.theta[ev.worst])
+        pts = np.vstack([[0.0, 0.0, 0.0], pts]) * 1e3
+        ax.plot(pts[:, 0], pts[:, 2], "o-", color=c, lw=3, label=f"{lab}, worst pass pose")
+    ax.set_xlabel("x, mm")
+    ax.set_ylabel("z, mm")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
+
+
+def run_optimize(args: argparse.Namespace) -> int:
+    from robolobes.core.io import to_jsonable, write_json
+    from robolobes.core.outdir import OutputDir
+
+    from .optimize import optimize_placement
+    from .problem import MapMethod
+
+    t0 = time.perf_counter()
+    opt = optimize_problem_from_args(args)
+    method = MapMethod()
+    inputs = {"command": "optimize", "problem": opt.map_problem.describe(), "variables": list(opt.variables),
+              "bounds": {k: list(v) for k, v in opt.bounds.items()}, "n_s": opt.n_s, "strict": opt.strict,
+              "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
+              "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
+    out = OutputDir(args.out, "optimize", inputs)
+    cb, close = _progress(args.quiet)
+    try:
+        res = optimize_placement(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
+                                 progress=cb)
+    finally:
+        close()
+    vals = dict.fromkeys(("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad"), 0.0)
+    vals.update(zip(opt.variables, res.best.x.tolist()))
+    js = {"case": opt.map_problem.case.name, "variant": opt.map_problem.variant, "rpm": opt.map_problem.op_rpm,
+          "variables": list(opt.variables), "baseline_min_depth_m": res.baseline.min_depth_m,
+          "optimized_min_depth_m": res.best.min_depth_m, "gain": res.gain,
+          "placement_offset_m": [vals["x_offset_m"], vals["y_offset_m"], vals["z_offset_m"]],
+          "yaw_deg": math.degrees(vals["yaw_rad"]), "tool_rotation_deg": math.degrees(vals["tool_rotation_rad"]),
+          "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
+          "baseline_worst_pose_q_deg": (np.degrees(res.baseline.theta[res.baseline.worst]).tolist()
+                                        if res.baseline.feasible else None),
+          "baseline_feasible": res.baseline.feasible, "baseline_reason": res.baseline.reason,
+          "depth_along_pass_m": {"s_m": res.best.s_m, "baseline": res.baseline.depth_m, "optimum": res.best.depth_m},
+          "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],
+          "check": "minimum depths recomputed by SDM (m = 40) on the full, untruncated structure"}
+    if args.time_domain:
+        js["time_domain"] = {"baseline": _time_domain(opt, res.baseline, args.td_end_s) if res.baseline.feasible else None,
+                             "optimum": _time_domain(opt, res.best, args.td_end_s) if res.best.feasible else None}
+    js["wall_s"] = time.perf_counter() - t0
+    with out:
+        js.update(out.provenance)
+        write_json(out.path / "optimize.json", js)
+        _plot_optimum(res, out.path / "optimize.png")
+    if args.json:
+        print(json.dumps(to_jsonable(js), indent=1))
+    else:
+        print(f"{js['case']} at {js['rpm']:.0f} rpm: minimum critical depth over the pass "
+              f"{js['baseline_min_depth_m'] * 1e3:.4g} mm (paper's placement) -> {js['optimized_min_depth_m'] * 1e3:.4g} mm "
+              f"(gain {js['gain']:.3g}) with offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, "
+              f"yaw {js['yaw_deg']:.1f} deg, tool rotation {js['tool_rotation_deg']:.1f} deg -> {out.target}")
     return 0
