@@ -273,9 +273,19 @@ def optimize_problem_from_args(args):
     return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict)
 
 
-def _time_domain(opt, ev, t_end_s: float) -> dict:
-    """Linearized time-domain run of the pass at a candidate (its start pose and feed), at the
-    case's depth and the chosen speed: the verdict and chatter frequency."""
+def _td_depth(res) -> float:
+    """The depth of the time-domain check, m: between the baseline's and the optimum's minimum
+    limits (their geometric mean), where the lobes predict "unstable" for the baseline and "stable"
+    for the optimum -- a check that can fail either way. Without a gain: the case's depth."""
+    b, o = res.baseline.min_depth_m, res.best.min_depth_m
+    if res.baseline.feasible and math.isfinite(b) and math.isfinite(o) and o > b * 1.02:
+        return math.sqrt(b * o)
+    return res.problem.map_problem.case.cut.ap_m
+
+
+def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
+    """Linearized time-domain run of the pass at a candidate (its start pose and feed), at
+    ``depth_m`` and the chosen speed: the verdict and chatter frequency."""
     import warnings
     from dataclasses import replace
 
@@ -286,7 +296,8 @@ def _time_domain(opt, ev, t_end_s: float) -> dict:
     mp = opt.map_problem
     case = mp.case
     case = replace(case, path=replace(case.path, start_q_rad=np.asarray(ev.theta[0])),
-                   cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=mp.op_rpm))
+                   cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=mp.op_rpm,
+                               ap_m=depth_m))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         prob = SimulationProblem(build_robot(mp), case, t_end_s=None)
@@ -363,8 +374,12 @@ def run_optimize(args: argparse.Namespace) -> int:
           "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],
           "check": "minimum depths recomputed by SDM (m = 40) on the full, untruncated structure"}
     if args.time_domain:
-        js["time_domain"] = {"baseline": _time_domain(opt, res.baseline, args.td_end_s) if res.baseline.feasible else None,
-                             "optimum": _time_domain(opt, res.best, args.td_end_s) if res.best.feasible else None}
+        d = _td_depth(res)
+        js["time_domain"] = {
+            "depth_m": d, "lobes_predict": {"baseline": "stable" if d < res.baseline.min_depth_m else "unstable",
+                                            "optimum": "stable" if d < res.best.min_depth_m else "unstable"},
+            "baseline": _time_domain(opt, res.baseline, args.td_end_s, d) if res.baseline.feasible else None,
+            "optimum": _time_domain(opt, res.best, args.td_end_s, d) if res.best.feasible else None}
     js["wall_s"] = time.perf_counter() - t0
     with out:
         js.update(out.provenance)
