@@ -308,6 +308,25 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
             "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
 
 
+def optimum_case_toml(case_ref: str, res) -> str:
+    """The case TOML of the optimum: the case's own file with the optimum's feed direction and
+    start pose, so that ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit
+    in the optimum's cut frame (a yawed part feeds along another base direction)."""
+    from pathlib import Path
+
+    from robolobes.cases.loader import _resolve
+    from robolobes.identify.model_toml import dumps
+
+    src, data = _resolve(case_ref, "cut")
+    robot = data.get("robot")
+    if isinstance(robot, str) and robot.endswith(".toml") and not Path(robot).is_absolute():
+        data["robot"] = str((src.parent / robot).resolve())
+    data["name"] = f"{data.get('name', src.stem)}-optimum"
+    data.setdefault("cut", {})["feed_direction"] = [float(v) for v in res.best.feed]
+    data.setdefault("pass", {})["start_pose"] = [float(v) for v in np.degrees(res.best.theta[0])]
+    return f"# {data['name']}: case {case_ref} with the placement found by robolobes optimize\n" + dumps(data)
+
+
 def _plot_optimum(res, path) -> None:
     from robolobes.core.io import pyplot, save_figure
     from robolobes.linearize.kinematics import fk_frames
@@ -383,6 +402,14 @@ def run_optimize(args: argparse.Namespace) -> int:
     js["wall_s"] = time.perf_counter() - t0
     with out:
         js.update(out.provenance)
+        if res.best.feasible:
+            from robolobes.core.io import write_text
+
+            write_text(out.path / "optimum-case.toml", optimum_case_toml(args.model or args.case, res))
+            js["lobes_check"] = ("robolobes lobes --case DIR/optimum-case.toml --variant " + opt.map_problem.variant
+                                 + " --q-deg=" + ",".join(f"{v:.6f}" for v in js["worst_pose_q_deg"])
+                                 + f" --rpm-min {opt.map_problem.op_rpm:g} --rpm-max {opt.map_problem.op_rpm:g}"
+                                 + " --n-rpm 1 --depth-max-mm 50 --json")
         write_json(out.path / "optimize.json", js)
         _plot_optimum(res, out.path / "optimize.png")
     if args.json:
