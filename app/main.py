@@ -8,6 +8,7 @@ module); this module only dispatches, importing a package when its subcommand ru
     robolobes frf       tool-tip FRF at a pose (CSV or UFF58, and a Bode plot)
     robolobes lobes     stability lobe diagram
     robolobes simulate  time-domain simulation of a pass
+    robolobes identify  fit the model to measured data (FRFs, forces)
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ _COMMANDS = {
     "frf": "robolobes.linearize.cli",
     "lobes": "robolobes.lobes.cli",
     "simulate": "robolobes.timedomain.cli",
+    "identify": "robolobes.identify.cli",
     "map": "robolobes.workspace.cli",
     "optimize": "robolobes.workspace.cli",
 }

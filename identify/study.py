@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import math
 import os
-import shutil
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass, replace
@@ -29,14 +27,15 @@ from pathlib import Path
 import numpy as np
 
 from robolobes import cases
-from robolobes.core.io import Progress, pyplot, save_figure, to_jsonable, write_json, write_text
-from robolobes.linearize.cli import modes_summary
+from robolobes.core.io import Progress, provenance_text, pyplot, save_figure, to_jsonable, write_json, write_text
+from robolobes.core.outdir import OutputDir
+from robolobes.linearize.summary import modes_summary
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.linear import linearize
 from robolobes.linearize.model import VARIANTS, build_model
 from robolobes.linearize.path import Pass
 
-__all__ = ["StudySettings", "run_study", "POSES"]
+__all__ = ["StudySettings", "run_study", "study_output", "POSES"]
 
 #: Poses of the study as fractions of the pass travel.
 POSES = {"start": 0.0, "middle": 0.5, "end": 1.0}
@@ -147,7 +146,7 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
     from robolobes.lobes.plot import plot_lobes
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import solve, stability
+    from robolobes.lobes import solve, stability
     from robolobes.lobes.zoa import ZeroOrder
 
     method = SemiDiscretization(m=settings.sdm_m)
@@ -165,7 +164,7 @@ def section_lobes(settings, pas, cases_, progress, figdir: Path) -> dict:
         lin, st = _cut_frame_structure(robot, poses[pose], case)
         problem = LobeProblem(st, case.tool, case.cut, case.law)
         op = stability(problem, method)
-        entry = {"verdict": op.verdict, "margin": op.margin, "margin_error": op.margin_error,
+        entry = {"verdict": op.verdict.status, "margin": op.margin, "margin_error": op.margin_error,
                  "depth_m": op.depth_m, "depth_limit_m": op.depth_limit_m,
                  "depth_limit_error_m": op.depth_limit_error_m, "spectral_radius": op.spectral_radius,
                  "bifurcation": op.bifurcation, "chatter_freq_hz": op.chatter_freq_hz,
@@ -244,10 +243,10 @@ def smallest_stable_scale(check, scales, tol) -> dict:
 
 def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
     """Smallest motion-axis damping scale for which the SDM limit at 3100 rpm exceeds ap = 1.6 mm
-    (a "marginal" verdict counts as not stable)."""
+    (an "undetermined" verdict counts as not stable)."""
     from robolobes.lobes.problem import LobeProblem
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solve import stability
+    from robolobes.lobes import stability
 
     theta = _poses(pas)["start"]
     method = SemiDiscretization(m=settings.sdm_m)
@@ -256,7 +255,7 @@ def steel_damping_by_lobes(settings, pas, steel, variant="basic") -> dict:
         robot = build_model(steel.robot, variant, damping_scale=scale)
         _, st = _cut_frame_structure(robot, theta, steel)
         op = stability(LobeProblem(st, steel.tool, steel.cut, steel.law), method)
-        return op.verdict == "stable", {"verdict": op.verdict, "depth_limit_m": op.depth_limit_m, "margin": op.margin,
+        return op.verdict.status == "stable", {"verdict": op.verdict.status, "depth_limit_m": op.depth_limit_m, "margin": op.margin,
                                         "bifurcation": op.limit_bifurcation,
                                         "chatter_freq_hz": op.limit_chatter_freq_hz}
 
@@ -410,9 +409,9 @@ def _plot_main(results, lobes_out, sims, path):
             d = np.asarray(res.depth_limit_m) * 1e3
             ax.plot(res.spindle_rpm, np.where(np.isfinite(d), d, np.nan), "k", lw=1.2, label="SDM limit [basic]")
         if op is not None:
-            col = "tab:green" if op.verdict == "stable" else "tab:red"
-            ax.plot([op.spindle_rpm], [op.depth_m * 1e3], "o" if op.verdict == "stable" else "X", color=col, ms=10,
-                    mec="k", label=f"cut: {op.verdict}, limit {op.depth_limit_m * 1e3:.2f} mm")
+            col = "tab:green" if op.verdict.status == "stable" else "tab:red"
+            ax.plot([op.spindle_rpm], [op.depth_m * 1e3], "o" if op.verdict.status == "stable" else "X", color=col, ms=10,
+                    mec="k", label=f"cut: {op.verdict.status}, limit {op.depth_limit_m * 1e3:.2f} mm")
         ax.set_ylim(0, 10)
         ax.set_xlabel("spindle speed (rpm)")
         ax.set_ylabel("axial depth (mm)")
@@ -512,7 +511,8 @@ def _report(results: dict, settings: StudySettings) -> str:
     a = L.append
     a("# robolobes study: stable aluminium, unstable steel on the Staubli TX200\n")
     a(f"{'Quick' if settings.quick else 'Full'} study, computed in {results['wall_s']:.0f} s "
-      f"({results['generated']}). Every number below is in `results.json`.\n")
+      f"({results['generated']}). Every number below is in `results.json`. Provenance: "
+      f"{provenance_text(results['provenance'])}.\n")
     a("![main figure](study.png)\n")
     a("## The explanation, in numbers\n")
     a(f"* **Tooth passing against the robot modes.** Aluminium is cut at {al['spindle_rpm']:.0f} rpm: "
@@ -621,13 +621,19 @@ def _report(results: dict, settings: StudySettings) -> str:
 
 
 # ------------------------------------------------------------------------------------------ driver
-def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = False, progress=None) -> dict:
+def study_output(out_dir: str | os.PathLike, quick: bool) -> OutputDir:
+    """The study's output directory, checked now (``core.outdir``: refuses a user's directory or file)."""
+    return OutputDir(out_dir, "study", {"command": "study", "quick": bool(quick)})
+
+
+def run_study(out_dir: str | os.PathLike | OutputDir = "robolobes-study", quick: bool = False, progress=None) -> dict:
     """Run the study and write ``report.md``, ``results.json`` and figures into ``out_dir``.
 
     Parameters
     ----------
-    out_dir : path
-        Target directory (replaced atomically when the study completes).
+    out_dir : path or OutputDir
+        Target directory (:func:`study_output`: checked before any work, swapped in atomically when
+        the study completes; never a directory or file robolobes did not write).
     quick : bool
         Coarser grids and shorter runs (:meth:`StudySettings.make`).
     progress : callable ``(fraction, note)``, optional
@@ -640,9 +646,8 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
     t0 = time.perf_counter()
     settings = StudySettings.make(quick)
     prog = progress or (lambda f, note="": None)
-    target = Path(out_dir).resolve()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    out = out_dir if isinstance(out_dir, OutputDir) else study_output(out_dir, quick)
+    work = out.open()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", JointLimitWarning)  # the Tab. 7 A3 warning, reported below
@@ -683,21 +688,13 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
                                               results["steel_damping"]["time_domain"])
         results["wall_s"] = time.perf_counter() - t0
         results["generated"] = time.strftime("%Y-%m-%d %H:%M")
+        results["provenance"] = out.provenance
         prog(0.97, "report")
         _plot_main(results, lobes_out, sims, work / "study.png")
         write_json(work / "results.json", results)
         write_text(work / "report.md", _report(to_jsonable(results), settings))
-        # swap the finished directory in
-        old = None
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=target.parent))
-            old.rmdir()
-            target.rename(old)
-        work.rename(target)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        out.commit()  # swap the finished directory in
         prog(1.0, "done")
         return to_jsonable(results)
     finally:
-        if work.exists():
-            shutil.rmtree(work, ignore_errors=True)
+        out.discard()  # after an error or Ctrl-C; a no-op after commit

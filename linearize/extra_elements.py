@@ -65,10 +65,16 @@ class TcpMode(Element):
 
     A body of mass ``m = k / (2 pi f)^2`` rides on a prismatic joint at the TCP along ``direction``
     (unit vector, TCP frame: z is the tool axis), held by a spring ``k`` and a damper
-    ``c = 2 zeta sqrt(k m)``; the TCP frame moves onto that body. On a base much stiffer and
-    heavier than the mode (a robot at the mode's frequency) the TCP receptance along ``direction``
-    adds ``1 / (k - w^2 m + i w c)``: the closed form of a single-DOF oscillator with natural
-    frequency ``freq_hz`` and damping ratio ``damping_ratio``. Several modes chain in series.
+    ``c = 2 zeta sqrt(k m)``; the TCP frame moves onto that body. The mode's mass is part of the
+    declared payload (the spindle and tool were weighed whole), so ``m`` is taken from the payload
+    at the TCP: a point mass ``-m`` at the TCP on the carrying body. The robot's total mass and its
+    low-frequency modes are unchanged; the mode needs ``m`` below the robot's apparent mass at the
+    TCP along ``direction`` (else the mass matrix is not positive definite).
+
+    On a base much stiffer and heavier than the mode (a robot at the mode's frequency) the TCP
+    receptance along ``direction`` adds ``1 / (k - w^2 m + i w c)``: the closed form of a
+    single-DOF oscillator with natural frequency ``freq_hz`` and damping ratio ``damping_ratio``.
+    Several modes chain in series.
 
     Parameters
     ----------
@@ -102,6 +108,8 @@ class TcpMode(Element):
         parent = b.tail if b.tcp_parent is None else b.tcp_parent
         placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
         name = f"tcp_mode_{b.model.njoints}"
+        b.model.appendBodyToJoint(parent, pin.Inertia(-self.mass_kg, placement.translation, np.zeros((3, 3))),
+                                  pin.SE3.Identity())
         jid = b.model.addJoint(parent, pin.JointModelPrismaticUnaligned(np.asarray(self.direction)), placement, name)
         b.model.appendBodyToJoint(jid, pin.Inertia(self.mass_kg, np.zeros(3), np.zeros((3, 3))), pin.SE3.Identity())
         b.tcp_parent, b.tcp_placement = jid, pin.SE3.Identity()

@@ -22,12 +22,16 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
+from robolobes.core.errors import BadInput
+from robolobes.core.frf import BASE_LABELS, CUT_LABELS, FRF
 from robolobes.core.threads import blas_single_threaded
+from robolobes.core.validate import readonly
 
 from .model import FlexibleRobot, element_forces, element_tangents, rigid_q, tcp_jacobian, tcp_pose
 
@@ -51,14 +55,11 @@ __all__ = [
 FrameName = Literal["base", "cut"]
 
 
-class SingularConfigurationError(ValueError):
+_ro = partial(readonly, dtype=None)  # a read-only copy, dtype kept (complex modes)
+
+
+class SingularConfigurationError(BadInput):
     """The TCP Jacobian or the stiffness is singular at this configuration."""
-
-
-def _ro(a):
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
 
 
 # ----------------------------------------------------------------------------------------------
@@ -297,48 +298,6 @@ def frf_modal(modes: Modes, omega_rad_s: np.ndarray) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------------
-# FRF container
-
-
-@dataclass(frozen=True)
-class FRF:
-    """Tool-tip receptance, python-control layout.
-
-    Attributes
-    ----------
-    omega : array (F,), rad/s
-    H : complex array (n_out, n_in, F), m/N
-        ``H[i, j, f]``: TCP displacement along axis i per unit TCP force along axis j.
-    frame : str
-        Name of the frame the axes refer to (``"base"`` or ``"cut"``).
-    axes : array (3, 3)
-        Rows: the frame's unit axes in base coordinates.
-    labels : tuple of str
-        Axis names.
-    """
-
-    omega: np.ndarray
-    H: np.ndarray
-    frame: str
-    axes: np.ndarray
-    labels: tuple[str, ...] = ("x", "y", "z")
-
-    def __post_init__(self):
-        object.__setattr__(self, "omega", _ro(self.omega))
-        object.__setattr__(self, "H", _ro(self.H))
-        object.__setattr__(self, "axes", _ro(self.axes))
-
-    @property
-    def freq_hz(self) -> np.ndarray:
-        return self.omega / (2 * math.pi)
-
-    def to_control(self):
-        """The FRF as a ``control.FrequencyResponseData`` (omega in rad/s)."""
-        import control
-        return control.frd(np.asarray(self.H), np.asarray(self.omega))
-
-
-# ----------------------------------------------------------------------------------------------
 # the linear model at one pose
 
 
@@ -429,7 +388,7 @@ class LinearModel:
             H = frf_modal(modal_analysis(self.M, self.C, self.K, Jf), w)
         else:
             raise ValueError(f"unknown FRF method {method!r}; valid: 'direct', 'modal'")
-        labels = ("x", "y", "z") if frame == "base" else ("feed", "normal", "axial")
+        labels = BASE_LABELS if frame == "base" else CUT_LABELS
         return FRF(omega=w, H=H, frame=frame, axes=axes, labels=labels)
 
     def state_space(self, frame: FrameName = "base", feed_direction=None):

@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from robolobes.cases.spec import PayloadSpec, RobotSpec
+from robolobes.core.validate import finite_array
 
 __all__ = [
     "Variant",
@@ -405,15 +406,6 @@ def build_model(spec: RobotSpec, variant: str = "basic", *, damping_scale: float
     return assemble(spec, els, variant=name)
 
 
-def _check_vec(name: str, x, n: int) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
-    if a.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains non-finite values: {a}")
-    return a
-
-
 def rigid_q(robot: FlexibleRobot, theta: np.ndarray) -> np.ndarray:
     """Configuration of the undeformed robot: motion joints at the motor angles, virtual joints at 0.
 
@@ -424,7 +416,7 @@ def rigid_q(robot: FlexibleRobot, theta: np.ndarray) -> np.ndarray:
     -------
     q : array (nq,), rad
     """
-    theta = _check_vec("theta (motor angles, rad)", theta, robot.spec.n_joints)
+    theta = finite_array("theta (motor angles, rad)", theta, (robot.spec.n_joints,))
     q = np.zeros(robot.nq)
     q[robot.motion_dofs] = theta
     return q

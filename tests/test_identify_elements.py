@@ -26,13 +26,18 @@ def _sdof(f_hz, zeta, k, w):
 def _substructured(H_r, d, f_hz, zeta, k, w):
     """Exact FRF coupling of a mass m on a spring-damper along unit d (base axes) to the robot's TCP.
 
-    Body position y = x_r + d u; the robot carries the joint force back: x_r = H_r (F + w^2 m y);
-    along d the joint force is the spring's, u = d.(F + w^2 m y) / z with z = k + i w c. With
-    G = H_r + d d^T / z: y = (I - w^2 m G)^-1 G F. (Second method, independent of pinocchio.)
+    The robot first loses the mass m at its TCP (the mode's mass is part of the payload): a point
+    mass -m changes its receptance to H_r' = H_r (I + w^2 m H_r)^-1. Body position y = x_r + d u;
+    the robot carries the joint force back: x_r = H_r' (F + w^2 m y); along d the joint force is
+    the spring's, u = d.(F + w^2 m y) / z with z = k + i w c. With G = H_r' + d d^T / z:
+    y = (I - w^2 m G)^-1 G F. (Second method, independent of pinocchio.)
     """
     m = k / (2 * math.pi * f_hz) ** 2
     z = k + 1j * w * 2 * zeta * math.sqrt(k * m)
-    G = np.moveaxis(H_r, -1, 0) + np.einsum("i,j,f->fij", d, d, 1 / z)
+    Hr = np.moveaxis(H_r, -1, 0)
+    Hr = np.linalg.solve(np.swapaxes(np.eye(3) + (w ** 2 * m)[:, None, None] * Hr, -1, -2),
+                         np.swapaxes(Hr, -1, -2)).swapaxes(-1, -2)          # H_r (I + w^2 m H_r)^-1
+    G = Hr + np.einsum("i,j,f->fij", d, d, 1 / z)
     out = np.linalg.solve(np.eye(3) - (w ** 2 * m)[:, None, None] * G, G)
     return np.moveaxis(out, 0, -1)
 

@@ -67,8 +67,8 @@ def test_report_tables_and_figures(quick):
 
 def test_interrupted_study_leaves_the_previous_report(tmp_path, monkeypatch):
     out = tmp_path / "robolobes-study"
-    out.mkdir()
-    (out / "report.md").write_text("previous report")
+    with study.study_output(out, quick=True) as previous:  # an earlier study's output (a marker lists its files)
+        (previous.path / "report.md").write_text("previous report")
 
     def boom(*a, **k):
         raise KeyboardInterrupt

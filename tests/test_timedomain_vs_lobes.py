@@ -16,10 +16,10 @@ from robolobes import cases
 import robolobes.linearize as L
 from robolobes.lobes.problem import LobeProblem
 from robolobes.lobes.sdm import SemiDiscretization
-from robolobes.lobes.solve import stability
+from robolobes.lobes import stability
 from robolobes.lobes.structure import PhysicalStructure
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
-from robolobes.timedomain.summary import principal_period
+from robolobes.cases.milling import principal_period
 
 warnings.filterwarnings("ignore", category=L.JointLimitWarning)  # Tab. 7's A3, accepted and tested elsewhere
 STEEL = cases.load_case("tx200-steel")
@@ -103,4 +103,4 @@ def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
     for scale, expect in ((10.0, "unstable"), (15.0, "stable")):
         robot = L.build_model(STEEL.robot, "basic", damping_scale=scale)
         st = PhysicalStructure.from_linear(L.linearize(robot, STEEL.path.start_q_rad), STEEL.cut.feed_direction)
-        assert stability(LobeProblem(st, STEEL.tool, STEEL.cut, STEEL.law), SemiDiscretization(m=40)).verdict == expect
+        assert stability(LobeProblem(st, STEEL.tool, STEEL.cut, STEEL.law), SemiDiscretization(m=40)).verdict.status == expect

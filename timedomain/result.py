@@ -8,6 +8,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from robolobes.core.io import to_jsonable
+from robolobes.core.verdict import Verdict
 from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
 
 __all__ = ["PAPER_AXES", "SimulationSummary", "SimulationResult"]
@@ -45,8 +46,9 @@ class SimulationSummary:
         The same for ``x, y`` in the paper's Tab. 10 sign convention (:data:`PAPER_AXES`), N.
     verdict_section : str or None
         Sampling of the stability verdict (once per principal period).
-    stable : bool or None
-        Stability verdict (None: no verdict, see ``note``).
+    verdict : Verdict
+        ``stable`` / ``unstable`` / ``undetermined`` with its reason (:mod:`core.verdict`); JSON
+        ``verdict``, ``stable`` (true / false / null) and ``verdict_reason``.
     stability : dict or None
         The verdict rule's numbers.
     chatter_freq_hz : float or None
@@ -71,7 +73,8 @@ class SimulationSummary:
     verdict_basis : str
         "this run" or the companion run without runout that decided the verdict.
     runout_run_verdict : dict or None
-        This run's own ``stable, stability, chatter_freq_hz`` when a companion run decided.
+        This run's own ``verdict, stable, verdict_reason, stability, chatter_freq_hz`` when a
+        companion run decided.
     wall_s : float
         Wall-clock time of the run, s.
     provenance : dict
@@ -89,7 +92,7 @@ class SimulationSummary:
     force_stats: dict | None = None
     force_stats_paper_axes: dict | None = None
     verdict_section: str | None = None
-    stable: bool | None = None
+    verdict: Verdict = Verdict("undetermined", "not evaluated")
     stability: dict | None = None
     chatter_freq_hz: float | None = None
     nonsynchronous_peak_hz: float | None = None
@@ -106,9 +109,19 @@ class SimulationSummary:
     wall_s: float | None = None
     provenance: dict | None = None
 
+    @property
+    def stable(self) -> bool | None:
+        """True / False, or None when the verdict is undetermined."""
+        return self.verdict.stable
+
     def to_json(self) -> dict:
-        """Every field, JSON-ready (tuples as lists, numpy scalars as Python numbers)."""
-        return to_jsonable({f.name: getattr(self, f.name) for f in fields(self)})
+        """Every field, JSON-ready (tuples as lists, numpy scalars as Python numbers); the verdict as
+        ``verdict``, ``stable`` and ``verdict_reason``."""
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            out.update(v.to_json() if isinstance(v, Verdict) else {f.name: v})
+        return to_jsonable(out)
 
 
 @dataclass(frozen=True, eq=False)

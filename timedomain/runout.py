@@ -9,13 +9,15 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Callable
 
+from robolobes.cases.milling import principal_period
+
 from .result import SimulationSummary
-from .summary import has_runout, principal_period
+from .summary import has_runout
 
 __all__ = ["needs_companion", "companion_problem", "with_companion_verdict", "VERDICT_FIELDS"]
 
 #: The summary fields the companion run decides.
-VERDICT_FIELDS = ("stable", "stability", "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio",
+VERDICT_FIELDS = ("verdict", "stability", "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio",
                   "verdict_section", "note")
 #: Longest steady cut simulated by the companion run, s.
 COMPANION_STEADY_S = 2.0
@@ -41,7 +43,7 @@ def with_companion_verdict(summary: SimulationSummary, run: Callable, problem, t
     :class:`SimulationResult`), this run's own verdict kept in ``runout_run_verdict``."""
     comp_problem = companion_problem(problem, t_end_s, steady_start_s)
     cs = run(comp_problem).summary
-    own = {k: getattr(summary, k) for k in ("stable", "stability", "chatter_freq_hz")}
+    own = {**summary.verdict.to_json(), "stability": summary.stability, "chatter_freq_hz": summary.chatter_freq_hz}
     basis = (f"companion run without runout to t = {comp_problem.t_end_s:.2f} s (runout forces a tooth-to-tooth "
              f"alternation indistinguishable from a flip)")
     return replace(summary, **{k: getattr(cs, k) for k in VERDICT_FIELDS}, runout_run_verdict=own,

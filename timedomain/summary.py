@@ -18,11 +18,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import replace
 
 import numpy as np
 
+from robolobes.cases.milling import principal_period
 from robolobes.core.io import provenance
+from robolobes.core.verdict import Verdict
 from robolobes.linearize.model import MotionSprings
 
 from .problem import LinearizedNewmark, SimulationProblem
@@ -30,7 +31,7 @@ from .result import SimulationResult, SimulationSummary
 from .signals import chatter_frequency, force_stats, stability
 from .workpiece import Workpiece
 
-__all__ = ["summarize", "stability_verdict", "principal_period", "has_runout", "DECAY_LIMIT", "MIN_STEADY_PERIODS",
+__all__ = ["summarize", "stability_verdict", "has_runout", "DECAY_LIMIT", "MIN_STEADY_PERIODS",
            "simulation_inputs"]
 
 #: The window must be long enough for the slowest free robot mode to lose at least 20 % of its
@@ -40,20 +41,6 @@ DECAY_LIMIT = 0.8
 MIN_STEADY_PERIODS = 15
 #: The finished wall must exceed the 0.8 mm cutoff's run-in and run-out plus a sampling length.
 MIN_WALL_M = 2.5e-3
-
-
-def principal_period(tool, cut) -> tuple[float, str]:
-    """Period of the cut's linear dynamics and its name: the tooth period ``T / N`` when every tooth
-    cuts and regenerates on the surface of its predecessor one equal pitch earlier (uniform pitch,
-    runout too small to make a tooth skip), else the spindle revolution ``T`` (variable pitch,
-    skipped teeth). The lobes (:mod:`lobes`) use the same principal period; a flip bifurcation is a
-    period doubling of it, which a once-per-revolution section cannot see when N = 2."""
-    from robolobes.cases.milling import regeneration
-    reg = regeneration(tool, replace(cut, feed_per_tooth_m=max(cut.feed_per_tooth_m, 1e-12)))
-    pitch = 2 * math.pi / tool.teeth
-    if all(r.cuts and abs(r.delay_rad - pitch) < 1e-9 for r in reg):
-        return cut.spindle_period_s / tool.teeth, "tooth"
-    return cut.spindle_period_s, "revolution"
 
 
 def has_runout(tool) -> bool:
@@ -120,11 +107,11 @@ def _force_fields(result: SimulationResult, window: tuple[float, float]) -> dict
 def stability_verdict(result: SimulationResult, window: tuple[float, float],
                       slowest_decay_per_s: float | None) -> dict:
     """The time-domain stability verdict (the one policy; summary fields ``verdict_section``,
-    ``stable``, ``stability``, ``chatter_freq_hz``, ``nonsynchronous_peak_hz``,
+    ``verdict``, ``stability``, ``chatter_freq_hz``, ``nonsynchronous_peak_hz``,
     ``nonsynchronous_ratio``, ``note``).
 
-    Once-per-principal-period samples (:func:`principal_period`: tooth period for a uniform pitch,
-    else the revolution) of the TCP deviation (x, y) over the steady ``window``
+    Once-per-principal-period samples (:func:`cases.milling.principal_period`: tooth period for a
+    uniform pitch, else the revolution) of the TCP deviation (x, y) over the steady ``window``
     (:func:`timedomain.signals.stability`, ``rule="trend"``): unstable when the non-synchronous
     motion exceeds 5 % of the forced peak-to-peak and does not decay significantly (log-linear fit
     over 6 segments: dying out iff slope + 2 standard errors < -sigma/4, a quarter of the slowest
@@ -144,9 +131,9 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float],
     n_sec = int((t1 - t0) / Tp + 1e-9)
     if n_sec < 30:
         # the trend rule needs 6 segments of >= 5 sections
-        out.update(stable=None, chatter_freq_hz=None,
-                   note=f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
-                        f"verdict needs 30: simulate longer")
+        note = (f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
+                f"verdict needs 30: simulate longer")
+        out.update(verdict=Verdict("undetermined", note), chatter_freq_hz=None, note=note)
         return out
     # a transient must decay at least at a quarter of the slowest free robot mode's rate
     # (cutting slows the decay near the boundary; slower than that is, over a window of a few
@@ -159,14 +146,17 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float],
                            t_start_s=t0, t_end_s=t1)
     ringing = None if slowest_decay_per_s is None else math.exp(-slowest_decay_per_s * (t1 - t0) * 2 / 3)
     stable = verdict.stable
+    reason = (f"trend rule on once-per-{pname}-period samples: non-synchronous motion {verdict.ratio:.3g} of the "
+              f"forced peak-to-peak (threshold {verdict.threshold:g}), trend {verdict.trend_per_s:+.3g} "
+              f"+- {2 * verdict.trend_se_per_s:.2g} 1/s (2 SE), required decay {min_decay:.3g} 1/s")
     if not stable and ringing is not None and ringing > DECAY_LIMIT:
         # a free robot mode would itself lose less than the required 20 % over this window (and
         # close modes beat): ringing after the entry cannot be told from chatter
         stable = None
-        out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
-                       f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two thirds "
-                       f"of the {t1 - t0:.2f} s steady window; simulate longer")
-    out["stable"] = stable
+        reason = out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
+                                f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two "
+                                f"thirds of the {t1 - t0:.2f} s steady window; simulate longer")
+    out["verdict"] = Verdict.from_stable(stable, reason)
     out["stability"] = {"ratio": verdict.ratio, "decay": verdict.decay, "threshold": verdict.threshold,
                         "trend_per_s": verdict.trend_per_s, "trend_se_per_s": verdict.trend_se_per_s,
                         "slowest_mode_decay_over_window": ringing}
@@ -183,12 +173,14 @@ def _steady_fields(result: SimulationResult, slowest_decay_per_s: float | None) 
     t0, t1 = result.steady_window_s
     t1 = min(t1, float(t[-1]))
     if t1 <= t0:
-        return {"note": f"the run ends at {t[-1]:.3f} s, before the steady cut starts ({t0:.3f} s): no verdict, "
-                        f"no statistics (simulate longer)"}
+        note = (f"the run ends at {t[-1]:.3f} s, before the steady cut starts ({t0:.3f} s): no verdict, "
+                f"no statistics (simulate longer)")
+        return {"note": note, "verdict": Verdict("undetermined", note)}
     out: dict = {"steady_window_s": (t0, t1)}
     if t1 - t0 < MIN_STEADY_PERIODS * T:
         out["note"] = (f"steady window {t0:.3f}-{t1:.3f} s holds fewer than {MIN_STEADY_PERIODS} revolutions: "
                        f"no verdict, no statistics (simulate longer)")
+        out["verdict"] = Verdict("undetermined", out["note"])
         return out
     out.update(_force_fields(result, (t0, t1)))
     out.update(stability_verdict(result, (t0, t1), slowest_decay_per_s))
