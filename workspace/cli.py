@@ -275,11 +275,12 @@ def optimize_problem_from_args(args):
 
 def _td_depth(res) -> float:
     """The depth of the time-domain check, m: between the baseline's and the optimum's minimum
-    limits (their geometric mean), where the lobes predict "unstable" for the baseline and "stable"
-    for the optimum -- a check that can fail either way. Without a gain: the case's depth."""
-    b, o = res.baseline.min_depth_m, res.best.min_depth_m
-    if res.baseline.feasible and math.isfinite(b) and math.isfinite(o) and o > b * 1.02:
-        return math.sqrt(b * o)
+    limits (their geometric mean, at most 1.5 times the baseline's; an optimum with no limit below
+    ``depth_max_m`` counts as that), where the lobes predict "unstable" for the baseline and
+    "stable" for the optimum -- a check that can fail either way. Without a gain: the case's depth."""
+    b, o = res.baseline.min_depth_m, min(res.best.min_depth_m, res.problem.depth_max_m)
+    if res.baseline.feasible and math.isfinite(b) and res.best.feasible and o > b * 1.02:
+        return b * min(math.sqrt(o / b), 1.5)
     return res.problem.map_problem.case.cut.ap_m
 
 
@@ -383,6 +384,10 @@ def run_optimize(args: argparse.Namespace) -> int:
     js = {"case": opt.map_problem.case.name, "variant": opt.map_problem.variant, "rpm": opt.map_problem.op_rpm,
           "variables": list(opt.variables), "baseline_min_depth_m": res.baseline.min_depth_m,
           "optimized_min_depth_m": res.best.min_depth_m, "gain": res.gain,
+          "depth_max_m": opt.depth_max_m,
+          "gain_at_least": (opt.depth_max_m / res.baseline.min_depth_m
+                            if math.isinf(res.best.min_depth_m) and res.best.feasible and res.baseline.min_depth_m > 0
+                            else None),
           "placement_offset_m": [vals["x_offset_m"], vals["y_offset_m"], vals["z_offset_m"]],
           "yaw_deg": math.degrees(vals["yaw_rad"]), "tool_rotation_deg": math.degrees(vals["tool_rotation_rad"]),
           "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
