@@ -45,12 +45,19 @@ def _heatmap(result, path: Path, ap_m: float) -> None:
         fig.colorbar(sc, ax=ax, label=f"critical depth at {pr.op_rpm:.0f} rpm, mm ({dmax_mm:g} = none below)")
         ax.legend(loc="best", fontsize=8)
     else:
-        im = ax.imshow(shown.T, origin="lower", aspect="auto", cmap="viridis", vmin=0, vmax=dmax_mm,
-                       extent=(-0.5, pr.n_poses - 0.5, pr.speeds_rpm[0], pr.speeds_rpm[-1]))
+        if len(names) == 1:  # the swept value on the x axis, in deg or mm
+            name = names[0]
+            x = pr.pose_values()[name]
+            x, label = (np.degrees(x), name[:-4] + ", deg") if name.endswith("_rad") else (x * 1e3, name[:-2] + ", mm")
+        else:
+            x, label = np.arange(pr.n_poses, dtype=float), f"pose ({', '.join(names) or 'single pose'})"
+        ax.set_facecolor("lightgrey")  # unreachable poses (NaN) show the background
+        im = ax.pcolormesh(x, pr.speeds_rpm, np.ma.masked_invalid(shown.T), cmap="viridis", vmin=0, vmax=dmax_mm,
+                           shading="nearest")
         ax.axhline(pr.op_rpm, color="r", lw=1, label=f"operating speed {pr.op_rpm:.0f} rpm")
-        ax.set_xlabel(f"pose ({', '.join(names) or 'single pose'})")
+        ax.set_xlabel(label)
         ax.set_ylabel("spindle speed, rpm")
-        fig.colorbar(im, ax=ax, label="critical depth, mm")
+        fig.colorbar(im, ax=ax, label=f"critical depth, mm ({dmax_mm:g} = none below; grey: unreachable)")
         ax.legend(loc="upper right", fontsize=8)
     ax.set_title(f"{pr.case.name}, {pr.variant}: over {pr.over}")
     ax = axes[1]
