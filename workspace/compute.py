@@ -126,7 +126,7 @@ def compute_chunk(problem: MapProblem, method: MapMethod, start: int, theta: np.
             structure, report = pose_structure(problem, method, lin, feed[i])
             cut = replace(case.cut, feed_direction=tuple(feed[i]), spindle_rpm=problem.op_rpm)
             res = solve(LobeProblem(structure, case.tool, cut, case.law), sdm, speeds,
-                        depth_max_m=method.depth_max_m, rtol=method.rtol)
+                        depth_max_m=method.depth_max_m, rtol=method.rtol, chunk=len(speeds))
             out["depth_limit_m"][i] = res.depth_limit_m[:S]
             out["chatter_freq_hz"][i] = res.chatter_freq_hz[:S]
             out["bifurcation"][i] = _bif_codes(res.bifurcation[:S])
