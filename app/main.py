@@ -33,6 +33,8 @@ _COMMANDS = {
     "lobes": "robolobes.lobes.cli",
     "simulate": "robolobes.timedomain.cli",
     "identify": "robolobes.identify.cli",
+    "map": "robolobes.workspace.cli",
+    "optimize": "robolobes.workspace.cli",
 }
 
 
