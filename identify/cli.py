@@ -42,11 +42,12 @@ def run_identify_cli(args) -> int:
     import json
 
     from robolobes.core.io import provenance, to_jsonable
-    from robolobes.core.outdir import OutputDir, cli_inputs
+    from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
 
     from .api import identify, model_state, read_measurement
 
-    measurement = read_measurement(args.measured)
+    with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
+        measurement = read_measurement(args.measured)
     state, notes = model_state(measurement, args.case, args.variant)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
@@ -63,6 +64,8 @@ def run_identify_cli(args) -> int:
         bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
 
     kw = {"poles": False} if args.no_poles else {}
+    if args.effects:
+        kw["effects"] = [x.strip() for x in args.effects.split(",") if x.strip()]
     result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
     bar.done()
     out = {**result.to_json(), "provenance": prov}
@@ -78,7 +81,7 @@ def run_identify_cli(args) -> int:
         print(f"  {e.name}: {ps}")
     print(f"metric: {result.metric}")
     if report is not None:
-        print(f"report: {report}/report.md")
+        print(f"report: {report.target}/report.md")
     return 0
 
 
@@ -97,6 +100,9 @@ def _register_identify(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--report", default=None, help="write report.md and figures into this directory (never "
                                                     "replaces a user's files)")
+    p.add_argument("--effects", default=None,
+                   help="comma-separated candidate effects (default: the library's default candidates; "
+                        "e.g. servo_a2 is tried only when named)")
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
