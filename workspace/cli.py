@@ -146,21 +146,13 @@ def _out_dir(args, problem, method):
     return OutputDir(args.out, "map", inputs, resume=True)
 
 
-def _progress(quiet: bool):
-    if quiet:
-        return None, lambda: None
-    from tqdm import tqdm
+def _progress(quiet: bool, label: str = "map"):
+    """``(callback(done, total), close)`` on the shared progress display (``core.io.Progress``:
+    tqdm on a terminal, a few lines in a log file, nothing with ``--quiet``)."""
+    from robolobes.core.io import Progress
 
-    bar = {"t": None}
-
-    def cb(done, total):
-        if bar["t"] is None:
-            bar["t"] = tqdm(total=total, initial=done, unit="pose", desc="map", file=sys.stderr,
-                            mininterval=1.0, dynamic_ncols=True)
-        else:
-            bar["t"].update(done - bar["t"].n)
-
-    return cb, lambda: bar["t"] is not None and bar["t"].close()
+    bar = Progress(label, enabled=not quiet)
+    return (lambda done, total: bar(done / total if total else 1.0, f"{done}/{total}")), bar.close
 
 
 def run_map(args: argparse.Namespace) -> int:
@@ -373,7 +365,7 @@ def run_optimize(args: argparse.Namespace) -> int:
               "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
               "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
     out = OutputDir(args.out, "optimize", inputs)
-    cb, close = _progress(args.quiet)
+    cb, close = _progress(args.quiet, "optimize")
     try:
         res = optimize_placement(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
                                  progress=cb)
