@@ -48,7 +48,8 @@ def pose_poles(pd, approx_hz) -> tuple[np.ndarray, np.ndarray] | None:
     approx = [a for a in approx_hz if lo < a < hi]
     if not approx:
         return None
-    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()), \
+            warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = EMA.Model(frf=frf, freq=f, lower=lo, upper=hi, pol_order_high=POLE_ORDER, frf_form="receptance")
         m.get_poles("lscf", show_progress=False)
