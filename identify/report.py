@@ -63,7 +63,7 @@ def write_frf_report(directory: Path, result, poses, effects_state, provenance: 
     """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
     from .frf import predict
 
-    lines = [f"# robolobes identify: tool-tip FRF set", "",
+    lines = ["# robolobes identify: tool-tip FRF set", "",
              f"- metric: {result.metric}",
              f"- error before: {result.error_before:.4g}; after: {result.error_after:.4g}; "
              f"noise floor (from the data): {result.noise_floor:.4g}",

@@ -7,15 +7,13 @@ identifier uses its own fast perturbation of M, C, K, so the data do not come fr
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 from robolobes.cases import load_case
-from robolobes.identify.effects import REGISTRY, ModelState, effects_for
+from robolobes.identify.effects import REGISTRY
 from robolobes.identify.selection import significance, z_threshold
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, linearize
