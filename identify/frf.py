@@ -423,8 +423,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     """Identify structural effects from a tool-tip FRF set (see the module doc).
 
     ``poles``: also fit the measurement's poles (LSCF/LSFD, :mod:`identify.modal`) and set them beside
-    the model's, before and after (a few seconds per pose). ``effects``: candidate names (default:
-    the library's default candidates).
+    the model's, before and after (a few seconds per pose). ``effects``: the candidate
+    :class:`Effect` s (default: the library's default candidates, ``effects_for("frf", model)``).
     """
     from robolobes.core.errors import BadInput
 
@@ -433,7 +433,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     if len(measurement.poses) < 2:
         raise BadInput(f"{measurement.path}: leave-one-pose-out needs at least 2 poses with data, "
                        f"got {len(measurement.poses)}")
-    candidates = [e for e in effects_for("frf", model, effects) if isinstance(e, StructuralEffect)]
+    chosen = effects_for("frf", model) if effects is None else list(effects)
+    candidates = [e for e in chosen if isinstance(e, StructuralEffect)]
     poses = prepare(measurement, model, progress)
     from .selection import z_threshold
     trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
