@@ -13,7 +13,8 @@ kind            files                                         reader / pipeline
 =============== ============================================= ==========================================
 
 Every pipeline has the signature ``pipeline(measurement, model: ModelState, *, alpha, max_effects,
-progress) -> Identification``; every reader ``reader(path) -> measurement`` with attributes ``kind``,
+progress, effects=None) -> Identification`` (``effects``: the candidate Effect objects, default the
+library's default candidates for the kind); every reader ``reader(path) -> measurement`` with attributes ``kind``,
 ``path``, ``case`` (the case named in the files, or None) and ``variant`` (or None).
 """
 
