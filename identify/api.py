@@ -115,8 +115,8 @@ def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects
     """
     if not 0 < alpha < 1:
         raise BadInput(f"alpha = {alpha}: must be in (0, 1)")
-    if max_effects < 0:
-        raise BadInput(f"max_effects = {max_effects}: must be >= 0")
+    if not 0 <= max_effects <= 10:
+        raise BadInput(f"max_effects = {max_effects}: must be in 0..10 (each step fits every candidate)")
     kind = measurement.kind
     if kind not in PIPELINES:
         raise BadInput(f"measurement kind {kind!r}; valid: {', '.join(PIPELINES)}")

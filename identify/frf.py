@@ -46,6 +46,7 @@ __all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METR
 METRIC = ("held-out (leave-one-pose-out) RMS over lines of |H_model - H_measured| / RMS |H_measured|, "
           "receptance in m/N, not squared")
 SHORTLIST = 3
+MAX_LINES = 500_000   # lines over all poses and pairs (the 1200-line, 24-pair bench has 28 800)
 _NOISE_WINDOW = 41
 
 
@@ -430,6 +431,9 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
 
     from .model_toml import model_toml
 
+    if measurement.n_lines > MAX_LINES:
+        raise BadInput(f"{measurement.path}: {measurement.n_lines} FRF lines; at most {MAX_LINES} (run time and "
+                       "memory grow with it): decimate the frequency axis or measure fewer pairs")
     if len(measurement.poses) < 2:
         raise BadInput(f"{measurement.path}: leave-one-pose-out needs at least 2 poses with data, "
                        f"got {len(measurement.poses)}")
