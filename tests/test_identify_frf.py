@@ -236,3 +236,22 @@ def test_servo_named_with_effects_is_found(tmp_path, capsys):
     assert res["effects"][0]["name"] == "servo_a2" and res["error_after"] <= 1.2 * e_gen, res["effects"]
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--effects", "servo_a9"], capsys)
     assert rc == 2 and "servo_a9" in err
+
+
+def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
+    # a tool mode and a softer axis 3 together: the larger residual (the mode) first, then the axis;
+    # the third step keeps nothing; after both the error is the generating model's (within 1.2x)
+    els = (TcpMode(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 1.0))
+    d = tmp_path / "set"
+    t = synthetic_frf_set(d, CASE, elements=els, n_poses=4, f_hz=np.linspace(2, 300, 400), seed=31)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles"], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    assert [e["name"] for e in res["effects"]] == ["tcp_mode", "joint_correction_a3"]
+    steps = res["steps"]
+    assert [s["kept"] for s in steps] == ["tcp_mode", "joint_correction_a3", None]
+    assert all(s["statistic"] > s["threshold"] for s in steps[:2]) and steps[2]["statistic"] <= steps[2]["threshold"]
+    e_gen, _ = _truth_errors(t)
+    assert res["error_after"] <= 1.2 * e_gen
+    assert_allclose(res["effects"][1]["params"]["stiffness_scale"], 0.75, atol=5 * res["effects"][1]["uncertainty"]
+                    ["stiffness_scale"])
