@@ -47,6 +47,7 @@ import pinocchio as pin
 
 from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
+from robolobes.core.validate import finite
 
 from .model import Element, ModelBuilder, VirtualJoints
 
@@ -62,8 +63,9 @@ def _unit(v, what: str) -> np.ndarray:
 
 
 def _positive(name, v, *, zero_ok=False):
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 or (v == 0 and not zero_ok):
-        raise BadInput(f"{name} must be a finite number {'>= 0' if zero_ok else '> 0'}, got {v!r}")
+    if isinstance(v, bool):
+        raise BadInput(f"{name} must be a number, got {v!r}")
+    finite(name, v, positive=not zero_ok, nonneg=zero_ok)
 
 
 def _diagonal(robot, idx, k, d, q=None, v=None, rest=0.0):
