@@ -31,8 +31,8 @@ Estimator (:func:`growth_rate`)
    interval is ``sigma_hat +- t SE`` with the Student quantile ``t_{0.975, B - 2}`` (95 %,
    two-sided; 2.23 for B = 12).
 
-Saturated chatter (:func:`regenerative_ratio`, :func:`chip_loss_fraction`)
-------------------------------------------------------------------------
+Saturated chatter (:func:`regenerative_ratio`, :meth:`ChipScale.loss_fraction`)
+------------------------------------------------------------------------------
 Chatter that has grown until a tooth leaves the cut is bounded: its rate is ~0 and the linear test
 cannot call it. Tooth j's chip is ``h_j(phi) = h_j0 sin(phi) + n(phi) . (y(t) - y(t - tau_j))``:
 the static chip (``h_j0`` the tooth's chip at 90 deg, :func:`cases.milling.regeneration`) plus
@@ -55,6 +55,11 @@ synchronous average over that block; ``|.|`` the vector norm bounds the projecti
 
 The rule (:func:`decide`)
 -------------------------
+* **undetermined** when the window is shorter than ``3 B + 2`` principal periods, or than the
+  beat period ``1 / min |f_i - f_j|`` of the structure's two closest modes that ring for three
+  cycles or more (:func:`beat_period_s`): two decaying modes beat, and over less than one beat
+  their summed envelope can rise (or fall) smoothly, so the residuals of the fit cannot reveal
+  that the line is the wrong model. (The TX200's 25.2 and 27.7 Hz modes: 0.39 s.)
 * ``L >= 0.05`` (teeth leave the cut), and still >= 0.05 one window later if the amplitude
   changed at the upper confidence bound of ``sigma`` (growing, bounded, or decaying too slowly to
   leave the nonlinear regime within the window's own length): **unstable**, saturated chatter
@@ -62,16 +67,9 @@ The rule (:func:`decide`)
   shrink by a fraction of a percent per second, a "decay" that does not make the cut stable.
 * ``L >= 0.05`` but below it one window later: **undetermined** (a large transient leaving the
   nonlinear regime).
-* ``L < 0.05``: **stable** when the whole 95 % interval is below 0, **unstable** when it is above 0,
-  **undetermined** otherwise.
-* **stable** also when the non-synchronous motion of the second half of the window is below
-  ``resolution_m`` throughout (nothing is left to grow).
-
-* **undetermined** when the window is shorter than ``3 B + 2`` principal periods, or than the
-  beat period ``1 / min |f_i - f_j|`` of the structure's two closest modes that ring for three
-  cycles or more (:func:`beat_period_s`): two decaying modes beat, and over less than one beat
-  their summed envelope can rise (or fall) smoothly, so the residuals of the fit cannot reveal
-  that the line is the wrong model. (The TX200's 25.2 and 27.7 Hz modes: 0.39 s.)
+* ``L < 0.05``: **stable** when the non-synchronous motion of the second half of the window is
+  below ``resolution_m`` throughout (nothing is left to grow) or when the whole 95 % interval is
+  below 0, **unstable** when it is above 0, **undetermined** otherwise.
 
 An undetermined verdict states the window that would decide: the SE falls at least as
 ``T_window^-1`` (a deterministic residual such as beating; white noise gives ``T^-3/2``), so
@@ -86,20 +84,16 @@ synthetic tests (tests/test_verdict.py) check coverage and decisiveness on signa
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from robolobes.cases.milling import engagement_rad, regeneration
+from robolobes.cases.milling import engagement_rad, principal_period, regeneration
 from robolobes.core.verdict import Verdict
 
-__all__ = ["beat_period_s", "VERDICT_KEYS", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict", "chip_scale",
-           "poincare_sections", "growth_rate", "regenerative_ratio", "regenerative_amplitudes",
-           "LOSS_LIMIT", "decide", "floquet_rate_per_s",
-           "floquet_comparison", "verdict_summary"]
-
-
-from robolobes.cases.milling import principal_period  # the one decision, shared with the lobes
+__all__ = ["VERDICT_KEYS", "LOSS_LIMIT", "GrowthRule", "GrowthEstimate", "ChipScale", "TimeDomainVerdict",
+           "chip_scale", "poincare_sections", "growth_rate", "regenerative_amplitudes", "regenerative_ratio",
+           "beat_period_s", "decide", "verdict_summary", "floquet_rate_per_s", "floquet_comparison"]
 
 #: The summary keys of the verdict (:func:`verdict_summary`); a runout companion run copies them.
 VERDICT_KEYS = ("verdict", "stable", "verdict_reason", "growth_rate_per_s", "growth_rate_se_per_s",
@@ -371,7 +365,6 @@ class TimeDomainVerdict:
     regenerative_ratio: float
     chip_loss_fraction: float
     duration_to_decide_s: float | None = None
-    extra: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """Summary keys: verdict, stable, verdict_reason, growth_rate_per_s, growth_rate_se_per_s,
@@ -383,7 +376,6 @@ class TimeDomainVerdict:
                    growth_rate_ci_per_s=None if g is None else list(g.ci_per_s),
                    regenerative_ratio=self.regenerative_ratio, chip_loss_fraction=self.chip_loss_fraction,
                    duration_to_decide_s=self.duration_to_decide_s)
-        out.update(self.extra)
         return out
 
 
