@@ -21,7 +21,7 @@ Estimator (:func:`growth_rate`)
    ``e_k = (mu - 1)^2 c mu^(k-1)``.
 3. Block amplitudes: the K - 2 differences are cut into ``B`` blocks (default 12) of equal
    length; ``a_b = ln sqrt(mean e^2)`` over the block (all phases and axes) at the block's mean
-   time ``t_b``. Amplitudes below ``resolution_m`` are clamped to it (solver tolerance).
+   time ``t_b``. Amplitudes below ``resolution_m`` are clamped to it (what the simulation resolves).
 4. ``a_b = a_0 + sigma t_b + r_b``: least squares gives ``sigma_hat`` and the usual standard
    error. The residuals are correlated (beating of close modes, a sinusoid that does not fill a
    whole number of cycles per block): the SE is multiplied by ``sqrt((1 + rho) / (1 - rho))``
@@ -77,7 +77,10 @@ An undetermined verdict states the window that would decide: the SE falls at lea
 
 Nothing here is tuned on the robot: the 95 % level is conventional, ``B = 12`` gives 10 degrees
 of freedom, ``L = 0.05`` is the 5 % comparison resolution above, and
-``resolution_m`` is the Newton tolerance (1e-11 rad on the joints, lever arms ~2 m) times 5. The
+``resolution_m`` = 2 nm is the accuracy of the simulated chip (tests/test_workpiece.py: 2 nm
+against the exact trochoid; the removal chords' sagitta is <= 1 nm): near a stability limit the
+cutting stiffness is of the order of the structure's, so a chip error of 2 nm moves the tool by
+about as much, and a flat floor of ~0.7 nm is what a damped steel run settles on. The
 synthetic tests (tests/test_verdict.py) check coverage and decisiveness on signals of known rate.
 """
 
@@ -114,7 +117,7 @@ class GrowthRule:
     phases: int = 8
     blocks: int = 12
     confidence: float = 0.95
-    resolution_m: float = 1e-10
+    resolution_m: float = 2e-9
 
     def __post_init__(self):
         from robolobes.core.errors import BadInput
