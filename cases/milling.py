@@ -40,9 +40,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Literal
 
 import numpy as np
+
+from robolobes.core.errors import BadInput
+from robolobes.core.validate import finite, integer
 
 __all__ = [
     "MillingMode",
@@ -79,22 +83,11 @@ PeriodName = Literal["tooth", "revolution"]
 ANGLE_TOL_RAD = 1e-9
 
 
-class MillingError(ValueError):
+class MillingError(BadInput):
     """A tool, cutting law or cut that is physically impossible or inconsistent."""
 
 
-def _finite(name: str, value: float, *, positive: bool = False, nonneg: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise MillingError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise MillingError(f"{name} must be finite, got {v}")
-    if positive and v <= 0:
-        raise MillingError(f"{name} must be > 0, got {v}")
-    if nonneg and v < 0:
-        raise MillingError(f"{name} must be >= 0, got {v}")
-    return v
+_finite = partial(finite, error=MillingError)
 
 
 @dataclass(frozen=True)
@@ -124,9 +117,7 @@ class Tool:
 
     def __post_init__(self) -> None:
         d = _finite("tool diameter_m", self.diameter_m, positive=True)
-        if isinstance(self.teeth, bool) or not isinstance(self.teeth, (int, np.integer)) or self.teeth < 1:
-            raise MillingError(f"tool teeth must be an integer >= 1, got {self.teeth!r}")
-        n = int(self.teeth)
+        n = integer("tool teeth", self.teeth, minimum=1, error=MillingError)
         helix = _finite("tool helix_rad", self.helix_rad)
         if not 0.0 <= helix < math.pi / 2:
             raise MillingError(

@@ -12,20 +12,15 @@ from typing import Literal
 
 import numpy as np
 
+from robolobes.core.errors import BadInput
+from robolobes.core.validate import readonly
+
 from .milling import Cut, CuttingLaw, Tool
 
 __all__ = ["LinkSpec", "JointSpec", "PayloadSpec", "RobotSpec", "PassSpec", "MillingCase", "Assumption", "Axis",
            "ElementSpec"]
 
 Axis = Literal["x", "y", "z"]
-
-
-def _ro(a, shape=None) -> np.ndarray:
-    arr = np.array(a, dtype=float)
-    if shape is not None and arr.shape != shape:
-        raise ValueError(f"expected shape {shape}, got {arr.shape}")
-    arr.setflags(write=False)
-    return arr
 
 
 @dataclass(frozen=True)
@@ -73,9 +68,9 @@ class LinkSpec:
     inertia_kg_m2: np.ndarray
 
     def __post_init__(self):
-        object.__setattr__(self, "com_m", _ro(self.com_m, (3,)))
-        object.__setattr__(self, "next_joint_m", _ro(self.next_joint_m, (3,)))
-        object.__setattr__(self, "inertia_kg_m2", _ro(self.inertia_kg_m2, (3, 3)))
+        object.__setattr__(self, "com_m", readonly(self.com_m, shape=(3,)))
+        object.__setattr__(self, "next_joint_m", readonly(self.next_joint_m, shape=(3,)))
+        object.__setattr__(self, "inertia_kg_m2", readonly(self.inertia_kg_m2, shape=(3, 3)))
 
 
 @dataclass(frozen=True)
@@ -103,7 +98,7 @@ class JointSpec:
     gravity_compensation: bool = False
 
     def __post_init__(self):
-        object.__setattr__(self, "range_rad", _ro(self.range_rad, (2,)))
+        object.__setattr__(self, "range_rad", readonly(self.range_rad, shape=(2,)))
 
 
 @dataclass(frozen=True)
@@ -132,7 +127,7 @@ class PayloadSpec:
 
     def __post_init__(self):
         for k, shape in (("com_m", (3,)), ("tcp_m", (3,)), ("inertia_kg_m2", (3, 3)), ("tcp_rotation", (3, 3))):
-            object.__setattr__(self, k, _ro(getattr(self, k), shape))
+            object.__setattr__(self, k, readonly(getattr(self, k), shape=shape))
 
 
 @dataclass(frozen=True)
@@ -159,7 +154,7 @@ class RobotSpec:
 
     def __post_init__(self):
         if len(self.links) != len(self.joints) + 1:
-            raise ValueError(
+            raise BadInput(
                 f"robot {self.name!r}: {len(self.links)} links need {len(self.links) - 1} joints, got {len(self.joints)}"
             )
 
@@ -213,7 +208,7 @@ class PassSpec:
     ramp_s: float
 
     def __post_init__(self):
-        object.__setattr__(self, "start_q_rad", _ro(self.start_q_rad))
+        object.__setattr__(self, "start_q_rad", readonly(self.start_q_rad))
 
     def travel_m(self, tool: Tool) -> float:
         """TCP travel from start to end: approach + D + part length + overrun, m."""

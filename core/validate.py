@@ -44,15 +44,20 @@ def finite_array(name: str, x, shape: tuple | None = None, *, ndim: int | None =
     """``x`` as a float64 array (a copy) whose entries are all finite; ``shape`` / ``ndim`` checked if given.
 
     ``contiguous=True`` returns a C-contiguous array (for compiled kernels)."""
-    a = np.array(x, dtype=np.float64, copy=True)
+    try:
+        a = np.array(x, dtype=np.float64, copy=True)
+    except (TypeError, ValueError):
+        raise error(f"{name} must be an array of real numbers, got {x!r}") from None
     if contiguous:
         a = np.ascontiguousarray(a)
     if shape is not None and a.shape != tuple(shape):
         raise error(f"{name} must have shape {tuple(shape)}, got {a.shape}")
     if ndim is not None and a.ndim != ndim:
         raise error(f"{name} must be a {ndim}-D array, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise error(f"{name} must be finite, got non-finite entries")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise error(f"{name} must be finite; entry {list(where)} is {a[where]}")
     return a
 
 
@@ -62,7 +67,9 @@ def integer(name: str, value, *, minimum: int | None = None, maximum: int | None
         raise error(f"{name} must be an integer, got {value!r}")
     v = int(value)
     if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
-        lo = "-inf" if minimum is None else minimum
-        hi = "inf" if maximum is None else maximum
-        raise error(f"{name} must be an integer in [{lo}, {hi}], got {v}")
+        if maximum is None:
+            raise error(f"{name} must be an integer >= {minimum}, got {v}")
+        if minimum is None:
+            raise error(f"{name} must be an integer <= {maximum}, got {v}")
+        raise error(f"{name} must be an integer in [{minimum}, {maximum}], got {v}")
     return v

@@ -98,7 +98,7 @@ def model_state(measurement, case: str | None = None, variant: str | None = None
 
 
 def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
-             progress: Callable[[str], None] | None = None) -> Identification:
+             progress: Callable[[str], None] | None = None, **options) -> Identification:
     """Identify the effects ``model`` lacks from ``measurement`` (any kind).
 
     Parameters
@@ -109,6 +109,8 @@ def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects
         Family-wise false-positive rate of the selection over the library (default 1 %).
     max_effects : int
         At most this many effects are added (greedy).
+    options
+        Passed to the kind's pipeline (e.g. ``poles=False`` for FRF sets).
     """
     if not 0 < alpha < 1:
         raise BadInput(f"alpha = {alpha}: must be in (0, 1)")
@@ -117,4 +119,5 @@ def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects
     kind = measurement.kind
     if kind not in PIPELINES:
         raise BadInput(f"measurement kind {kind!r}; valid: {', '.join(PIPELINES)}")
-    return _load(PIPELINES, kind)(measurement, model, alpha=alpha, max_effects=max_effects, progress=progress)
+    return _load(PIPELINES, kind)(measurement, model, alpha=alpha, max_effects=max_effects, progress=progress,
+                                  **options)

@@ -1,4 +1,4 @@
-"""``robolobes study``: the main job (see :mod:`identify.study`)."""
+"""``robolobes identify``: fit the model to measured data (``robolobes study`` is in :mod:`robolobes.study.cli`)."""
 
 from __future__ import annotations
 
@@ -6,36 +6,104 @@ import sys
 
 from robolobes.core.io import Progress
 
-__all__ = ["register", "run_study_cli"]
-
-
-def run_study_cli(args) -> int:
-    from .study import run_study
-
-    bar = Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet)
-    try:
-        res = run_study(args.out, quick=args.quick, progress=bar)
-    except KeyboardInterrupt:
-        print(f"\nrobolobes study: interrupted; {args.out} left as it was", file=sys.stderr)
-        return 130
-    bar.done()
-    ex = res["explanation"]
-    al, st = ex["aluminium"], ex["steel"]
-    print(f"aluminium {al['spindle_rpm']:.0f} rpm, ap {al['depth_m'] * 1e3:.1f} mm: lobes limit "
-          f"{al['local_limit_m'] * 1e3:.2f} mm (margin {al['local_margin']:+.2f}), time domain "
-          f"{'stable' if al['time_domain_stable_basic'] else 'unstable' if al['time_domain_stable_basic'] is False else 'no verdict'}")
-    print(f"steel     {st['spindle_rpm']:.0f} rpm, ap {st['depth_m'] * 1e3:.1f} mm: lobes limit "
-          f"{st['local_limit_m'] * 1e3:.2f} mm (margin {st['local_margin']:+.2f}), time domain "
-          f"{'stable' if st['time_domain_stable_basic'] else 'unstable' if st['time_domain_stable_basic'] is False else 'no verdict'}")
-    print(f"report: {args.out}/report.md, numbers: {args.out}/results.json")
-    return 0
+__all__ = ["register", "run_identify_cli"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("study", help="the main job: why aluminium is stable and steel is not (TX200)",
-                       description="Modes, lobes and time-domain runs for the built-in TX200 cases beside the "
-                                   "paper; writes report.md, results.json and figures.")
-    p.add_argument("--quick", action="store_true", help="coarser grids and shorter runs (under 3 minutes)")
-    p.add_argument("--out", default="robolobes-study", help="output directory (default ./robolobes-study)")
+    _register_identify(sub)
+
+
+# ------------------------------------------------------------------------------------------------
+# robolobes identify
+
+
+def _measured_files(path) -> dict:
+    """Every file of the measurement set, for provenance (recorded by content)."""
+    from pathlib import Path
+
+    p = Path(path)
+    files = [p] if p.is_file() else sorted(x for x in p.iterdir() if x.is_file())
+    return {x.name: x for x in files}
+
+
+def _write_report(out, result, measurement, state):
+    from .effects import REGISTRY
+    from .frf import prepare
+    from .report import write_frf_report
+
+    poses = prepare(measurement, state)
+    effects = [(REGISTRY[e.name], e.params) for e in result.effects]
+    with out:
+        write_frf_report(out.path, result, poses, effects, out.provenance, model=state,
+                         theta=measurement.poses[0].theta)
+
+
+def run_identify_cli(args) -> int:
+    import json
+
+    from robolobes.core.io import provenance, to_jsonable
+    from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
+
+    from .api import identify, model_state, read_measurement
+
+    with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
+        measurement = read_measurement(args.measured)
+    state, notes = model_state(measurement, args.case, args.variant)
+    for n in notes:
+        print(f"robolobes identify: note: {n}", file=sys.stderr)
+    state.robot()  # builds the model: bad [[elements]] fail here, before any work
+    inputs = cli_inputs(args, case=state.case, files=_measured_files(measurement.path),
+                        drop=("run", "quiet", "json", "report"))
+    prov = provenance(inputs)
+    report = OutputDir(args.report, "identify", inputs) if args.report else None   # checked before work
+    bar = Progress("identify", enabled=not args.quiet)
+    steps = [0]
+
+    def progress(msg):
+        steps[0] += 1
+        bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
+
+    kw = {"poles": False} if args.no_poles else {}
+    if args.effects:
+        kw["effects"] = [x.strip() for x in args.effects.split(",") if x.strip()]
+    result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
+    bar.done()
+    out = {**result.to_json(), "provenance": prov}
+    if report is not None and result.kind == "frf":
+        _write_report(report, result, measurement, state)
+    if args.json:
+        print(json.dumps(to_jsonable(out), indent=2))
+        return 0
+    print(f"{result.kind} set {measurement.path}: {len(result.effects)} effect(s); held-out error "
+          f"{result.error_before:.4g} -> {result.error_after:.4g} (noise floor {result.noise_floor:.3g})")
+    for e in result.effects:
+        ps = ", ".join(f"{k} = {v:.5g} +- {e.uncertainty.get(k, float('nan')):.2g}" for k, v in e.params.items())
+        print(f"  {e.name}: {ps}")
+    print(f"metric: {result.metric}")
+    if report is not None:
+        print(f"report: {report.target}/report.md")
+    return 0
+
+
+def _register_identify(sub) -> None:
+    p = sub.add_parser("identify", help="fit the model to measured data: find the missing effect, report the error "
+                                        "before and after",
+                       description="Reads a measurement set (tool-tip FRFs: poses.csv + <pose>.uff|.unv|.csv), "
+                                   "finds the effects the model lacks by held-out error, and prints them with "
+                                   "the updated model.")
+    p.add_argument("--measured", required=True, help="the measurement set's directory or one of its files")
+    p.add_argument("--case", default=None, help="case name or TOML (overrides the case named in the files)")
+    p.add_argument("--variant", default=None, help="model variant: basic (default), gravity, orthogonal, backlash")
+    p.add_argument("--alpha", type=float, default=0.01,
+                   help="family-wise false-positive rate of the selection over the library (default 0.01)")
+    p.add_argument("--max-effects", type=int, default=3, help="at most this many effects (default 3)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--report", default=None, help="write report.md and figures into this directory (never "
+                                                    "replaces a user's files)")
+    p.add_argument("--effects", default=None,
+                   help="comma-separated candidate effects (default: the library's default candidates; "
+                        "e.g. servo_a2 is tried only when named)")
+    p.add_argument("--no-poles", action="store_true",
+                   help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
-    p.set_defaults(run=run_study_cli)
+    p.set_defaults(run=run_identify_cli)

@@ -8,3 +8,4 @@ from .kinematics import (JointLimitError, JointLimitWarning, KinematicsError, Si
                          check_limits, fk, ik, ik_all)
 from .path import Pass
 from .maps import PoseMap, grid_map, pass_map
+from .summary import modes_summary

@@ -13,8 +13,9 @@ from robolobes.core.errors import BadInput
 from robolobes.core.io import provenance, to_jsonable
 from robolobes.core.outdir import check_output_file, cli_inputs, user_path_errors
 from .model import VARIANTS, FlexibleRobot, build_model
+from .summary import modes_summary
 
-__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "modes_summary", "MAX_FRF_POINTS"]
+__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "MAX_FRF_POINTS"]
 
 MAX_FRF_POINTS = 100_000  # H is 3 x 3 x n complex (144 B per frequency): 14 MB; a direct solve per frequency
 
@@ -78,34 +79,6 @@ def resolve_pose(args: argparse.Namespace, case=None):
             label = f"pose {names[0]}"
         check_limits(case.robot, theta)
     return case, robot, np.asarray(theta, dtype=float), label
-
-
-def modes_summary(robot: FlexibleRobot, theta: np.ndarray, case=None) -> dict:
-    """The numbers ``robolobes modes --json`` prints (and the study reuses): SI units, base frame."""
-    from .linear import equilibrium, linearize
-
-    lin = linearize(robot, theta)
-    modes = lin.modes()
-    eq = equilibrium(robot, theta) if robot.has_gravity else None
-    out = {
-        "case": getattr(case, "name", None),
-        "variant": robot.variant,
-        "n_dof": robot.nv,
-        "q_deg": np.degrees(lin.theta),
-        "q_equilibrium_deg": np.degrees(lin.q),
-        "tcp_position_m": lin.p_tcp,
-        "tool_axis": lin.tool_axis,
-        "tcp_gravity_deflection_m": eq.tcp_deflection if eq is not None else np.zeros(3),
-        "freq_hz": modes.freq_hz,
-        "damped_freq_hz": modes.damped_freq_hz,
-        "damping_ratio": modes.damping_ratio,
-        "modal_stiffness_n_per_m": modes.modal_stiffness_n_per_m,
-        "tcp_static_stiffness_n_per_m": lin.stiffness("base"),
-        "tcp_static_compliance_m_per_n": lin.compliance("base"),
-        "frame": "base",
-        "notes": list(lin.notes),
-    }
-    return out
 
 
 def run_modes(args) -> int:

@@ -60,6 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robolobes.cases.spec import RobotSpec
+from robolobes.core.errors import BadInput
 
 __all__ = [
     "KinematicsError",
@@ -115,8 +116,8 @@ BRANCHES: tuple[str, ...] = tuple(
 
 
 # --------------------------------------------------------------------------------------- errors
-class KinematicsError(ValueError):
-    """Base class of every kinematics error (a ``ValueError``)."""
+class KinematicsError(BadInput):
+    """Base class of every kinematics error (a :class:`robolobes.core.errors.BadInput`, so a ``ValueError``)."""
 
 
 class RobotStructureError(KinematicsError):

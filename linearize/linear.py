@@ -22,12 +22,16 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
+from robolobes.core.errors import BadInput
+from robolobes.core.frf import BASE_LABELS, CUT_LABELS, FRF
 from robolobes.core.threads import blas_single_threaded
+from robolobes.core.validate import readonly
 
 from .model import FlexibleRobot, element_forces, element_tangents, rigid_q, tcp_jacobian, tcp_pose
 
@@ -51,14 +55,11 @@ __all__ = [
 FrameName = Literal["base", "cut"]
 
 
-class SingularConfigurationError(ValueError):
+_ro = partial(readonly, dtype=None)  # a read-only copy, dtype kept (complex modes)
+
+
+class SingularConfigurationError(BadInput):
     """The TCP Jacobian or the stiffness is singular at this configuration."""
-
-
-def _ro(a):
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
 
 
 # ----------------------------------------------------------------------------------------------
@@ -139,7 +140,7 @@ def equilibrium(robot: FlexibleRobot, theta: np.ndarray, f_tcp: np.ndarray | Non
     theta = q_r[robot.motion_dofs]
     f = np.zeros(3) if f_tcp is None else np.asarray(f_tcp, dtype=float)
     if f.shape != (3,) or not np.all(np.isfinite(f)):
-        raise ValueError(f"f_tcp must be a finite force (3,) in N, got {f_tcp!r}")
+        raise BadInput(f"f_tcp must be a finite force (3,) in N, got {f_tcp!r}")
     s = robot.backlash_rad
     if s > 0:
         twin = robot.engaged_twin()
@@ -297,48 +298,6 @@ def frf_modal(modes: Modes, omega_rad_s: np.ndarray) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------------
-# FRF container
-
-
-@dataclass(frozen=True)
-class FRF:
-    """Tool-tip receptance, python-control layout.
-
-    Attributes
-    ----------
-    omega : array (F,), rad/s
-    H : complex array (n_out, n_in, F), m/N
-        ``H[i, j, f]``: TCP displacement along axis i per unit TCP force along axis j.
-    frame : str
-        Name of the frame the axes refer to (``"base"`` or ``"cut"``).
-    axes : array (3, 3)
-        Rows: the frame's unit axes in base coordinates.
-    labels : tuple of str
-        Axis names.
-    """
-
-    omega: np.ndarray
-    H: np.ndarray
-    frame: str
-    axes: np.ndarray
-    labels: tuple[str, ...] = ("x", "y", "z")
-
-    def __post_init__(self):
-        object.__setattr__(self, "omega", _ro(self.omega))
-        object.__setattr__(self, "H", _ro(self.H))
-        object.__setattr__(self, "axes", _ro(self.axes))
-
-    @property
-    def freq_hz(self) -> np.ndarray:
-        return self.omega / (2 * math.pi)
-
-    def to_control(self):
-        """The FRF as a ``control.FrequencyResponseData`` (omega in rad/s)."""
-        import control
-        return control.frd(np.asarray(self.H), np.asarray(self.omega))
-
-
-# ----------------------------------------------------------------------------------------------
 # the linear model at one pose
 
 
@@ -388,10 +347,10 @@ class LinearModel:
             return np.eye(3)
         if frame == "cut":
             if feed_direction is None:
-                raise ValueError("frame 'cut' needs the feed direction (base frame)")
+                raise BadInput("frame 'cut' needs the feed direction (base frame)")
             from robolobes.cases.milling import cut_frame
             return cut_frame(feed_direction, self.tool_axis)
-        raise ValueError(f"unknown frame {frame!r}; valid: 'base', 'cut'")
+        raise BadInput(f"unknown frame {frame!r}; valid: 'base', 'cut'")
 
     def tcp_matrix(self, frame: FrameName = "base", feed_direction=None) -> np.ndarray:
         """TCP displacement per generalized coordinate in the named frame, (3, n)."""
@@ -420,7 +379,7 @@ class LinearModel:
         """Tool-tip receptance FRF (m/N) at ``omega_rad_s`` (F,), in the named frame."""
         w = np.asarray(omega_rad_s, dtype=float)
         if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w < 0):
-            raise ValueError(f"omega_rad_s must be a 1-D array of finite frequencies >= 0 rad/s, got shape {w.shape}")
+            raise BadInput(f"omega_rad_s must be a 1-D array of finite frequencies >= 0 rad/s, got shape {w.shape}")
         axes = self.frame_axes(frame, feed_direction)
         Jf = axes @ self.J
         if method == "direct":
@@ -428,8 +387,8 @@ class LinearModel:
         elif method == "modal":
             H = frf_modal(modal_analysis(self.M, self.C, self.K, Jf), w)
         else:
-            raise ValueError(f"unknown FRF method {method!r}; valid: 'direct', 'modal'")
-        labels = ("x", "y", "z") if frame == "base" else ("feed", "normal", "axial")
+            raise BadInput(f"unknown FRF method {method!r}; valid: 'direct', 'modal'")
+        labels = BASE_LABELS if frame == "base" else CUT_LABELS
         return FRF(omega=w, H=H, frame=frame, axes=axes, labels=labels)
 
     def state_space(self, frame: FrameName = "base", feed_direction=None):
@@ -500,7 +459,7 @@ def linearize_many(robot: FlexibleRobot, thetas: np.ndarray, progress=None) -> L
     """
     thetas = np.asarray(thetas, dtype=float)
     if thetas.ndim != 2 or thetas.shape[1] != robot.spec.n_joints:
-        raise ValueError(f"thetas must have shape (P, {robot.spec.n_joints}), got {thetas.shape}")
+        raise BadInput(f"thetas must have shape (P, {robot.spec.n_joints}), got {thetas.shape}")
     P, n = len(thetas), robot.nv
     out = {k: np.empty((P,) + sh) for k, sh in
            (("q", (n,)), ("M", (n, n)), ("C", (n, n)), ("K", (n, n)), ("J", (3, n)), ("p_tcp", (3,)), ("R_tcp", (3, 3)))}
@@ -540,7 +499,7 @@ def linearize(robot: FlexibleRobot, theta: np.ndarray, *, q: np.ndarray | None =
         theta = rigid_q(robot, theta)[robot.motion_dofs]
         q = np.asarray(q, dtype=float)
         if q.shape != (robot.nq,):
-            raise ValueError(f"q must have shape ({robot.nq},), got {q.shape}")
+            raise BadInput(f"q must have shape ({robot.nq},), got {q.shape}")
     v0 = np.zeros(robot.nv)
     M = pin.crba(robot.model, robot.data, q)
     M = 0.5 * (M + M.T)

@@ -29,6 +29,8 @@ import numpy as np
 import pinocchio as pin
 
 from robolobes.cases.spec import PayloadSpec, RobotSpec
+from robolobes.core.errors import BadInput
+from robolobes.core.validate import finite_array
 
 __all__ = [
     "Variant",
@@ -335,9 +337,9 @@ def variant_elements(spec: RobotSpec, variant: str, damping_scale: float = 1.0) 
     ``damping_scale`` multiplies the motion-axis damping (the paper's x10 experiment).
     """
     if variant not in VARIANTS:
-        raise ValueError(f"unknown model variant {variant!r}; valid: {', '.join(VARIANTS)}")
+        raise BadInput(f"unknown model variant {variant!r}; valid: {', '.join(VARIANTS)}")
     if not (math.isfinite(damping_scale) and damping_scale >= 0):
-        raise ValueError(f"damping_scale must be a finite number >= 0, got {damping_scale!r}")
+        raise BadInput(f"damping_scale must be a finite number >= 0, got {damping_scale!r}")
     backlash = spec.backlash_half_width_rad if variant == "backlash" else 0.0
     els: list[Element] = [
         Payload(spec.payload),
@@ -405,15 +407,6 @@ def build_model(spec: RobotSpec, variant: str = "basic", *, damping_scale: float
     return assemble(spec, els, variant=name)
 
 
-def _check_vec(name: str, x, n: int) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
-    if a.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains non-finite values: {a}")
-    return a
-
-
 def rigid_q(robot: FlexibleRobot, theta: np.ndarray) -> np.ndarray:
     """Configuration of the undeformed robot: motion joints at the motor angles, virtual joints at 0.
 
@@ -424,7 +417,7 @@ def rigid_q(robot: FlexibleRobot, theta: np.ndarray) -> np.ndarray:
     -------
     q : array (nq,), rad
     """
-    theta = _check_vec("theta (motor angles, rad)", theta, robot.spec.n_joints)
+    theta = finite_array("theta (motor angles, rad)", theta, (robot.spec.n_joints,))
     q = np.zeros(robot.nq)
     q[robot.motion_dofs] = theta
     return q

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robolobes.cases.spec import MillingCase, RobotSpec
+from robolobes.core.errors import BadInput
 
 from .kinematics import (BRANCHES, arm_geometry, branch_of, check_limits, fk, ik_batch,
                          jacobian)
@@ -45,7 +46,7 @@ FEED_PERPENDICULAR_TOL = 1e-3
 MAX_TABLE_STEP_RAD = 0.05
 
 
-class PassError(ValueError):
+class PassError(BadInput):
     """A pass that cannot be built or queried (too short for its ramps, s out of range, ...)."""
 
 

@@ -14,10 +14,10 @@ with :meth:`PhysicalStructure.from_linear`), a :class:`ModalStructure` (hammer-t
 """
 
 from ._errors import LobeError
-from .cutting import CuttingPlan, average_directional_matrix
+from .directional import DirectionalPlan, average_directional_matrix
 from .problem import LobeProblem
 from .sdm import Bifurcation, SemiDiscretization, classify_multiplier
-from .solve import LobeResult, Method, StabilityPoint, Verdict, solve, stability
+from .solver import LobeResult, Method, StabilityPoint, Verdict, depth_verdict, solve, stability
 from .structure import (Mode, ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure,
                         TruncationReport)
 from .zoa import ZeroOrder
@@ -26,5 +26,5 @@ __all__ = [
     "LobeError", "LobeProblem", "Mode", "ModalStructure", "PhysicalStructure", "ReducedStructure",
     "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "ZeroOrder", "Method",
     "solve", "stability", "LobeResult", "StabilityPoint", "Verdict", "Bifurcation", "classify_multiplier",
-    "CuttingPlan", "average_directional_matrix",
+    "DirectionalPlan", "average_directional_matrix", "depth_verdict",
 ]

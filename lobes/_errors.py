@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from robolobes.core.errors import BadInput
+
 __all__ = ["LobeError"]
 
 
-class LobeError(ValueError):
+class LobeError(BadInput):
     """Bad input to a stability computation: names the bad value and what would be valid."""

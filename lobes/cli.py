@@ -31,7 +31,7 @@ from .problem import LobeProblem
 from robolobes.linearize.cli import add_pose_arguments
 
 from .sdm import SemiDiscretization
-from .solve import solve, stability
+from .solver import solve, stability
 from .structure import Mode, ModalStructure, PhysicalStructure
 from .zoa import ZeroOrder
 
@@ -265,7 +265,7 @@ def run(args: argparse.Namespace) -> int:
         if op is not None:
             out["operating_point"] = {
                 "rpm": op.spindle_rpm, "depth_m": op.depth_m, "spectral_radius": op.spectral_radius,
-                "stable": op.stable, "verdict": op.verdict, "margin": op.margin,
+                **op.verdict.to_json(), "margin": op.margin,
                 "margin_error": op.margin_error, "depth_limit_m": op.depth_limit_m,
                 "chatter_freq_hz": op.chatter_freq_hz, "bifurcation": op.bifurcation,
             }
@@ -280,7 +280,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(f"stable at every speed up to {args.depth_max_mm:g} mm")
         if op is not None:
-            print(f"operating point {op.spindle_rpm:.6g} rpm, {op.depth_m * 1e3:.4g} mm: {op.verdict}, "
+            print(f"operating point {op.spindle_rpm:.6g} rpm, {op.depth_m * 1e3:.4g} mm: {op.verdict.status}, "
                   f"margin {op.margin:+.4g} (+-{op.margin_error:.2g}), |mu| = {op.spectral_radius:.7f}, "
                   f"{op.bifurcation}, chatter {op.chatter_freq_hz:.5g} Hz")
+            print(f"  verdict: {op.verdict.reason}")
     return 0

@@ -21,7 +21,7 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
     path : str or PathLike
         Output file (PNG; written atomically, no partial file on error or interrupt).
     operating_point : StabilityPoint, optional
-        Marked on the diagram (green circle if stable, red cross if not, orange if marginal).
+        Marked on the diagram (green circle if stable, red cross if unstable, orange cross if undetermined).
     title : str, optional
     provenance : dict, optional
         ``core.io.provenance(inputs)``, recorded in the PNG's metadata.
@@ -43,10 +43,10 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
             ax.plot(rpm[sel], d_mm[sel], mk, ms=3, color=col, label=f"{kind} limit", ls="none")
     if operating_point is not None:
         op = operating_point
-        col = {"stable": "tab:green", "unstable": "tab:red"}.get(op.verdict, "tab:orange")
-        mk = "o" if op.verdict == "stable" else "X"
+        col = {"stable": "tab:green", "unstable": "tab:red"}.get(op.verdict.status, "tab:orange")
+        mk = "o" if op.verdict.status == "stable" else "X"
         ax.plot([op.spindle_rpm], [op.depth_m * 1e3], mk, color=col, ms=9, mec="k",
-                label=f"operating point: {op.verdict} (margin {op.margin:+.2f})")
+                label=f"operating point: {op.verdict.status} (margin {op.margin:+.2f})")
     ax.set_ylim(0, dmax_mm)
     ax.set_ylabel("axial depth limit (mm)")
     ax.legend(loc="upper right", fontsize=8)

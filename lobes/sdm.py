@@ -1,11 +1,11 @@
 """First-order semi-discretization (Insperger & Stepan 2004, Int. J. Numer. Meth. Eng. 61:117-141).
 
-The linearized milling dynamics (cut frame, see :mod:`lobes.cutting`)::
+The linearized milling dynamics (cut frame, see :mod:`lobes.directional`)::
 
     dy/dt = (A + B W(t) S2) y(t) - B sum_g W_g(t) S2 y(t - tau_g)
 
 are discretized over the principal period ``T`` in ``m`` steps ``dt = T / m``. On step ``i`` the
-periodic coefficient is replaced by its average ``Wbar_i`` (:meth:`CuttingPlan.wbar`),
+periodic coefficient is replaced by its average ``Wbar_i`` (:meth:`DirectionalPlan.wbar`),
 the delayed displacement ``r(t - tau_g)`` by the straight line through its values at the step ends,
 each obtained by linear interpolation between the mesh nodes (``tau_g = (r_g + f_g) dt``; for
 ``f_g = 0`` this is exactly the first-order SDM), and the resulting linear ODE is solved exactly::
@@ -32,8 +32,10 @@ from typing import Literal
 import numpy as np
 from scipy.linalg import expm
 
+from robolobes.core.validate import integer
+
 from ._errors import LobeError
-from .cutting import CuttingPlan, PeriodChoice, QuadratureRule
+from .directional import DirectionalPlan, PeriodChoice, QuadratureRule
 from .problem import LobeProblem
 from .structure import StateSpace
 
@@ -41,12 +43,6 @@ __all__ = ["SemiDiscretization", "Bifurcation", "Scheme", "classify_multiplier"]
 
 Bifurcation = Literal["hopf", "flip", "fold", "none"]
 Scheme = Literal["sdm", "free-exact"]
-
-
-def _int_param(name: str, v, lo: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise LobeError(f"{name} must be an integer >= {lo}, got {v!r}")
-    return int(v)
 
 
 @dataclass(frozen=True)
@@ -104,10 +100,10 @@ class SemiDiscretization:
     prescan: bool | None = None
 
     def __post_init__(self) -> None:
-        _int_param("SemiDiscretization m (steps per principal period)", self.m, 2)
-        _int_param("SemiDiscretization quadrature (points per step)", self.quadrature, 1)
+        integer("SemiDiscretization m (steps per principal period)", self.m, minimum=2, error=LobeError)
+        integer("SemiDiscretization quadrature (points per step)", self.quadrature, minimum=1, error=LobeError)
         if self.axial_slices is not None:
-            _int_param("SemiDiscretization axial_slices", self.axial_slices, 1)
+            integer("SemiDiscretization axial_slices", self.axial_slices, minimum=1, error=LobeError)
         a = self.angle_tol_rad
         if not (isinstance(a, (int, float)) and math.isfinite(a) and 0 <= a < math.pi / 2):
             raise LobeError(f"angle_tol_rad must be in [0, pi/2), got {a!r}")
@@ -159,7 +155,7 @@ class SDMEngine:
         slices = method.axial_slices or (16 if problem.tool.helix_rad > 0 else 1)
         if problem.tool.helix_rad == 0:
             slices = 1
-        self.plan = CuttingPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
+        self.plan = DirectionalPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
                                       slices=slices, period=method.period, k_force=k, rule=method.rule)
         self.k = k
         self.ns = ss.n_states

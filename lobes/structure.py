@@ -13,11 +13,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Sequence, Union
 
 import numpy as np
 
 from robolobes.cases.milling import cut_frame
+from robolobes.core.frf import CUT_LABELS, FRF
+from robolobes.core.validate import finite, finite_array, readonly
 
 from ._errors import LobeError
 
@@ -32,24 +35,20 @@ __all__ = [
 ]
 
 
-def _ro(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, copy=True)
-    a.setflags(write=False)
-    return a
+_ro = partial(readonly, dtype=None)
 
 
-def _real_matrix(name: str, value) -> np.ndarray:
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise LobeError(f"{name} must be a real matrix, got {value!r}") from None
-    if a.ndim != 2:
-        raise LobeError(f"{name} must be a 2-D matrix, got an array of shape {a.shape}")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        raise LobeError(f"{name} must be finite; entry [{i}, {j}] is {a[i, j]}")
-    return a
+def _omega(omega_rad_s) -> np.ndarray:
+    w = finite_array("omega_rad_s (angular frequencies, rad/s)", omega_rad_s, error=LobeError).reshape(-1)
+    if np.any(w < 0):
+        raise LobeError(f"omega_rad_s must be >= 0 rad/s, got {w[w < 0][0]}")
+    return w
+
+
+def _cut_frf(omega_rad_s, H: np.ndarray) -> FRF:
+    """An FRF in the cut frame (x_c feed, y_c normal, z_c axial), H (3, 3, F) m/N."""
+    return FRF(omega=_omega(omega_rad_s), H=H, frame="cut", labels=CUT_LABELS)
+_real_matrix = partial(finite_array, ndim=2, error=LobeError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,23 +108,21 @@ class StateSpace:
                 f"poles {worst:.6g} 1/s >= 0); stability lobes need a damped, stable structure"
             )
 
-    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
-        """Tool-tip receptance ``S (i w I - A)^-1 B`` in the cut frame.
+    def receptance(self, omega_rad_s: np.ndarray) -> np.ndarray:
+        """``S (i w I - A)^-1 B`` as a bare array (3, 3, F), m/N, cut frame (:meth:`frf` wraps it).
 
-        Parameters
-        ----------
-        freq_hz : array (F,), Hz
-
-        Returns
-        -------
-        complex array (F, 3, 3), m/N
+        ``omega_rad_s`` : array (F,), rad/s.
         """
-        w = 2 * np.pi * np.asarray(freq_hz, dtype=float).reshape(-1)
+        w = _omega(omega_rad_s)
         # modal evaluation: S V diag(1/(iw - lam)) V^-1 B
         SV = self.S @ self._V
         VB = np.linalg.solve(self._V, self.B)
-        g = 1.0 / (1j * w[:, None] - self._lam[None, :])
-        return np.einsum("ik,fk,kj->fij", SV, g, VB)
+        g = 1.0 / (1j * w[None, :] - self._lam[:, None])
+        return np.einsum("ik,kf,kj->ijf", SV, g, VB)
+
+    def frf(self, omega_rad_s: np.ndarray) -> FRF:
+        """Tool-tip receptance in the cut frame: :class:`robolobes.core.frf.FRF`, H (3, 3, F) m/N."""
+        return _cut_frf(omega_rad_s, self.receptance(omega_rad_s))
 
     def static_compliance(self) -> np.ndarray:
         """``-S A^-1 B`` (3, 3), m/N."""
@@ -265,12 +262,13 @@ class PhysicalStructure:
         modal = _real_modal_form(A, B, S)
         return modal if modal is not None else StateSpace(A, B, S)
 
-    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
-        """Tool-tip receptance in the cut frame, complex (F, 3, 3), m/N (direct solve)."""
-        w = 2 * np.pi * np.asarray(freq_hz, dtype=float).reshape(-1)
+    def frf(self, omega_rad_s: np.ndarray) -> FRF:
+        """Tool-tip receptance ``tcp (K - w^2 M + i w C)^-1 tcp^T`` by direct solve, cut frame:
+        :class:`robolobes.core.frf.FRF`, H (3, 3, F) m/N, at ``omega_rad_s`` (F,) rad/s."""
+        w = _omega(omega_rad_s)
         Z = self.K[None] - (w**2)[:, None, None] * self.M[None] + 1j * w[:, None, None] * self.C[None]
         X = np.linalg.solve(Z, np.broadcast_to(self.tcp.T, (len(w),) + self.tcp.T.shape))
-        return self.tcp[None] @ X
+        return _cut_frf(w, np.moveaxis(self.tcp[None] @ X, 0, -1))
 
     def truncated(
         self,
@@ -322,18 +320,8 @@ class Mode:
     direction: tuple[float, float]
 
     def __post_init__(self) -> None:
-        def num(name, v):
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                raise LobeError(f"mode {name} must be a number, got {v!r}") from None
-            if not math.isfinite(x):
-                raise LobeError(f"mode {name} must be finite, got {x}")
-            return x
-
-        f = num("freq_hz", self.freq_hz)
-        z = num("damping_ratio", self.damping_ratio)
-        k = num("stiffness_n_per_m", self.stiffness_n_per_m)
+        f, z, k = (finite(f"mode {name}", getattr(self, name), error=LobeError)
+                   for name in ("freq_hz", "damping_ratio", "stiffness_n_per_m"))
         if f <= 0:
             raise LobeError(f"mode freq_hz must be > 0 Hz, got {f}")
         if not 0.0 < z < 1.0:
@@ -407,9 +395,9 @@ class ModalStructure:
             S[:2, 2 * k] = md.direction
         return StateSpace(A, B, S)
 
-    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
-        """Tool-tip receptance in the cut frame, complex (F, 3, 3), m/N."""
-        return self.to_physical().frf(freq_hz)
+    def frf(self, omega_rad_s: np.ndarray) -> FRF:
+        """Tool-tip receptance in the cut frame (FRF, H (3, 3, F) m/N) at ``omega_rad_s`` (F,) rad/s."""
+        return self.to_physical().frf(omega_rad_s)
 
 
 @dataclass(frozen=True)
@@ -444,8 +432,9 @@ class ReducedStructure:
     def state_space(self) -> StateSpace:
         return self.ss
 
-    def frf(self, freq_hz: np.ndarray) -> np.ndarray:
-        return self.ss.frf(freq_hz)
+    def frf(self, omega_rad_s: np.ndarray) -> FRF:
+        """Tool-tip receptance in the cut frame (FRF, H (3, 3, F) m/N) at ``omega_rad_s`` (F,) rad/s."""
+        return self.ss.frf(omega_rad_s)
 
 
 def _truncate(ss: StateSpace, *, max_freq_hz, n_modes, band_hz) -> ReducedStructure:
@@ -503,10 +492,10 @@ def _truncate(ss: StateSpace, *, max_freq_hz, n_modes, band_hz) -> ReducedStruct
     lo, hi = (float(band_hz[0]), float(band_hz[1]))
     if not (0 <= lo < hi and math.isfinite(hi)):
         raise LobeError(f"band_hz must be (lo, hi) with 0 <= lo < hi, got {band_hz!r}")
-    fb = np.linspace(lo, hi, 4001)
-    Hf, Hr = ss.frf(fb), red.frf(fb)
-    num = np.max(np.linalg.norm(Hr - Hf, ord=2, axis=(1, 2)))
-    den = np.max(np.linalg.norm(Hf, ord=2, axis=(1, 2)))
+    wb = 2 * np.pi * np.linspace(lo, hi, 4001)
+    Hf, Hr = ss.receptance(wb), red.receptance(wb)
+    num = np.max(np.linalg.norm(Hr - Hf, ord=2, axis=(0, 1)))
+    den = np.max(np.linalg.norm(Hf, ord=2, axis=(0, 1)))
     rep_ = TruncationReport(kept, dropped, st_err, float(num / den), (lo, hi))
     return ReducedStructure(red, rep_)
 

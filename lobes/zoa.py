@@ -1,7 +1,7 @@
 """Zero-order approximation (Altintas & Budak 1995, CIRP Annals 44:357-362).
 
 The directional matrix is replaced by its time average over a revolution; with ``a0`` the average
-of one tooth per unit depth (:func:`lobes.cutting.average_directional_matrix`, 3 x 2) and
+of one tooth per unit depth (:func:`lobes.directional.average_directional_matrix`, 3 x 2) and
 ``G(iw) = S2 (iw - A)^-1 B`` the tool-tip receptance (2 x 3, cut frame), a harmonic chatter
 ``r = r0 exp(iwt)`` exists at depth ``b`` when::
 
@@ -30,9 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from robolobes.cases.milling import regeneration
+from robolobes.core.validate import integer
 
 from ._errors import LobeError
-from .cutting import average_directional_matrix
+from .directional import average_directional_matrix
 from .problem import LobeProblem
 
 __all__ = ["ZeroOrder"]
@@ -58,9 +59,7 @@ class ZeroOrder:
 
     def __post_init__(self) -> None:
         for k in ("points_per_tooth_band", "points_per_mode"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 8:
-                raise LobeError(f"ZeroOrder {k} must be an integer >= 8, got {v!r}")
+            integer(f"ZeroOrder {k}", getattr(self, k), minimum=8, error=LobeError)
         if self.freq_range_hz is not None:
             lo, hi = self.freq_range_hz
             if not (0 < lo < hi and math.isfinite(hi)):
@@ -89,8 +88,8 @@ class ZOAEngine:
         self.pole_zeta = np.where(np.abs(lam) > 0, -lam.real / np.maximum(np.abs(lam), 1e-300), 1.0)
 
     def _X(self, freq_hz: np.ndarray) -> np.ndarray:
-        H = self.ss.frf(freq_hz)  # (F, 3, 3)
-        return H[:, :2, : self.k] @ self.a0[None]  # (F, 2, 2)
+        H = self.ss.receptance(2 * np.pi * np.asarray(freq_hz, dtype=float))  # (3, 3, F), m/N
+        return np.einsum("ikf,kj->fij", H[:2, : self.k], self.a0)  # (F, 2, 2)
 
     def grid(self, rpm_min: float) -> np.ndarray:
         osc = self.pole_f[self.pole_f > 0]

@@ -139,3 +139,19 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]
     write_json(target, {"a": np.float64(1.5), "b": np.array([1, 2]), "c": float("nan")})
     assert target.read_text().split() == ['{', '"a":', '1.5,', '"b":', '[', '1,', '2', '],', '"c":', 'null', '}']
+
+
+def test_package_errors_are_bad_input():
+    """Errors that signal bad user input are BadInput (the CLI maps only it to one line + exit 2)."""
+    from robolobes.core.errors import BadInput
+    from robolobes.cases import CaseError
+    from robolobes.cases.milling import MillingError, Tool
+    from robolobes.linearize import KinematicsError, SingularConfigurationError, UnreachableError
+    from robolobes.linearize.path import PassError
+    from robolobes.lobes import LobeError
+
+    for cls in (CaseError, MillingError, KinematicsError, UnreachableError, PassError, SingularConfigurationError,
+                LobeError):
+        assert issubclass(cls, BadInput), cls
+    with pytest.raises(BadInput, match="tool teeth must be an integer >= 1, got 0"):
+        Tool(diameter_m=0.01, teeth=0)

@@ -35,17 +35,30 @@ def modal(tmp_path):
     return f
 
 
+_WORKING = {"forbidden": False}
+
+
+def _guarded(fn):
+    """``fn``, failing while a ``no_work`` test runs (harmless where a module bound it at import)."""
+    def wrapper(*a, **k):
+        if _WORKING["forbidden"]:
+            raise AssertionError("work started before the output was checked")
+        return fn(*a, **k)
+    return wrapper
+
+
 @pytest.fixture
 def no_work(monkeypatch):
     """Fail the test if a command starts computing (the checks must come first)."""
     import importlib
 
-    def boom(*a, **k):
-        raise AssertionError("work started before the output was checked")
-
     for module, name in (("robolobes.linearize.linear", "linearize"), ("robolobes.lobes.cli", "solve"),
-                         ("robolobes.timedomain.simulate", "simulate")):
-        monkeypatch.setattr(importlib.import_module(module), name, boom)
+                         ("robolobes.timedomain.simulation", "simulate")):
+        mod = importlib.import_module(module)
+        monkeypatch.setattr(mod, name, _guarded(getattr(mod, name)))
+    _WORKING["forbidden"] = True
+    yield
+    _WORKING["forbidden"] = False
 
 
 # ---- --out never destroys a user's file; checked before the work -----------------------------------
@@ -98,6 +111,22 @@ def test_simulate_refuses_a_users_directory_and_file_before_work(capsys, tmp_pat
     assert rc == 2 and "not a directory" in err and f.read_text() == "mine"
 
 
+def test_study_refuses_a_users_directory_and_file_before_work(capsys, tmp_path):
+    # on the base commit: the user's file in mydata/ was deleted, existing.txt became a directory
+    # (after a full study; here the refusal comes first, in about a second)
+    d = tmp_path / "mydata"
+    d.mkdir()
+    (d / "thesis.tex").write_text("years of work")
+    rc, out, err = run(capsys, "study", "--quick", "--quiet", "--out", d)
+    assert rc == 2 and one_line(err) and "robolobes did not write" in err
+    assert (d / "thesis.tex").read_text() == "years of work" and len(list(d.iterdir())) == 1
+    f = tmp_path / "existing.txt"
+    f.write_text("mine")
+    rc, out, err = run(capsys, "study", "--quick", "--quiet", "--out", f)
+    assert rc == 2 and one_line(err) and "not a directory" in err and f.read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["existing.txt", "mydata"]
+
+
 def test_frf_rerun_replaces_its_own_file_and_records_provenance(capsys, tmp_path):
     out = tmp_path / "tcp.csv"
     argv = ["frf", "--n", "20", "--fmax-hz", "50", "--out", out]
@@ -134,10 +163,10 @@ def test_ctrl_c_while_pyuff_writes_gives_130_and_no_file(capsys, tmp_path, monke
 # ---- bounds on what sets memory and time --------------------------------------------------------
 
 @pytest.mark.parametrize("argv, msg", [
-    (["simulate", "--duration", "100"], "at most the pass, 1.754 s"),
-    (["simulate", "--case", "tx200-steel", "--duration", "22"], "at most the pass, 21.96 s"),
-    (["simulate", "--deg-per-step", "1e-6"], "time steps, more than 4e+06"),
-    (["simulate", "--deg-per-step", "20"], "--deg-per-step must be in (0, 10]"),
+    (["simulate", "--duration", "100"], "past the end of the pass (1.75405 s"),
+    (["simulate", "--case", "tx200-steel", "--duration", "22"], "past the end of the pass (21.9571 s"),
+    (["simulate", "--deg-per-step", "1e-6"], "exceed the 2 GiB limit"),
+    (["simulate", "--deg-per-step", "20"], "deg_per_step must be in (0, 10]"),
     (["simulate", "--damping-scale", "nan"], "--damping-scale must be a finite number >= 0"),
     (["lobes", "--m", "100000"], "--m must be an integer from 2 to 400"),
     (["lobes", "--n-rpm", "1000000000"], "--n-rpm must be from 1 to 5000"),

@@ -37,11 +37,11 @@ def test_simulate_writes_series_plots_and_summary(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, msg", [
-    (["simulate", "--duration", "-1"], "--duration must be a simulated time > 0 s"),
+    (["simulate", "--duration", "-1"], "t_end_s must be > 0, got -1"),
     (["simulate", "--damping-scale", "nan"], "--damping-scale must be a finite number >= 0"),
-    (["simulate", "--deg-per-step", "20"], "--deg-per-step must be in (0, 10]"),
-    (["simulate", "--duration", "5"], "at most the pass, 1.754 s"),
-    (["simulate", "--deg-per-step", "0.0001"], "time steps, more than"),
+    (["simulate", "--deg-per-step", "20"], "deg_per_step must be in (0, 10]"),
+    (["simulate", "--duration", "5"], "past the end of the pass (1.75405 s"),
+    (["simulate", "--deg-per-step", "0.0001"], "exceed the 2 GiB limit"),
     (["simulate", "--case", "nope"], "no cut named 'nope'"),
 ])
 def test_simulate_bad_input(tmp_path, capsys, argv, msg):

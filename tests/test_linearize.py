@@ -14,6 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from robolobes import cases
+from robolobes.core.errors import BadInput
 import robolobes.linearize as L
 from robolobes.cases.spec import JointSpec, LinkSpec, PayloadSpec, RobotSpec
 
@@ -239,7 +240,7 @@ def test_bad_input_errors():
         L.build_model(SPEC, "flexible")
     with pytest.raises(ValueError, match=r"theta .* shape \(6,\)"):
         L.linearize(robot, np.zeros(5))
-    with pytest.raises(ValueError, match="non-finite"):
+    with pytest.raises(BadInput, match="must be finite"):
         L.linearize(robot, np.array([0, 0, np.nan, 0, 0, 0]))
     lin = L.linearize(robot, TAB7)
     with pytest.raises(ValueError, match="omega_rad_s"):

@@ -51,7 +51,8 @@ def test_modal_json_and_png(tmp_path, capsys):
     assert out["bifurcation"][j] == "flip" and abs(out["rpm"][j] - 18700) <= 100
     assert_allclose(out["depth_limit_m"][j], 0.8493e-3, rtol=2e-3)
     op = out["operating_point"]
-    assert set(op) >= {"rpm", "depth_m", "spectral_radius", "stable", "margin"}
+    assert set(op) >= {"rpm", "depth_m", "spectral_radius", "stable", "verdict", "verdict_reason", "margin"}
+    assert op["verdict"] == {True: "stable", False: "unstable"}[op["stable"]]
     assert op["rpm"] == 10000 and op["depth_m"] == pytest.approx(1e-3) and isinstance(op["stable"], bool)
     assert op["stable"] == (op["margin"] > 0)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -4,7 +4,8 @@
 tests/data/lobes_reference.json (atomically); the slow tests recompute the tables up to m = 320
 and check them against the file and the converged values quoted in test_lobes.py.
 
-Tables (Insperger benchmark, SDM with exact step averages):
+All values are computed here by this code (not published values; see tests/data/README.md).
+Tables (parameters of the Insperger & Stepan 2004 benchmark, SDM with exact step averages):
 * ``rho``: spectral radius, 1-DOF (feed), a/D = 0.05 down, 10 000 rpm, 1 mm, m = 10..640;
 * ``limit_full``: critical depth, 1-DOF, a/D = 1, 10 126 rpm, m = 10..320, both schemes;
 * ``min_1dof``: flip-lobe minimum (rpm, depth), 1-DOF, a/D = 0.05, m = 20..640;
@@ -77,7 +78,7 @@ def test_reference_tables_reproduce_and_converge():
     for s in ("sdm", "free-exact"):
         for m, v in new["limit_full"][s].items():
             assert_allclose(v, ref["limit_full"][s][m], rtol=1e-8)
-    # converged values quoted in test_lobes.py (Richardson of the two finest levels)
+    # converged values quoted in test_lobes.py, computed here (Richardson of the two finest levels)
     assert_allclose(finest_richardson(ref["rho"]), 0.704893, rtol=2e-6)
     assert_allclose(finest_richardson(ref["limit_full"]["sdm"]), 0.3163574e-3, rtol=1e-6)
     assert_allclose(finest_richardson(ref["limit_full"]["free-exact"]), 0.3163574e-3, rtol=1e-6)

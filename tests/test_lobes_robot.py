@@ -32,10 +32,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-linearize = pytest.importorskip("linearize")
-if not hasattr(linearize, "linearize"):
-    pytest.skip("linearize.linearize not available yet", allow_module_level=True)
-
+import robolobes.linearize as linearize
 from robolobes.cases import load_case
 from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve, stability
 from robolobes.lobes.sdm import SDMEngine
@@ -65,7 +62,7 @@ def test_tx200_verdict_margin_and_m_convergence(variant, casename):
     print(f"\n{variant} {casename}: {pt.verdict}, margin {pt.margin:+.5f} +- {pt.margin_error:.2g}, "
           f"limit {pt.depth_limit_m * 1e3:.5f} mm, |mu| = {pt.spectral_radius:.7f}, {pt.bifurcation} "
           f"{pt.chatter_freq_hz:.3f} Hz; limit: {pt.limit_bifurcation} {pt.limit_chatter_freq_hz:.2f} Hz")
-    assert pt.verdict == verdict
+    assert pt.verdict.status == verdict
     # the decision is far outside the discretization bound (margin error < 1e-2, |margin| > 0.5)
     assert abs(pt.margin) > 50 * pt.margin_error
     # regression anchor: limit within 0.5 % of the table (Richardson m = 40/80, two schemes)
@@ -129,4 +126,18 @@ def test_modal_truncation_of_the_18dof_model_reports_its_error():
     b_red = solve(replace(p, structure=red), meth, [3100.0], rtol=1e-7).depth_limit_m[0]
     b_full = solve(p, meth, [3100.0], rtol=1e-7).depth_limit_m[0]
     assert_allclose(b_red, b_full, rtol=1e-2)
-    assert stability(replace(p, structure=red), meth, depth_max_m=0.02).verdict == "unstable"
+    assert stability(replace(p, structure=red), meth, depth_max_m=0.02).verdict.status == "unstable"
+
+
+def test_structure_frf_equals_the_linearized_robot_frf_in_the_cut_frame():
+    """Two codes, one receptance: lobes.PhysicalStructure.from_linear(...).frf (direct solve on the
+    cut-frame tcp rows) against linearize.LinearModel.frf(frame="cut") (its own direct solve), both in
+    the core.frf convention (3, 3, F), m/N, omega rad/s, frame "cut"; equal to rounding (1e-9)."""
+    case = load_case("tx200-steel")
+    lin = linearize.linearize(linearize.build_model(case.robot, "basic"), case.robot.poses_rad["tab7"])
+    w = 2 * np.pi * np.linspace(1.0, 200.0, 50)
+    a = PhysicalStructure.from_linear(lin, case.cut.feed_direction).frf(w)
+    b = lin.frf(w, frame="cut", feed_direction=case.cut.feed_direction)
+    assert a.frame == b.frame == "cut" and a.H.shape == b.H.shape == (3, 3, 50)
+    assert_allclose(a.omega, w, rtol=0)
+    assert_allclose(a.H, b.H, rtol=1e-9, atol=1e-9 * np.abs(b.H).max())

@@ -69,7 +69,7 @@ def test_directional_matrix_is_the_derivative_of_the_force_law():
 def test_average_directional_matrix_full_immersion_closed_form():
     """(1/2pi) int_0^pi D dphi = [[-Kr/4, -Kt/4], [Kt/4, -Kr/4], [Ka/pi, 0]] (integrals of sin^2,
     sin cos, cos^2 and sin over [0, pi]); Gauss-Legendre with 200 nodes is exact to rounding."""
-    from robolobes.lobes.cutting import average_directional_matrix
+    from robolobes.lobes.directional import average_directional_matrix
 
     tool = Tool(diameter_m=D, teeth=2)
     a0 = average_directional_matrix(tool, Cut(ae_m=D, ap_m=1e-3, spindle_rpm=1e4), LAW)

@@ -11,7 +11,7 @@ import pytest
 
 from robolobes import cases
 from robolobes.core.errors import BadInput
-from robolobes.linearize import JointLimitWarning, build_model
+from robolobes.linearize import JointLimitWarning, Payload, build_model
 from robolobes.timedomain import (LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem,
                                   SimulationSummary, simulate)
 from robolobes.timedomain.output import save_result
@@ -69,7 +69,8 @@ def _check_ranges(s: dict):
             assert s[key][1] > s[key][0], (key, s[key])
 
 
-FIELDS = {f.name for f in dataclasses.fields(SimulationSummary)}
+# every dataclass field; the verdict is written as "verdict", "stable" and "verdict_reason"
+FIELDS = {f.name for f in dataclasses.fields(SimulationSummary)} | {"stable", "verdict_reason"}
 
 
 @pytest.fixture(scope="module")
@@ -82,6 +83,7 @@ def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(
     before = short_runs[0.05].summary.to_json()
     assert set(before) == FIELDS  # every field, always
     assert before["steady_window_s"] is None and before["stable"] is None and before["force_stats"] is None
+    assert before["verdict"] == "undetermined" and before["verdict_reason"] == before["note"]
     assert "before the steady cut starts (0.228 s)" in before["note"]
     assert before["roughness_um"] is None and "too short" in before["roughness_note"]
     _check_ranges(before)
@@ -90,6 +92,7 @@ def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(
     t0, t1 = inside["steady_window_s"]
     assert t0 == pytest.approx(0.228, abs=1e-3) and t1 == pytest.approx(0.25)
     assert inside["stable"] is None and inside["force_stats"] is None and "fewer than 15 revolutions" in inside["note"]
+    assert inside["verdict"] == "undetermined" and "fewer than 15 revolutions" in inside["verdict_reason"]
     _check_ranges(inside)
     for r in short_runs.values():
         assert r.summary.variant == "basic" and r.summary.elements == ("payload", "motion springs")
@@ -100,9 +103,14 @@ def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(
 
 
 def test_summary_records_the_robot_it_simulated():
-    robot = build_model(ALU.robot, "basic", damping_scale=3.0)
+    # the problem takes any built robot: a damping scale and an extra element are simulated and
+    # recorded (the free vibration of such a robot is checked against its modes in
+    # test_timedomain_robot.py)
+    extra = Payload(dataclasses.replace(ALU.robot.payload, mass_kg=5.0), name="extra mass")
+    robot = build_model(ALU.robot, "basic", damping_scale=3.0, extra_elements=(extra,))
     s = simulate(SimulationProblem(robot, ALU, t_end_s=0.01), LinearizedNewmark()).summary
     assert s.variant == "basic+" and s.damping_scale == pytest.approx(3.0)
+    assert s.elements == ("payload", "motion springs", "extra mass")
 
 
 def test_save_result_into_an_earlier_run_removes_its_stale_outputs_only(short_runs, tmp_path):
@@ -123,3 +131,15 @@ def test_save_result_into_an_earlier_run_removes_its_stale_outputs_only(short_ru
     (other / "series.csv").write_text("a user's own file")
     save_result(r, other, series="npz")
     assert (other / "series.csv").read_text() == "a user's own file"
+
+
+def test_the_nonlinear_method_runs_through_simulate_with_its_options():
+    # 0.02 s of the approach (no cut yet): the full path records the axial TCP deviation, which the
+    # linearized path does not have (NaN there), and uses the method's Newton options
+    pb = SimulationProblem(BASIC, ALU, t_end_s=0.02)
+    full = simulate(pb, NonlinearNewmark(max_iter=30))
+    lin = simulate(pb, LinearizedNewmark())
+    assert full.summary.linearized is False and lin.summary.linearized is True
+    assert np.all(np.isfinite(full.tcp_deviation_m)) and np.all(np.isnan(lin.tcp_deviation_m[:, 2]))
+    assert full.stats["steps"] == lin.stats["steps"] == len(full.t_s) - 1
+    assert full.summary.provenance != lin.summary.provenance  # the method is an input

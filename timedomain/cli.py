@@ -8,42 +8,16 @@ import sys
 
 from robolobes.cases import DEFAULT_CASE, load_case
 from robolobes.core.errors import BadInput
-from robolobes.core.io import Progress, write_json
-from robolobes.core.outdir import MARKER, OutputDir, cli_inputs
+from robolobes.core.io import Progress
+from robolobes.core.outdir import MARKER, OutputDir
 from robolobes.linearize.model import VARIANTS
 
 __all__ = ["register", "run_simulate"]
 
 
-# Bounds on what sets memory and run time (checked before any work). The records and the series
-# derived from them are about 25 float64 per time step (time, forces, tool centre, TCP, deviation,
-# angle: ~0.2 kB, an estimate from the arrays allocated): 4e6 steps stay under 1 GB. That is 20
-# times the default steel pass (2.04e5 steps of 2 deg over 21.96 s) and 40 times the aluminium
-# one (9.8e4 steps over 1.754 s).
-MAX_STEPS = 4_000_000
-MAX_DEG_PER_STEP = 10.0  # coarser steps under-resolve the tooth passing (the library's own limit)
-
-
-def _check_options(args, case) -> None:
-    """Bounds on --duration, --deg-per-step, --damping-scale, before any work (BadInput)."""
-    from robolobes.linearize.path import FeedProfile
-
+def _check_damping(args) -> None:
     if not (math.isfinite(args.damping_scale) and args.damping_scale >= 0):
         raise BadInput(f"--damping-scale must be a finite number >= 0, got {args.damping_scale}")
-    if not (math.isfinite(args.deg_per_step) and 0 < args.deg_per_step <= MAX_DEG_PER_STEP):
-        raise BadInput(f"--deg-per-step must be in (0, {MAX_DEG_PER_STEP:g}] deg of spindle rotation, got "
-                       f"{args.deg_per_step}")
-    pass_s = FeedProfile(travel_m=case.path.travel_m(case.tool), feed_m_per_s=case.cut.feed_rate_m_per_s(case.tool),
-                         ramp_s=case.path.ramp_s).duration_s
-    if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= pass_s):
-        raise BadInput(f"--duration must be a simulated time > 0 s and at most the pass, {pass_s:.4g} s for case "
-                       f"{case.name}, got {args.duration}")
-    t_end = args.duration if args.duration is not None else pass_s
-    steps = t_end * case.cut.spindle_rpm * 6.0 / args.deg_per_step  # spindle deg per s / deg per step
-    if steps > MAX_STEPS:
-        raise BadInput(f"--deg-per-step {args.deg_per_step:g} over {t_end:.4g} s at {case.cut.spindle_rpm:g} rpm makes "
-                       f"{steps:.3g} time steps, more than {MAX_STEPS:.0e}: use at least "
-                       f"{t_end * case.cut.spindle_rpm * 6.0 / MAX_STEPS:.3g} deg per step or a shorter --duration")
 
 
 def run_simulate(args) -> int:
@@ -51,15 +25,18 @@ def run_simulate(args) -> int:
 
     from .newmark import NewmarkInterrupted
     from .output import save_result, summary_dict
-    from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
+    from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem, step_count
     from .simulation import simulate
+    from .summary import simulation_inputs
 
     case = load_case(args.case)
-    _check_options(args, case)
-    out = OutputDir(args.out, "simulate", cli_inputs(args, case=case))
+    _check_damping(args)
+    # the library's bounds (duration within the pass, deg per step, records <= 2 GiB), before any work
     method = (LinearizedNewmark if args.linearized else NonlinearNewmark)(deg_per_step=args.deg_per_step)
     robot = build_model(case.robot, args.variant, damping_scale=args.damping_scale)
     problem = SimulationProblem(robot, case, t_end_s=args.duration)
+    step_count(problem, method)
+    out = OutputDir(args.out, "simulate", simulation_inputs(problem, method))
     try:
         with Progress(f"simulate {case.name} [{args.variant}{', linearized' if args.linearized else ''}]",
                       enabled=not args.quiet) as bar:
@@ -68,10 +45,9 @@ def run_simulate(args) -> int:
     except NewmarkInterrupted as e:
         print(f"\nrobolobes simulate: interrupted at t = {e.result.t_s:.4f} s; nothing written", file=sys.stderr)
         return 130
-    s = {**summary_dict(result), "provenance": out.provenance}
+    s = summary_dict(result)  # its provenance is the marker's: simulation_inputs(problem, method)
     with out:
         save_result(result, out.path, series=args.series)
-        write_json(out.path / "summary.json", s)  # with its provenance
     paths = sorted(p for p in out.target.iterdir() if p.name != MARKER)
     if args.json:
         print(json.dumps(s, indent=2))
@@ -107,7 +83,7 @@ def register(sub) -> None:
     p.add_argument("--linearized", action="store_true",
                    help="fast path: robot linearized at the start pose + nonlinear milling and backlash")
     p.add_argument("--deg-per-step", type=float, default=2.0,
-                   help=f"spindle rotation per time step, deg (default 2; at most {MAX_STEPS:.0e} steps in all)")
+                   help="spindle rotation per time step, deg (default 2; in (0, 10], records <= 2 GiB)")
     p.add_argument("--series", choices=("npz", "csv"), default="npz", help="format of the time series file")
     p.add_argument("--json", action="store_true", help="print the JSON summary")
     p.add_argument("--quiet", action="store_true", help="no progress display")

@@ -62,7 +62,33 @@ def _lerp_row(tab: np.ndarray, dt: float, t: float):
 
 
 class PassSetup:
-    """Everything a run needs, built once: model, pass, cut frame, part, motor-angle tables."""
+    """Everything a run needs, built once: model, pass, cut frame, part, motor-angle tables.
+
+    Attributes
+    ----------
+    case : MillingCase
+    robot : linearize.FlexibleRobot
+        The problem's built robot (n = ``robot.nv`` DOF).
+    h, n_steps : float, int
+        Nominal time step (s) and number of steps (bounded, :func:`timedomain.problem.step_count`).
+    pas : linearize.path.Pass
+    Rc : array (3, 3)
+        Cut frame axes as rows, base frame components.
+    p_ref : array (3,)
+        Commanded start point of the TCP, base frame, m.
+    omega : float
+        Spindle speed, rad/s.
+    t_end : float
+        Simulated end time, s.
+    workpiece : Workpiece
+    milling : MillingForce
+    t_tab, th_tab : array (T,), array (T, n_joints)
+        Uniform table of the motor angles (0.2 ms spacing ``dt_tab``), s and rad.
+    q_eq : array (n,)
+        Static equilibrium at the start (rad).
+    steady : (float, float)
+        Full engagement of the tool in the part, s.
+    """
 
     def __init__(self, problem: SimulationProblem, method):
         case = problem.case

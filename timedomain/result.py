@@ -8,6 +8,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from robolobes.core.io import to_jsonable
+from robolobes.core.verdict import Verdict
 from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
 
 __all__ = ["PAPER_AXES", "SimulationSummary", "SimulationResult"]
@@ -45,12 +46,9 @@ class SimulationSummary:
         The same for ``x, y`` in the paper's Tab. 10 sign convention (:data:`PAPER_AXES`), N.
     verdict_section : str or None
         Sampling of the stability verdict (once per principal period).
-    verdict : {"stable", "unstable", "undetermined"}
-        Stability verdict (:mod:`timedomain.verdict`, the rule stated once).
-    stable : bool or None
-        The same as True / False / None.
-    verdict_reason : str or None
-        What decided it, or what would (e.g. the window length that would decide).
+    verdict : Verdict
+        ``stable`` / ``unstable`` / ``undetermined`` with its reason (:mod:`core.verdict`); JSON
+        ``verdict``, ``stable`` (true / false / null) and ``verdict_reason``.
     growth_rate_per_s, growth_rate_se_per_s : float or None
         Growth rate of the non-synchronous motion and its standard error, 1/s.
     growth_rate_ci_per_s : (float, float) or None
@@ -85,7 +83,8 @@ class SimulationSummary:
     verdict_basis : str
         "this run" or the companion run without runout that decided the verdict.
     runout_run_verdict : dict or None
-        This run's own ``verdict, stable, verdict_reason, chatter_freq_hz`` when a companion run decided.
+        This run's own ``verdict, stable, verdict_reason, stability, chatter_freq_hz`` when a
+        companion run decided.
     wall_s : float
         Wall-clock time of the run, s.
     provenance : dict
@@ -103,9 +102,7 @@ class SimulationSummary:
     force_stats: dict | None = None
     force_stats_paper_axes: dict | None = None
     verdict_section: str | None = None
-    verdict: str = "undetermined"
-    stable: bool | None = None
-    verdict_reason: str | None = None
+    verdict: Verdict = Verdict("undetermined", "not evaluated")
     growth_rate_per_s: float | None = None
     growth_rate_se_per_s: float | None = None
     growth_rate_ci_per_s: tuple[float, float] | None = None
@@ -128,9 +125,19 @@ class SimulationSummary:
     wall_s: float | None = None
     provenance: dict | None = None
 
+    @property
+    def stable(self) -> bool | None:
+        """True / False, or None when the verdict is undetermined."""
+        return self.verdict.stable
+
     def to_json(self) -> dict:
-        """Every field, JSON-ready (tuples as lists, numpy scalars as Python numbers)."""
-        return to_jsonable({f.name: getattr(self, f.name) for f in fields(self)})
+        """Every field, JSON-ready (tuples as lists, numpy scalars as Python numbers); the verdict as
+        ``verdict``, ``stable`` and ``verdict_reason``."""
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            out.update(v.to_json() if isinstance(v, Verdict) else {f.name: v})
+        return to_jsonable(out)
 
 
 @dataclass(frozen=True, eq=False)

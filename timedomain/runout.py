@@ -18,7 +18,9 @@ from .verdict import VERDICT_KEYS
 __all__ = ["needs_companion", "companion_problem", "with_companion_verdict", "VERDICT_FIELDS"]
 
 #: The summary fields the companion run decides.
-VERDICT_FIELDS = tuple(VERDICT_KEYS) + ("chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio", "note")
+#: (``verdict`` is the Verdict object: JSON verdict / stable / verdict_reason.)
+VERDICT_FIELDS = tuple(k for k in VERDICT_KEYS if k not in ("stable", "verdict_reason")) + (
+    "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio", "note")
 #: Longest steady cut simulated by the companion run, s.
 COMPANION_STEADY_S = 2.0
 
@@ -44,7 +46,7 @@ def with_companion_verdict(summary: SimulationSummary, run: Callable, problem, t
     :class:`SimulationResult`), this run's own verdict kept in ``runout_run_verdict``."""
     comp_problem = companion_problem(problem, t_end_s, steady_start_s)
     cs = run(comp_problem).summary
-    own = {k: getattr(summary, k) for k in ("verdict", "stable", "verdict_reason", "chatter_freq_hz")}
+    own = {**summary.verdict.to_json(), "stability": summary.stability, "chatter_freq_hz": summary.chatter_freq_hz}
     basis = (f"companion run without runout to t = {comp_problem.t_end_s:.2f} s (runout forces a tooth-to-tooth "
              f"alternation indistinguishable from a flip)")
     return replace(summary, **{k: getattr(cs, k) for k in VERDICT_FIELDS}, runout_run_verdict=own,

@@ -19,6 +19,7 @@ from typing import Callable
 
 import numpy as np
 
+from robolobes.core.threads import blas_single_threaded
 from robolobes.core.validate import readonly
 from robolobes.linearize.linear import linearize
 
@@ -58,6 +59,7 @@ def _result(problem, method, S: PassSetup, rec: Records, stats: dict) -> Simulat
                             stats=stats)
 
 
+@blas_single_threaded
 def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNewmark | None = None,
              progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True) -> SimulationResult:
     """Simulate the pass of ``problem`` with ``method`` (:mod:`timedomain.equations` for the equations).
@@ -72,6 +74,9 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
     verdict_companion : bool
         For a tool with runout whose principal period is the tooth period, decide stability on a
         companion run without runout (:mod:`timedomain.runout`, the summary's ``verdict_basis``).
+
+    BLAS runs on one thread inside (:mod:`core.threads`: the matrices are 6-18 DOF), unless the user
+    set a thread variable.
 
     Returns
     -------

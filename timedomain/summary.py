@@ -22,6 +22,7 @@ import numpy as np
 
 from robolobes.cases.milling import principal_period
 from robolobes.core.io import provenance
+from robolobes.core.verdict import Verdict
 from robolobes.linearize.model import MotionSprings
 
 from .problem import LinearizedNewmark, SimulationProblem
@@ -115,7 +116,9 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float], pol
     forced = "tooth" if (pname == "tooth" and not has_runout(case.tool)) else "spindle"
     cf = chatter_frequency(t, dev, 1.0 / case.cut.spindle_period_s, teeth=case.tool.teeth, harmonics=forced,
                            t_start_s=window[0], t_end_s=window[1])
-    out["chatter_freq_hz"] = cf.freq_hz if out["stable"] is False else None
+    stable = out.pop("stable")
+    out["verdict"] = Verdict(out["verdict"], out.pop("verdict_reason") or "")
+    out["chatter_freq_hz"] = cf.freq_hz if stable is False else None
     out["nonsynchronous_peak_hz"] = cf.freq_hz
     out["nonsynchronous_ratio"] = cf.ratio
     return out
@@ -130,12 +133,12 @@ def _steady_fields(result: SimulationResult, poles_rad_s=()) -> dict:
     if t1 <= t0:
         note = (f"the run ends at {t[-1]:.3f} s, before the steady cut starts ({t0:.3f} s): no verdict, "
                 f"no statistics (simulate longer)")
-        return {"note": note, "verdict_reason": note}
+        return {"note": note, "verdict": Verdict("undetermined", note)}
     out: dict = {"steady_window_s": (t0, t1)}
     if t1 - t0 < MIN_STEADY_PERIODS * T:
         out["note"] = (f"steady window {t0:.3f}-{t1:.3f} s holds fewer than {MIN_STEADY_PERIODS} revolutions: "
                        f"no verdict, no statistics (simulate longer)")
-        out["verdict_reason"] = out["note"]
+        out["verdict"] = Verdict("undetermined", out["note"])
         return out
     out.update(_force_fields(result, (t0, t1)))
     out.update(stability_verdict(result, (t0, t1), poles_rad_s))

@@ -5,29 +5,25 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable, Literal, Union
+from typing import Callable, Union
 
 import numpy as np
 
 from robolobes.core.numerics import richardson
 from robolobes.core.threads import blas_single_threaded
+from robolobes.core.verdict import Verdict
+from robolobes.core.validate import finite, integer, readonly
 
 from ._errors import LobeError
 from .problem import LobeProblem
 from .sdm import Bifurcation, SDMEngine, SemiDiscretization, classify_multiplier
 from .zoa import ZOAEngine, ZeroOrder
 
-__all__ = ["Method", "LobeResult", "StabilityPoint", "solve", "stability", "Verdict", "ProgressCallback"]
+__all__ = ["Method", "LobeResult", "StabilityPoint", "solve", "stability", "depth_verdict", "Verdict",
+           "ProgressCallback"]
 
 Method = Union[SemiDiscretization, ZeroOrder]
-Verdict = Literal["stable", "unstable", "marginal"]
 ProgressCallback = Callable[[int, int], None]
-
-
-def _ro(a, dtype=None):
-    a = np.array(a, dtype=dtype, copy=True)
-    a.setflags(write=False)
-    return a
 
 
 def _check_method(method) -> None:
@@ -49,13 +45,7 @@ def _check_speeds(speeds_rpm) -> np.ndarray:
 
 
 def _check_depth(name: str, v) -> float:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise LobeError(f"{name} must be a depth in m, got {v!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise LobeError(f"{name} must be a finite depth > 0 m, got {x}")
-    return x
+    return finite(f"{name} (depth, m)", v, positive=True, error=LobeError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,9 +59,10 @@ class StabilityPoint:
         ``max |mu|`` of the monodromy at the method's finest ``m`` (NaN for ZeroOrder).
     critical_multiplier : complex
         The multiplier of largest modulus (NaN for ZeroOrder).
-    verdict : {"stable", "unstable", "marginal"}
-        Decided on the depth: ``depth < limit - err`` stable, ``> limit + err`` unstable, else
-        marginal (the discretization cannot tell; ``err`` is the Richardson bound).
+    verdict : robolobes.core.verdict.Verdict
+        Decided on the depth: ``depth < limit - err`` "stable", ``> limit + err`` "unstable", else
+        "undetermined" (the discretization error bound ``err`` of the Richardson limit straddles the
+        cut depth); ``verdict.reason`` says which, with the numbers.
     margin : float
         ``depth_limit / depth - 1`` (> 0 stable): how much deeper one may cut at this speed.
         ``inf`` when no limit was found below ``depth_max_m`` (then ``margin`` >= that bound).
@@ -110,9 +101,9 @@ class StabilityPoint:
     history: tuple = ()
 
     @property
-    def stable(self) -> bool:
-        """True only for a "stable" verdict (marginal counts as not stable)."""
-        return self.verdict == "stable"
+    def stable(self) -> bool | None:
+        """``verdict.stable``: True, False, or None when undetermined."""
+        return self.verdict.stable
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,8 +138,8 @@ class LobeResult:
 
     def __post_init__(self) -> None:
         for k in ("spindle_rpm", "depth_limit_m", "chatter_freq_hz", "depth_error_m"):
-            object.__setattr__(self, k, _ro(getattr(self, k), float))
-        object.__setattr__(self, "bifurcation", _ro(getattr(self, "bifurcation"), "<U4"))
+            object.__setattr__(self, k, readonly(getattr(self, k), float))
+        object.__setattr__(self, "bifurcation", readonly(getattr(self, "bifurcation"), "<U4"))
 
     def evaluate(self, spindle_rpm: float, depth_m: float, **kw) -> StabilityPoint:
         """Stability at ``(spindle_rpm, depth_m)`` with this result's problem and method."""
@@ -368,39 +359,48 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
         raise LobeError("give speeds_rpm, e.g. numpy.linspace(5000, 25000, 200)")
     rpm = _check_speeds(speeds_rpm)
     depth_max = _check_depth("depth_max_m", depth_max_m)
-    if isinstance(coarse_points, bool) or not isinstance(coarse_points, (int, np.integer)) or coarse_points < 2:
-        raise LobeError(f"coarse_points must be an integer >= 2, got {coarse_points!r}")
+    integer("coarse_points", coarse_points, minimum=2, error=LobeError)
     if not (isinstance(rtol, (int, float)) and 0 < rtol < 0.5):
         raise LobeError(f"rtol must be in (0, 0.5), got {rtol!r}")
     t0 = time.perf_counter()
     stats: dict = {"evaluations": 0, "rounds": 0, "depth_max_m": depth_max, "method": method.name}
-    err = np.full(len(rpm), np.nan)
     if isinstance(method, ZeroOrder):
-        eng = ZOAEngine(problem, method)
-        depth, freq = eng.limits(rpm)
-        bif = np.where(np.isfinite(depth), "hopf", "none")
-        depth = np.where(depth <= depth_max, depth, np.inf)
-        if progress is not None:
-            progress(len(rpm), len(rpm))
+        depth, freq, bif, err = _zoa_diagram(problem, method, rpm, depth_max, progress)
     else:
-        eng = SDMEngine(problem, method, depth_max)
-        stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
-                     axial_slices=eng.plan.slices, monodromy_size=eng.n_red,
-                     principal_period=eng.plan.period_name,
-                     engaged_steps=len(eng.cand))
-        total = len(rpm) * (2 if method.richardson else 1)
-        depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
-        if method.richardson:
-            m2 = replace(method, m=2 * method.m, richardson=False)
-            eng2 = SDMEngine(problem, m2, depth_max)
-            d2, f2, b2 = _sdm_limits(eng2, rpm, depth_max, coarse_points, rtol, stats, progress, chunk,
-                                     len(rpm), total)
-            depth, err = richardson(depth, d2)
-            freq, bif = f2, b2
-            stats["m_richardson"] = 2 * method.m
+        depth, freq, bif, err = _sdm_diagram(problem, method, rpm, depth_max, coarse_points, rtol, stats, progress,
+                                             chunk)
     stats["wall_s"] = time.perf_counter() - t0
     return LobeResult(problem=problem, method=method, spindle_rpm=rpm, depth_limit_m=depth,
                       chatter_freq_hz=freq, bifurcation=bif, depth_error_m=err, stats=stats)
+
+
+def _zoa_diagram(problem: LobeProblem, method: ZeroOrder, rpm: np.ndarray, depth_max: float, progress):
+    """Zero-order limits (m), chatter frequencies (Hz), bifurcations and NaN errors at ``rpm`` (S,)."""
+    depth, freq = ZOAEngine(problem, method).limits(rpm)
+    bif = np.where(np.isfinite(depth), "hopf", "none")
+    depth = np.where(depth <= depth_max, depth, np.inf)
+    if progress is not None:
+        progress(len(rpm), len(rpm))
+    return depth, freq, bif, np.full(len(rpm), np.nan)
+
+
+def _sdm_diagram(problem: LobeProblem, method: SemiDiscretization, rpm: np.ndarray, depth_max: float,
+                 coarse_points: int, rtol: float, stats: dict, progress, chunk: int):
+    """SDM limits (m), chatter frequencies (Hz), bifurcations and Richardson error bounds (m; NaN
+    without ``method.richardson``) at ``rpm`` (S,); fills ``stats``."""
+    eng = SDMEngine(problem, method, depth_max)
+    stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
+                 axial_slices=eng.plan.slices, monodromy_size=eng.n_red, principal_period=eng.plan.period_name,
+                 engaged_steps=len(eng.cand))
+    total = len(rpm) * (2 if method.richardson else 1)
+    depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
+    if not method.richardson:
+        return depth, freq, bif, np.full(len(rpm), np.nan)
+    eng2 = SDMEngine(problem, replace(method, m=2 * method.m, richardson=False), depth_max)
+    d2, f2, b2 = _sdm_limits(eng2, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, len(rpm), total)
+    stats["m_richardson"] = 2 * method.m
+    depth, err = richardson(depth, d2)
+    return depth, f2, b2, err
 
 
 @blas_single_threaded
@@ -411,8 +411,8 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     For :class:`SemiDiscretization` the critical depth at this speed is computed for ``m``,
     ``2m`` (and more when ``adaptive``) and extrapolated by :func:`robolobes.core.numerics.richardson`
     (order 2): ``b = b_2m + (b_2m - b_m) / 3``, with its error bound ``err = |b_2m - b_m|`` (valid
-    for any convergence order >= 1). The verdict compares the depth with ``b +- err``; while it is "marginal"
-    and ``adaptive``, ``m`` is doubled up to ``m_max``. The spectral radius of the operating point
+    for any convergence order >= 1). The verdict (:func:`depth_verdict`) compares the depth with ``b +- err``;
+    while it is "undetermined" and ``adaptive``, ``m`` is doubled up to ``m_max``. The spectral radius of the operating point
     is reported too, but it is not what decides: for a robot whose modes sit at ``|mu| ~ 1 - 1e-3``
     the radius differs from 1 in the fifth decimal, while the depth ratio stays far from 0.
 
@@ -421,7 +421,7 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     depth_max_m : float, optional
         Largest depth searched for the limit, m. Default ``max(10 ap, 10 mm)``.
     adaptive : bool
-        Refine ``m`` while the verdict is marginal.
+        Refine ``m`` while the verdict is undetermined.
     m_max : int
         Largest ``m`` used by the adaptive refinement.
     rtol : float
@@ -433,63 +433,82 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     _check_method(method)
     if not isinstance(problem, LobeProblem):
         raise LobeError(f"problem must be a LobeProblem, got {type(problem).__name__}")
-    rpm = float(problem.cut.spindle_rpm)
     depth = float(problem.cut.ap_m)
     dmax = _check_depth("depth_max_m", depth_max_m if depth_max_m is not None else max(10 * depth, 0.01))
     if isinstance(method, ZeroOrder):
-        eng = ZOAEngine(problem, method)
-        b, f = eng.limits(np.array([rpm]))
-        b, f = float(b[0]), float(f[0])
-        b = b if b <= dmax else math.inf
-        verdict: Verdict = "stable" if depth < b else "unstable"
-        return StabilityPoint(rpm, depth, math.nan, complex(math.nan, math.nan), verdict, b / depth - 1, 0.0,
-                              math.nan, b, 0.0, f, "hopf" if math.isfinite(b) else "none",
-                              "hopf" if math.isfinite(b) else "none", f, method,
-                              ({"m": None, "depth_limit_m": b, "stable": depth < b},))
-    levels = []
-    m = method.m
-    verdict = "marginal"
-    b_ext, err = math.nan, math.nan
+        return _zoa_point(problem, method, dmax)
+    levels = [_sdm_level(problem, method, method.m, dmax, rtol, coarse_points)]
     while True:
-        meth = replace(method, m=m, richardson=False)
-        eng = SDMEngine(problem, meth, dmax)
-        st = {"evaluations": 0, "rounds": 0}
-        r = np.array([rpm])
-        T = eng.period_s(r)
-        rho0 = np.max(np.abs(np.exp(np.outer(T, eng.ss.poles))), axis=1)
-        est, hi, found = _search(lambda s, d: eng.multipliers(s, d)[0], r, rho0, dmax, coarse_points, rtol, st)
-        rho, mu, fr = eng.critical(r, np.array([depth]))
-        lvl = {"m": m, "depth_limit_m": float(est[0]), "spectral_radius": float(rho[0]),
-               "critical_multiplier": complex(mu[0]), "chatter_freq_hz": float(fr[0]),
-               "stable": bool(rho[0] < 1.0), "evaluations": st["evaluations"]}
-        if found[0]:
-            _, mu_l, fr_l = eng.critical(r, hi)
-            lvl["limit_bifurcation"] = str(classify_multiplier(mu_l, method.angle_tol_rad)[0])
-            lvl["limit_chatter_freq_hz"] = float(fr_l[0])
-        else:
-            lvl["limit_bifurcation"], lvl["limit_chatter_freq_hz"] = "none", math.nan
-        levels.append(lvl)
-        if len(levels) >= 2:
-            b_ext, err = richardson(levels[-2]["depth_limit_m"], levels[-1]["depth_limit_m"])
-            if depth < b_ext - err:
-                verdict = "stable"
-            elif depth > b_ext + err:
-                verdict = "unstable"
-            else:
-                verdict = "marginal"
-            if verdict != "marginal" or not adaptive or 2 * m > m_max:
-                break
-        m *= 2
-        if m > m_max and len(levels) >= 2:
+        levels.append(_sdm_level(problem, method, 2 * levels[-1]["m"], dmax, rtol, coarse_points))
+        b_ext, err = richardson(levels[-2]["depth_limit_m"], levels[-1]["depth_limit_m"])
+        verdict = depth_verdict(depth, b_ext, err, (levels[-2]["m"], levels[-1]["m"]), dmax)
+        if verdict.status != "undetermined" or not adaptive or 2 * levels[-1]["m"] > m_max:
             break
     last = levels[-1]
-    margin = b_ext / depth - 1 if math.isfinite(b_ext) else math.inf
     return StabilityPoint(
-        spindle_rpm=rpm, depth_m=depth, spectral_radius=last["spectral_radius"],
-        critical_multiplier=last["critical_multiplier"], verdict=verdict, margin=margin,
+        spindle_rpm=float(problem.cut.spindle_rpm), depth_m=depth, spectral_radius=last["spectral_radius"],
+        critical_multiplier=last["critical_multiplier"], verdict=verdict,
+        margin=b_ext / depth - 1 if math.isfinite(b_ext) else math.inf,
         margin_error=err / depth if math.isfinite(err) else math.inf,
         radius_margin=1 - last["spectral_radius"], depth_limit_m=b_ext,
         depth_limit_error_m=err, chatter_freq_hz=last["chatter_freq_hz"],
         bifurcation=str(classify_multiplier(last["critical_multiplier"], method.angle_tol_rad)),
         limit_bifurcation=last["limit_bifurcation"], limit_chatter_freq_hz=last["limit_chatter_freq_hz"],
         method=method, history=tuple(levels))
+
+
+def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tuple[int, int],
+                  depth_max_m: float = math.inf) -> Verdict:
+    """The lobes' decision rule: compare the cut depth with the limit and its error bound.
+
+    ``depth < limit - error``: stable; ``depth > limit + error``: unstable; otherwise undetermined
+    (the discretization error bound of the Richardson limit straddles the depth). Depths in m;
+    ``m_levels`` (coarse, fine) and ``depth_max_m`` (the largest depth searched, when the limit is
+    ``inf``) are named in the reason.
+    """
+    mm = lambda x: f"{x * 1e3:.5g} mm"
+    ms = f"SDM m = {m_levels[0]}/{m_levels[1]}, Richardson"
+    if depth_m < limit_m - error_m:
+        if math.isinf(limit_m):
+            return Verdict("stable", f"no stability limit up to the {mm(depth_max_m)} searched ({ms})")
+        return Verdict("stable", f"depth {mm(depth_m)} below the limit {mm(limit_m)} - {mm(error_m)} ({ms})")
+    if depth_m > limit_m + error_m:
+        return Verdict("unstable", f"depth {mm(depth_m)} above the limit {mm(limit_m)} + {mm(error_m)} ({ms})")
+    return Verdict("undetermined", f"depth {mm(depth_m)} within the discretization error bound of the limit "
+                                   f"{mm(limit_m)} +- {mm(error_m)} ({ms}); a larger m would decide")
+
+
+def _zoa_point(problem: LobeProblem, method: ZeroOrder, dmax: float) -> StabilityPoint:
+    """StabilityPoint of the zero-order approximation (its limit is exact for its model: no error bound)."""
+    rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
+    b, f = ZOAEngine(problem, method).limits(np.array([rpm]))
+    b, f = float(b[0]), float(f[0])
+    b = b if b <= dmax else math.inf
+    verdict = Verdict("stable" if depth < b else "unstable",
+                      f"ZOA: depth {depth * 1e3:.5g} mm {'below' if depth < b else 'at or above'} the limit "
+                      f"{b * 1e3:.5g} mm")
+    bif = "hopf" if math.isfinite(b) else "none"
+    return StabilityPoint(rpm, depth, math.nan, complex(math.nan, math.nan), verdict, b / depth - 1, 0.0,
+                          math.nan, b, 0.0, f, bif, bif, f, method,
+                          ({"m": None, "depth_limit_m": b, "stable": depth < b},))
+
+
+def _sdm_level(problem: LobeProblem, method: SemiDiscretization, m: int, dmax: float, rtol: float,
+               coarse_points: int) -> dict:
+    """One discretization level ``m`` at the problem's speed: its critical depth (m), the spectrum at
+    the cut depth and the bifurcation at the limit, as a dict (an entry of ``StabilityPoint.history``)."""
+    eng = SDMEngine(problem, replace(method, m=m, richardson=False), dmax)
+    st = {"evaluations": 0, "rounds": 0}
+    r = np.array([float(problem.cut.spindle_rpm)])
+    rho0 = np.max(np.abs(np.exp(np.outer(eng.period_s(r), eng.ss.poles))), axis=1)
+    est, hi, found = _search(lambda s, d: eng.multipliers(s, d)[0], r, rho0, dmax, coarse_points, rtol, st)
+    rho, mu, fr = eng.critical(r, np.array([float(problem.cut.ap_m)]))
+    lvl = {"m": m, "depth_limit_m": float(est[0]), "spectral_radius": float(rho[0]),
+           "critical_multiplier": complex(mu[0]), "chatter_freq_hz": float(fr[0]),
+           "stable": bool(rho[0] < 1.0), "evaluations": st["evaluations"],
+           "limit_bifurcation": "none", "limit_chatter_freq_hz": math.nan}
+    if found[0]:
+        _, mu_l, fr_l = eng.critical(r, hi)
+        lvl["limit_bifurcation"] = str(classify_multiplier(mu_l, method.angle_tol_rad)[0])
+        lvl["limit_chatter_freq_hz"] = float(fr_l[0])
+    return lvl

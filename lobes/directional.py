@@ -1,4 +1,5 @@
-"""The linearized cutting force of a :class:`LobeProblem`: regeneration pattern and directional matrices.
+"""The time-discretized directional plan of a :class:`LobeProblem`: regeneration pattern and the
+step-averaged directional matrices of the linearized force (the force law itself is :mod:`cases.milling`).
 
 Linearized about the static cut, the force on the tool (cut frame, N) is::
 
@@ -25,9 +26,11 @@ import numpy as np
 from robolobes.cases.milling import (ANGLE_TOL_RAD, CuttingLaw, Cut, PeriodName, Tool, directional_matrix, engagement_rad,
                                      in_cut, principal_period, regeneration)
 
+from robolobes.core.validate import readonly
+
 from ._errors import LobeError
 
-__all__ = ["CuttingPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
+__all__ = ["DirectionalPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
 
 PeriodChoice = Literal["auto", "revolution"]
 QuadratureRule = Literal["gauss", "midpoint"]
@@ -47,7 +50,7 @@ def average_directional_matrix(tool: Tool, cut: Cut, law: CuttingLaw, nodes: int
 
 
 @dataclass(frozen=True, eq=False)
-class CuttingPlan:
+class DirectionalPlan:
     """Time discretization of the cutting force over one principal period (depth-independent data).
 
     Attributes
@@ -95,7 +98,7 @@ class CuttingPlan:
     @classmethod
     def build(cls, tool: Tool, cut: Cut, law: CuttingLaw, *, m: int, quadrature: int, slices: int,
               period: PeriodChoice = "auto", k_force: int = 3,
-              rule: QuadratureRule = "gauss") -> "CuttingPlan":
+              rule: QuadratureRule = "gauss") -> "DirectionalPlan":
         st, ex = engagement_rad(tool, cut)
         regs = regeneration(tool, cut)
         cutting = [r for r in regs if r.cuts]
@@ -135,11 +138,10 @@ class CuttingPlan:
                 )
             rs.append(r)
             fs.append(f)
-        ro = lambda a: (a.setflags(write=False), a)[1]
         return cls(tool=tool, cut=cut, law=law, period_rad=period_rad, period_name=name, m=int(m), quadrature=int(quadrature),
-                   slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=ro(angles),
-                   tooth_group=ro(np.array(grp, dtype=int)), group_delay_rad=ro(np.array(gd)),
-                   group_r=ro(np.array(rs, dtype=int)), group_f=ro(np.array(fs)), k_force=int(k_force), rule=rule)
+                   slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=readonly(angles),
+                   tooth_group=readonly(grp, int), group_delay_rad=readonly(gd),
+                   group_r=readonly(rs, int), group_f=readonly(fs), k_force=int(k_force), rule=rule)
 
     @property
     def n_groups(self) -> int:
@@ -192,56 +194,63 @@ class CuttingPlan:
         """
         b = np.asarray(depth_m, dtype=float).reshape(-1)
         steps = np.asarray(steps, dtype=int)
-        q, ns, k = self.quadrature, self.slices, self.k_force
-        G = self.n_groups
-        out = np.zeros((len(b), len(steps), G, k, 2))
+        out = np.zeros((len(b), len(steps), self.n_groups, self.k_force, 2))
         if len(steps) == 0 or len(b) == 0:
             return out
-        dphi = self.step_rad
-        a0 = steps * dphi  # (P,)
-        zfrac = (np.arange(ns) + 0.5) / ns  # (ns,)
-        helix = self.tool.helix_rad > 0
-        if self.rule == "midpoint":
-            nodes = (np.arange(q) + 0.5) / q  # fraction of the step
-            wts = np.full(q, 1.0 / q)
-        else:
-            x, w = np.polynomial.legendre.leggauss(q)
-            nodes, wts = (x + 1) / 2, w / 2
-
-        def unit_avg(start):
-            """start: (..., P) angle of the step start for a tooth/slice -> (..., P, k, 2) average of g D."""
-            if self.rule == "midpoint":
-                phi = start[..., None] + nodes * dphi  # (..., P, q)
-                D = directional_matrix(phi, self.law)[..., :k, :]
-                D = D * in_cut(phi, self.phi_st, self.phi_ex)[..., None, None]
-                return np.einsum("...qij,q->...ij", D, wts)
-            s0 = np.mod(start, 2 * math.pi)
-            s1 = s0 + dphi
-            acc = np.zeros(start.shape + (k, 2))
-            for shift in (0.0, 2 * math.pi):
-                lo = np.maximum(s0, self.phi_st + shift)
-                ln = np.minimum(s1, self.phi_ex + shift) - lo
-                sel = ln > 0
-                if not sel.any():
-                    continue
-                phi = lo[sel][:, None] + nodes[None, :] * ln[sel][:, None]  # (n_sel, q)
-                D = directional_matrix(phi, self.law)[..., :k, :]
-                acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
-            return acc
-
-        if not helix:
+        a0 = steps * self.step_rad  # (P,) angle of each step's start
+        if self.tool.helix_rad == 0:
             # W is linear in the depth: compute per unit depth once
-            unit = np.zeros((len(steps), G, k, 2))
+            unit = np.zeros((len(steps), self.n_groups, self.k_force, 2))
             for th, g in zip(self.tooth_angle_rad, self.tooth_group):
-                unit[:, g] += unit_avg(a0 + th)
+                unit[:, g] += self._step_average(a0 + th)
             return b[:, None, None, None, None] * unit[None]
-        # helix: the lag of each slice depends on the depth; chunk over depths to bound memory
-        chunk = max(1, int(2e6 // max(1, len(steps) * q * ns)))
+        # helix: the lag of each slice depends on the depth. Batched callers often repeat a depth
+        # (a coarse scan evaluates one depth at every speed): compute each distinct depth once.
+        ub, inv = np.unique(b, return_inverse=True)
+        if len(ub) < len(b):
+            return self.wbar(ub, steps)[inv.reshape(-1)]
+        # chunk over depths to bound memory
+        ns = self.slices
+        zfrac = (np.arange(ns) + 0.5) / ns  # (ns,) slice mid-heights as fractions of the depth
+        chunk = max(1, int(2e6 // max(1, len(steps) * self.quadrature * ns)))
         for c0 in range(0, len(b), chunk):
             bc = b[c0:c0 + chunk]
             psi = self.tool.lag_rad(bc[:, None] * zfrac[None, :])  # (Bc, ns)
             for th, g in zip(self.tooth_angle_rad, self.tooth_group):
                 start = a0[None, None, :] + th - psi[:, :, None]  # (Bc, ns, P)
-                avg = unit_avg(start).sum(axis=1)  # (Bc, P, k, 2)
+                avg = self._step_average(start).sum(axis=1)  # (Bc, P, k, 2)
                 out[c0:c0 + chunk, :, g] += avg * (bc / ns)[:, None, None, None]
         return out
+
+    def _nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Quadrature nodes (fractions of the interval) and weights (summing to 1) of ``rule``."""
+        q = self.quadrature
+        if self.rule == "midpoint":
+            return (np.arange(q) + 0.5) / q, np.full(q, 1.0 / q)
+        x, w = np.polynomial.legendre.leggauss(q)
+        return (x + 1) / 2, w / 2
+
+    def _step_average(self, start: np.ndarray) -> np.ndarray:
+        """Average of ``g(phi) D(phi)`` over one step for an edge whose angle at the step start is
+        ``start`` (array (..., P), rad): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`)."""
+        k, dphi = self.k_force, self.step_rad
+        nodes, wts = self._nodes()
+        if self.rule == "midpoint":
+            phi = start[..., None] + nodes * dphi  # (..., P, q)
+            D = directional_matrix(phi, self.law)[..., :k, :]
+            D = D * in_cut(phi, self.phi_st, self.phi_ex)[..., None, None]
+            return np.einsum("...qij,q->...ij", D, wts)
+        # Gauss: integrate only over the engaged part of the step (smooth integrand there)
+        s0 = np.mod(start, 2 * math.pi)
+        s1 = s0 + dphi
+        acc = np.zeros(start.shape + (k, 2))
+        for shift in (0.0, 2 * math.pi):
+            lo = np.maximum(s0, self.phi_st + shift)
+            ln = np.minimum(s1, self.phi_ex + shift) - lo
+            sel = ln > 0
+            if not sel.any():
+                continue
+            phi = lo[sel][:, None] + nodes[None, :] * ln[sel][:, None]  # (n_sel, q)
+            D = directional_matrix(phi, self.law)[..., :k, :]
+            acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
+        return acc

@@ -1,0 +1,452 @@
+"""The FRF pipeline: measured tool-tip FRFs against the model, residuals, fit, held-out selection.
+
+Per pose, the model is linearized once (:func:`structural.pose_matrices`); effects perturb those
+matrices (fast, see :mod:`identify.structural`) and the receptance is solved directly on the
+measured lines. Fits are weighted least squares on the residual divided by the noise of each line
+(scipy ``least_squares``, trust-region reflective, bounds; parameters in log space when declared
+so); the uncertainty is the Gauss-Newton covariance ``s^2 (J^T J)^-1`` with ``s^2`` the reduced
+chi-square (so a model that does not fit within the noise widens its own error bars).
+
+Noise of each line, from the data: for white noise of variance ``sigma^2`` (``E|n|^2``) on a
+smooth FRF, the fourth difference ``d = (H_(f-2) - 4 H_(f-1) + 6 H_f - 4 H_(f+1) + H_(f+2)) / sqrt(70)``
+has ``E|d|^2 = sigma^2`` and is blind to any cubic trend of the FRF; the noise relative to ``|H|``
+is the running median (41 lines) of ``|d|^2 / |H|^2`` divided by ``ln 2`` (the median of an
+exponential variable, ``|d|^2`` of complex Gaussian noise, is ``ln 2`` times its mean). Lines
+near a sharp peak, where the FRF's own curvature enters ``d``, are a minority of every window, so
+the median ignores them; any bias left makes ``sigma`` larger, i.e. the selection more cautious.
+
+Selection is leave-one-pose-out (:mod:`identify.selection`); each candidate is first fitted on
+all the data and only the ``SHORTLIST`` best by that training fit, whose training gain could pass
+the test (``sqrt(gain / 2) >= z_threshold / 2``, see ``_Trials._shortlisted``), are fitted fold by
+fold (the others keep the current model's held-out residual, so they cannot be chosen). The
+significance threshold still counts every candidate of the library.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.ndimage import median_filter
+from scipy.optimize import least_squares
+
+from robolobes.linearize.frf_io import FRFSet
+from robolobes.linearize.linear import _state_matrix
+
+from .effects import ModelState, effects_for
+from .result import Identification
+from .selection import Trial, forward_select, heldout_error
+from .structural import PoseMatrices, StructuralEffect, pose_matrices
+
+__all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METRIC", "SHORTLIST"]
+
+METRIC = ("held-out (leave-one-pose-out) RMS over lines of |H_model - H_measured| / RMS |H_measured|, "
+          "receptance in m/N, not squared")
+SHORTLIST = 3
+_NOISE_WINDOW = 41
+
+
+@dataclass(frozen=True)
+class PoseData:
+    """One pose's measurement, flattened to lines, and its linearized model.
+
+    Attributes
+    ----------
+    name : str
+    pm : PoseMatrices
+    omega : array (F,), rad/s          union of the pairs' lines
+    index : array (N,) of int          line -> position in ``omega``
+    out_vec, in_vec : array (N, 3)     signed measurement directions in base axes, per line
+    H : complex array (N,), m/N        measured
+    sigma : array (N,), m/N            noise standard deviation per line (``E|n|^2``)
+    pair : array (N,) of int           which pair of the pose each line belongs to
+    pair_out, pair_in : array (P, 3)   each pair's signed directions in base axes
+    """
+
+    name: str
+    pm: PoseMatrices
+    omega: np.ndarray
+    index: np.ndarray
+    out_vec: np.ndarray
+    in_vec: np.ndarray
+    H: np.ndarray
+    sigma: np.ndarray
+    pair: np.ndarray
+    pair_out: np.ndarray
+    pair_in: np.ndarray
+
+
+def line_noise(H: np.ndarray) -> np.ndarray:
+    """Noise standard deviation of each line of one FRF (F,), from its second differences (module doc)."""
+    H = np.asarray(H)
+    if len(H) < 5:
+        return np.full(len(H), np.inf)
+    d = np.zeros(len(H), dtype=complex)
+    d[2:-2] = (H[:-4] - 4 * H[1:-3] + 6 * H[2:-2] - 4 * H[3:-1] + H[4:]) / math.sqrt(70.0)
+    d[:2], d[-2:] = d[2], d[-3]
+    mag2 = np.maximum(np.abs(H) ** 2, 1e-300)
+    rel = median_filter(np.abs(d) ** 2 / mag2, size=min(_NOISE_WINDOW, len(H) | 1), mode="nearest")
+    return np.sqrt(rel * mag2 / math.log(2))
+
+
+def _frame_axes(frame: str, pm: PoseMatrices, feed_direction) -> np.ndarray:
+    if frame == "base":
+        return np.eye(3)
+    from robolobes.cases.milling import cut_frame
+    return cut_frame(feed_direction, pm.R_tcp[:, 2])
+
+
+def prepare(measurement: FRFSet, model: ModelState, progress: Callable[[str], None] | None = None) -> list[PoseData]:
+    """Linearize the model at every measured pose and flatten the measurement to lines."""
+    robot = model.robot()
+    out = []
+    for pf in measurement.poses:
+        if progress:
+            progress(f"linearize pose {pf.pose}")
+        pm = pose_matrices(robot, pf.theta)
+        axes = _frame_axes(pf.frame, pm, model.case.cut.feed_direction)
+        omega = np.unique(np.concatenate([p.omega for p in pf.pairs]))
+        idx, ov, iv, H, sig, pair = [], [], [], [], [], []
+        for k, p in enumerate(pf.pairs):
+            n = len(p.omega)
+            idx.append(np.searchsorted(omega, p.omega))
+            ov.append(np.tile(p.out_sign * axes[p.out_axis], (n, 1)))
+            iv.append(np.tile(p.in_sign * axes[p.in_axis], (n, 1)))
+            H.append(p.H)
+            sig.append(line_noise(p.H))
+            pair.append(np.full(n, k))
+        out.append(PoseData(pf.pose, pm, omega, np.concatenate(idx), np.vstack(ov), np.vstack(iv),
+                            np.concatenate(H), np.concatenate(sig), np.concatenate(pair),
+                            np.array([v[0] for v in ov]), np.array([v[0] for v in iv])))
+    return out
+
+
+def predict(pose: PoseData, effects: list) -> np.ndarray:
+    """Model receptance on the pose's lines (N,), m/N, with ``effects`` = [(effect, params), ...]."""
+    pm = pose.pm
+    for eff, params in effects:
+        pm = eff.perturb(pm, params)
+    # modal superposition over the 2n state-space poles, only on the measured lines and pairs:
+    # H_line = sum_r (o . J phi_r) (psi_r M^-1 J^T . i) / (i w - lambda_r)   (same as frf_modal)
+    n = pm.M.shape[0]
+    A, Minv = _state_matrix(pm.M, pm.C, pm.K)
+    lam, V = np.linalg.eig(A)
+    W = np.linalg.inv(V)
+    out_r = pm.J @ V[:n]                       # (3, 2n)
+    in_r = W[:, n:] @ (Minv @ pm.J.T)          # (2n, 3)
+    coef = (pose.pair_out @ out_r) * (in_r @ pose.pair_in.T).T        # (P, 2n)
+    den = 1.0 / (1j * pose.omega[:, None] - lam[None, :])             # (F, 2n)
+    return (den @ coef.T)[pose.index, pose.pair]
+
+
+# ----------------------------------------------------------------------------------------------
+# parameters <-> optimizer variables
+
+
+def _layout(effects: list) -> list:
+    return [(e, p) for e in effects for p in e.parameters]
+
+
+def _to_x(layout, values: list[dict]) -> np.ndarray:
+    flat = [v[p.name] for v, (e, p) in zip(_expand(layout, values), layout)]
+    return np.array([math.log(v) if p.log else v for v, (e, p) in zip(flat, layout)])
+
+
+def _expand(layout, values):
+    out, k = [], 0
+    for e in dict.fromkeys(e for e, _ in layout):
+        n = len(e.parameters)
+        out += [values[k]] * n
+        k += 1
+    return out
+
+
+def _from_x(layout, x) -> list:
+    res, cur, last = [], None, None
+    for xi, (e, p) in zip(x, layout):
+        if e is not last:
+            cur = {}
+            res.append((e, cur))
+            last = e
+        cur[p.name] = math.exp(xi) if p.log else float(xi)
+    return res
+
+
+def _bounds(layout):
+    lo = np.array([math.log(p.lower) if p.log else p.lower for _, p in layout])
+    hi = np.array([math.log(p.upper) if p.log else p.upper for _, p in layout])
+    return lo, hi
+
+
+def _whitened(poses: list[PoseData], effects: list) -> np.ndarray:
+    r = np.concatenate([(predict(pd, effects) - pd.H) / pd.sigma for pd in poses])
+    return np.concatenate([r.real, r.imag])
+
+
+def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dict]]) -> tuple[list, float, np.ndarray]:
+    """Weighted least squares of the parameters of ``effects`` (each start: one dict per effect).
+
+    ``fixed``: [(effect, params)] applied first and not fitted. Returns the best
+    ``[(effect, params)]``, its chi-square and the parameter covariance in optimizer variables.
+    """
+    layout = _layout(effects)
+    lo, hi = _bounds(layout)
+    span = hi - lo
+    best = None
+    x0s = [np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span) for start in starts]
+    if len(x0s) > 2:   # many starts (a scan): optimize from the two with the lowest cost
+        cost = [float(np.sum(_whitened(poses, fixed + _from_x(layout, x)) ** 2)) for x in x0s]
+        x0s = [x0s[i] for i in np.argsort(cost)[:2]]
+    for x0 in x0s:
+        res = least_squares(lambda x: _whitened(poses, fixed + _from_x(layout, x)), x0, bounds=(lo, hi),
+                            x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
+        if best is None or res.cost < best.cost:
+            best = res
+    chi2 = 2 * best.cost
+    Jm = best.jac
+    dof = max(1, len(best.fun) - len(best.x))
+    try:
+        cov = np.linalg.inv(Jm.T @ Jm) * max(chi2 / dof, 1.0)
+    except np.linalg.LinAlgError:
+        cov = np.full((len(best.x), len(best.x)), np.inf)
+    return fixed + _from_x(layout, best.x), chi2, cov
+
+
+def _uncertainty(effects_params: list, layout, cov) -> dict:
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    out, k = {}, 0
+    for e, params in effects_params:
+        for p in e.parameters:
+            v = params[p.name]
+            out[p.name] = float(v * sd[k]) if p.log else float(sd[k])
+            k += 1
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# diagnosis: what the residual looks like
+
+
+def diagnose(poses: list[PoseData], effects: list) -> dict:
+    """Signatures of the residual of the model with ``effects``: the extra peak (frequency where the
+    measured / model magnitude ratio, averaged over poses and pairs, is largest) and its size."""
+    fmin = min(pd.omega.min() for pd in poses) / (2 * math.pi)
+    fmax = max(pd.omega.max() for pd in poses) / (2 * math.pi)
+    edges = np.geomspace(max(fmin, 0.1), fmax * (1 + 1e-9), 241)
+    acc = np.zeros(len(edges) - 1)
+    cnt = np.zeros(len(edges) - 1)
+    per_pose = []
+    amp = np.zeros(len(edges) - 1)
+    for pd in poses:
+        Hm = predict(pd, effects)
+        f = pd.omega[pd.index] / (2 * math.pi)
+        b = np.clip(np.searchsorted(edges, f) - 1, 0, len(edges) - 2)
+        lr = np.log(np.maximum(np.abs(pd.H), 1e-300) / np.maximum(np.abs(Hm), 1e-300))
+        pp = np.bincount(b, lr, len(acc)) / np.maximum(np.bincount(b, minlength=len(acc)), 1)
+        per_pose.append(pp)
+        acc += np.bincount(b, lr, len(acc))
+        cnt += np.bincount(b, minlength=len(acc))
+        amp = np.maximum(amp, np.bincount(b, np.abs(pd.H - Hm), len(acc)) / np.maximum(np.bincount(b, minlength=len(acc)), 1))
+    mean = np.where(cnt > 0, acc / np.maximum(cnt, 1), -np.inf)
+    k = int(np.argmax(mean))
+    f_peak = float(math.sqrt(edges[k] * edges[k + 1]))
+    every_pose = bool(all(pp[k] > math.log(1.5) for pp in per_pose))
+    return {"extra_peak_hz": f_peak, "extra_peak_m_per_n": float(amp[k]),
+            "extra_peak_log_ratio": float(mean[k]), "extra_peak_in_every_pose": every_pose,
+            "extra_peak_direction_tcp": _peak_direction(poses, effects, f_peak)}
+
+
+def _peak_direction(poses: list[PoseData], effects: list, f_hz: float):
+    """Direction (TCP frame) of a rank-one residual ``d d^T g(w)`` near ``f_hz``, from the first pose
+    with the three direct pairs: ``|d_k| = sqrt|r_kk|``, relative signs from the cross pairs."""
+    for pd in poses:
+        r = predict(pd, effects) - pd.H
+        f = pd.omega[pd.index] / (2 * math.pi)
+        near = np.abs(f / f_hz - 1) < 0.03
+        R = np.full((3, 3), np.nan, dtype=complex)
+        for k in np.unique(pd.pair):
+            s = (pd.pair == k) & near
+            o, i = np.argmax(np.abs(pd.pair_out[k])), np.argmax(np.abs(pd.pair_in[k]))
+            if s.any() and np.isclose(abs(pd.pair_out[k][o]), 1) and np.isclose(abs(pd.pair_in[k][i]), 1):
+                v = r[s][np.argmax(np.abs(r[s]))] * np.sign(pd.pair_out[k][o]) * np.sign(pd.pair_in[k][i])
+                R[o, i] = R[i, o] = v
+        diag = np.diagonal(R)
+        if np.any(np.isnan(diag)):
+            continue
+        ref = diag[np.argmax(np.abs(diag))]
+        d = np.sqrt(np.abs(diag))
+        j = int(np.argmax(d))
+        for k in range(3):
+            if k != j and not np.isnan(R[j, k]) and (R[j, k] / ref).real < 0:
+                d[k] = -d[k]
+        if np.linalg.norm(d) == 0:
+            continue
+        d_tcp = pd.pm.R_tcp.T @ (d / np.linalg.norm(d))
+        return [float(x) for x in d_tcp]
+    return None
+
+
+# ----------------------------------------------------------------------------------------------
+# correlation measures
+
+
+def correlation(poses: list[PoseData], effects: list) -> dict:
+    """Per pose and pair: relative error, FRAC; per pose: mean CSAC and CSF over the lines."""
+    out = {}
+    for pd in poses:
+        Hm = predict(pd, effects)
+        pairs = {}
+        for k in np.unique(pd.pair):
+            s = pd.pair == k
+            x, m = pd.H[s], Hm[s]
+            frac = abs(np.vdot(m, x)) ** 2 / (np.vdot(m, m).real * np.vdot(x, x).real)
+            pairs[int(k)] = {"error": heldout_error(m - x, x), "frac": float(frac)}
+        # CSAC / CSF across the pairs at each line of the union axis (lines measured in all pairs)
+        P = len(np.unique(pd.pair))
+        csac, csf = [], []
+        for fi in np.unique(pd.index):
+            s = pd.index == fi
+            if s.sum() < P:
+                continue
+            x, m = pd.H[s], Hm[s]
+            csac.append(abs(np.vdot(x, m)) ** 2 / (np.vdot(x, x).real * np.vdot(m, m).real))
+            csf.append(2 * abs(np.vdot(x, m)) / (np.vdot(x, x).real + np.vdot(m, m).real))
+        out[pd.name] = {"pairs": pairs, "error": heldout_error(Hm - pd.H, pd.H),
+                        "csac_mean": float(np.mean(csac)) if csac else None,
+                        "csf_mean": float(np.mean(csf)) if csf else None}
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# the pipeline
+
+
+class _Trials:
+    """``trial(state, effect)`` for :func:`forward_select`, state = [(effect, params), ...]."""
+
+    def __init__(self, poses: list[PoseData], candidates: list, progress=None, z_threshold: float = 0.0):
+        self.poses, self.candidates, self.progress = poses, candidates, progress
+        self.z_threshold = z_threshold
+        self._screen: dict = {}
+
+    def _diag(self, state):
+        return diagnose(self.poses, state)
+
+    def _starts(self, state, effect) -> list:
+        current = [dict(p) for _, p in state]
+        return [current + [g] for g in effect.guesses(self._diag(state))]
+
+    def _full(self, state, effect):
+        """Full-data fit of state + effect, cached per state."""
+        key = (tuple((e.name, tuple(sorted(p.items()))) for e, p in state), effect.name)
+        if key not in self._screen:
+            starts = self._starts(state, effect)
+            if not starts:
+                self._screen[key] = None
+            else:
+                effs = [e for e, _ in state] + [effect]
+                params, chi2, cov = fit(self.poses, [], effs, starts)
+                self._screen[key] = (params, chi2, cov)
+        return self._screen[key]
+
+    def _shortlisted(self, state, effect) -> bool:
+        """Among the SHORTLIST best training fits, and a training gain that could pass the test.
+
+        With whitened residuals the gain of a least-squares fit is ``X2_0 - X2_1 ~ sum|d|^2`` and
+        the held-out z is about ``gain / sqrt(2 sum|d|^2) = sqrt(gain / 2)``; held-out gains are
+        smaller than training gains, so a candidate with ``sqrt(gain / 2) < z_thr / 2`` cannot pass
+        and is not refitted fold by fold."""
+        fits = {c.name: self._full(state, c) for c in self.candidates if c.name not in {e.name for e, _ in state}}
+        ranked = sorted((v[1], k) for k, v in fits.items() if v is not None)
+        if effect.name not in [k for _, k in ranked[:SHORTLIST]]:
+            return False
+        gain = self._chi2(state) - fits[effect.name][1]
+        return gain > 0 and math.sqrt(gain / 2) >= 0.5 * self.z_threshold
+
+    def _chi2(self, state) -> float:
+        r = _whitened(self.poses, list(state))
+        return float(r @ r)
+
+    def heldout(self, state_params: list, refit: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        res, meas, sig = [], [], []
+        for i, pd in enumerate(self.poses):
+            params = state_params
+            if refit:
+                train = [p for j, p in enumerate(self.poses) if j != i]
+                params, _, _ = fit(train, [], [e for e, _ in state_params], [[dict(p) for _, p in state_params]])
+            res.append(predict(pd, params) - pd.H)
+            meas.append(pd.H)
+            sig.append(pd.sigma)
+        return np.concatenate(res), np.concatenate(meas), np.concatenate(sig)
+
+    def __call__(self, state, effect) -> Trial:
+        state = list(state or [])
+        if effect is None:
+            r, m, s = self.heldout(state, refit=bool(state))
+            return Trial(r, m, s, state=state)
+        full = self._full(state, effect)
+        if full is None or not self._shortlisted(state, effect):
+            r, m, s = self.heldout(state, refit=bool(state))
+            return Trial(r, m, s, state=state, evidence={"screened_out": True})
+        params, chi2, cov = full
+        if self.progress:
+            self.progress(f"leave-one-pose-out: {effect.name}")
+        r, m, s = self.heldout(params, refit=True)
+        unc = _uncertainty(params[-1:], _layout([effect]), cov[-len(effect.parameters):, -len(effect.parameters):])
+        diag = self._diag(state)
+        ev = {"signatures": list(effect.signatures), "training_chi2": chi2,
+              "per_pose_heldout_error": {pd.name: heldout_error(r[k], m[k]) for pd, k in
+                                         zip(self.poses, _splits(self.poses))}}
+        if effect.name == "tcp_mode":
+            ev["extra_peak_hz"] = diag["extra_peak_hz"]
+            ev["extra_peak_in_every_pose"] = diag["extra_peak_in_every_pose"]
+            ev["direction_tcp"] = effect.table(params[-1][1])["direction"]
+        return Trial(r, m, s, state=params, params=dict(params[-1][1]), uncertainty=unc, evidence=ev)
+
+
+def _splits(poses):
+    out, k = [], 0
+    for pd in poses:
+        out.append(slice(k, k + len(pd.H)))
+        k += len(pd.H)
+    return out
+
+
+def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
+                 progress: Callable[[str], None] | None = None, poles: bool = True,
+                 effects=None) -> Identification:
+    """Identify structural effects from a tool-tip FRF set (see the module doc).
+
+    ``poles``: also fit the measurement's poles (LSCF/LSFD, :mod:`identify.modal`) and set them beside
+    the model's, before and after (a few seconds per pose). ``effects``: candidate names (default:
+    the library's default candidates).
+    """
+    from robolobes.core.errors import BadInput
+
+    from .model_toml import model_toml
+
+    if len(measurement.poses) < 2:
+        raise BadInput(f"{measurement.path}: leave-one-pose-out needs at least 2 poses with data, "
+                       f"got {len(measurement.poses)}")
+    candidates = [e for e in effects_for("frf", model, effects) if isinstance(e, StructuralEffect)]
+    poses = prepare(measurement, model, progress)
+    from .selection import z_threshold
+    trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
+    sel = forward_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress)
+    state = model
+    for eff, params in sel.state:
+        state = eff.apply(state, params)
+    noise = float(np.sqrt(np.mean(sel.base.sigma ** 2)) / np.sqrt(np.mean(np.abs(sel.base.measured) ** 2)))
+    extra = {"n_poses": len(poses), "n_lines": int(sum(len(pd.H) for pd in poses)),
+             "correlation_before": correlation(poses, []), "correlation_after": correlation(poses, list(sel.state)),
+             "diagnosis": diagnose(poses, []), "n_candidates": len(candidates)}
+    if poles:
+        from .modal import compare_poles
+        if progress:
+            progress("modal fit (LSCF/LSFD)")
+        got = compare_poles(poses, {"before": [], "after": list(sel.state)}, extra["diagnosis"]["extra_peak_hz"])
+        extra["poles_before"], extra["poles_after"] = got["before"], got["after"]
+    return Identification(kind="frf", effects=sel.effects, error_before=sel.error_before, error_after=sel.error_after,
+                          metric=METRIC, noise_floor=noise, steps=sel.steps, model_toml=model_toml(state), extra=extra)

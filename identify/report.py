@@ -1,0 +1,139 @@
+"""``robolobes identify --report DIR``: Markdown + plots of what identification found.
+
+Figures: per pose, measured receptance against the model before and after (magnitude of each
+measured pair); the residual spectra |H_model - H_measured| before and after against the noise
+estimated from the data.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from robolobes.core.io import pyplot, save_figure, write_text
+
+__all__ = ["write_frf_report"]
+
+
+def _fig_pose(pd, before, after, path, provenance):
+    plt = pyplot()
+    pairs = np.unique(pd.pair)
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    for k in pairs:
+        s = pd.pair == k
+        f = pd.omega[pd.index[s]] / (2 * math.pi)
+        lab = f"pair {k}"
+        axes[0].semilogy(f, np.abs(pd.H[s]) * 1e6, ".", ms=2, label=f"{lab} measured")
+        axes[0].semilogy(f, np.abs(before[s]) * 1e6, ":", lw=1, label=f"{lab} model before")
+        axes[0].semilogy(f, np.abs(after[s]) * 1e6, "-", lw=1, label=f"{lab} model after")
+        axes[1].semilogy(f, np.abs(before[s] - pd.H[s]) * 1e6, ":", lw=1, label=f"{lab} before")
+        axes[1].semilogy(f, np.abs(after[s] - pd.H[s]) * 1e6, "-", lw=1, label=f"{lab} after")
+        axes[1].semilogy(f, pd.sigma[s] * 1e6, "k-", lw=0.5, alpha=0.5)
+    axes[0].set_ylabel("|H| (um/N)")
+    axes[0].legend(fontsize=6, ncol=3)
+    axes[1].set_ylabel("|residual| (um/N); black: noise")
+    axes[1].set_xlabel("frequency (Hz)")
+    axes[0].set_title(f"pose {pd.name}: measured and model, before and after")
+    for a in axes:
+        a.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, path, provenance=provenance, dpi=110)
+    plt.close(fig)
+
+
+def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict, model=None,
+                     theta=None) -> None:
+    """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
+    from .frf import predict
+
+    lines = [f"# robolobes identify: tool-tip FRF set", "",
+             f"- metric: {result.metric}",
+             f"- error before: {result.error_before:.4g}; after: {result.error_after:.4g}; "
+             f"noise floor (from the data): {result.noise_floor:.4g}",
+             f"- provenance: robolobes {provenance.get('robolobes_version')}, inputs sha256 "
+             f"{provenance.get('inputs_sha256')}", ""]
+    if result.effects:
+        lines += ["## Effects found (best first)", "", "| effect | parameter | value | 1 sigma |", "|---|---|---|---|"]
+        for e in result.effects:
+            for k, v in e.params.items():
+                lines.append(f"| {e.name} | {k} | {v:.6g} | {e.uncertainty.get(k, float('nan')):.3g} |")
+        lines.append("")
+    else:
+        lines += ["No effect lowers the held-out error significantly: the model explains the data "
+                  "within its noise (`effects: []`).", ""]
+    lines += ["## Selection steps", "", "| step | kept | z | threshold | error before | error after |",
+              "|---|---|---|---|---|---|"]
+    for i, s in enumerate(result.steps, 1):
+        lines.append(f"| {i} | {s.kept or '-'} | {s.statistic:.3g} | {s.threshold:.3g} | {s.error_before:.4g} | "
+                     f"{s.error_after:.4g} |")
+    lines += ["", "## Poses", ""]
+    for pd in poses:
+        before, after = predict(pd, []), predict(pd, list(effects_state))
+        name = f"pose_{pd.name}.png"
+        _fig_pose(pd, before, after, directory / name, provenance)
+        lines += [f"![pose {pd.name}]({name})", ""]
+    if model is not None and theta is not None:
+        name = lobe_figure(directory, model, result.effects, theta, provenance)
+        lines += ["## Stability lobes at the first measured pose, before and after", "",
+                  "SDM (m = 30) for the case's tool, cut and cutting law; the band moves every fitted "
+                  "parameter by one standard deviation (both signs).", "", f"![lobes]({name})", ""]
+    lines += ["## Model (case TOML)", "", "```toml", result.model_toml.rstrip(), "```", ""]
+    lines += ["", f"<!-- robolobes_version {provenance.get('robolobes_version')} inputs_sha256 "
+                  f"{provenance.get('inputs_sha256')} -->"]
+    write_text(directory / "report.md", "\n".join(lines))
+
+
+def _shifted(eff, params, unc, sign):
+    """Parameters moved by ``sign`` x one standard deviation, inside the bounds."""
+    out = {}
+    for p in eff.parameters:
+        v = params[p.name] + sign * unc.get(p.name, 0.0)
+        out[p.name] = float(min(max(v, p.lower), p.upper))
+    return out
+
+
+def lobe_figure(directory: Path, model, fits, theta, provenance, n_speeds: int = 60) -> str:
+    """Stability lobes at pose ``theta`` (rad) before and after, with the band of +-1 sigma of the
+    fitted parameters (all moved together, both signs). Returns the figure's file name."""
+    from robolobes.linearize import linearize
+    from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
+
+    from .effects import REGISTRY
+
+    case = model.case
+    rpm = np.linspace(0.5, 1.5, n_speeds) * case.cut.spindle_rpm
+
+    def limits(state):
+        lin = linearize(state.robot(), theta)
+        prob = LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
+        return np.asarray(solve(prob, SemiDiscretization(m=30), speeds_rpm=rpm).depth_limit_m, dtype=float)
+
+    def state_with(sign):
+        s = model
+        for f in fits:
+            eff = REGISTRY[f.name]
+            s = eff.apply(s, f.params if sign == 0 else _shifted(eff, f.params, f.uncertainty, sign))
+        return s
+
+    before, after = limits(model), limits(state_with(0))
+    band = [limits(state_with(s)) for s in (-1, 1)] if fits else []
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    ax.plot(rpm, before * 1e3, "k:", label="model before")
+    ax.plot(rpm, after * 1e3, "b-", label="model after (identified)")
+    if band:
+        ax.fill_between(rpm, np.minimum(*band) * 1e3, np.maximum(*band) * 1e3, color="b", alpha=0.2,
+                        label="after, parameters +-1 sigma")
+    ax.axvline(case.cut.spindle_rpm, color="0.5", lw=0.8)
+    ax.plot([case.cut.spindle_rpm], [case.cut.ap_m * 1e3], "r*", label="the case's cut")
+    ax.set_xlabel("spindle speed (rpm)")
+    ax.set_ylabel("depth limit (mm)")
+    ax.set_title("stability lobes at the first measured pose")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, directory / "lobes.png", provenance=provenance, dpi=110)
+    plt.close(fig)
+    return "lobes.png"

@@ -1,0 +1,302 @@
+"""Structural effects of the library (FRF-observable): each an :class:`Effect` plus a fast perturbation.
+
+Every effect here is added to the model as an element of :mod:`robolobes.linearize.extra_elements`
+(that is what the ``model`` TOML holds, and what the synthetic tests generate data with). For
+fitting, each also perturbs the linearized matrices of a pose directly (:meth:`perturb`), which
+costs a few microseconds instead of rebuilding and re-linearizing the pinocchio model:
+
+* ``tcp_mode``: one coordinate ``u`` more, the mass ``m = k / w0^2`` at the TCP moving ``J dq + d u``
+  (``d`` the mode direction in base axes), taken from the payload at the TCP (moving ``J dq``):
+  ``M' = [[M, m J^T d], [m d^T J, m]]``,
+  ``K' = diag(K, k)``, ``C' = diag(C, c)``, TCP output ``[J, d]`` (exact to first order: the
+  element's pinocchio model gives the same M, C, K up to the gravity load of the small mass);
+* ``joint_correction_aN``: ``K[i, i] += (s_k - 1) k_N``, ``C[i, i] += (s_d - 1) d_N`` (exact);
+* ``orthogonal_correction``: the same on every virtual joint (exact);
+* ``servo_aN``: one rotor coordinate more, ``M[n, n] = J``, ``C[n, n] = kd``, ``K[n, n] = k + kp``,
+  ``K[i, n] = K[n, i] = -k`` (exact);
+* ``payload_mass``: ``M += dm J_G^T J_G`` with ``J_G`` the translational Jacobian of the payload's
+  centre of mass (exact for the basic variant; with gravity the small change of the gravity
+  stiffness is neglected).
+
+The consistency of each perturbation with its element is tested (tests/test_identify_frf.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .effects import Effect, ModelState, Parameter, register
+
+__all__ = ["PoseMatrices", "StructuralEffect", "TcpModeEffect", "JointCorrectionEffect",
+           "OrthogonalCorrectionEffect", "PayloadMassEffect", "pose_matrices"]
+
+
+@dataclass(frozen=True)
+class PoseMatrices:
+    """The linearized model at one pose, with what the perturbations need.
+
+    Attributes
+    ----------
+    M, C, K : array (n, n), SI
+    J : array (3, n), m/rad, TCP translation in base axes
+    R_tcp : array (3, 3), columns the TCP axes in base coordinates
+    motion_dofs : array (n_joints,) of int
+    virtual_dofs : array of int (empty without virtual joints)
+    joint_k, joint_d : array (n_joints,), the joint table's stiffness and damping
+    virtual_k, virtual_d : float, the virtual joints' stiffness and damping (0 without)
+    J_payload : array (3, n), translational Jacobian of the payload centre of mass, base axes
+    payload_mass_kg : float
+    """
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    J: np.ndarray
+    R_tcp: np.ndarray
+    motion_dofs: np.ndarray
+    virtual_dofs: np.ndarray
+    joint_k: np.ndarray
+    joint_d: np.ndarray
+    virtual_k: float
+    virtual_d: float
+    J_payload: np.ndarray
+    payload_mass_kg: float
+
+
+def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
+    """Linearize ``robot`` (a FlexibleRobot) at motor angles ``theta`` (rad) into :class:`PoseMatrices`."""
+    import pinocchio as pin
+
+    from robolobes.linearize import linearize
+    from robolobes.linearize.model import VirtualJoints
+
+    lin = linearize(robot, theta)
+    spec = robot.spec
+    vj = [e for e in robot.elements if isinstance(e, VirtualJoints)]
+    # payload centre of mass: flange frame origin + R_flange com (point velocity v + w x r)
+    pin.computeJointJacobians(robot.model, robot.data, np.asarray(lin.q))
+    pin.framesForwardKinematics(robot.model, robot.data, np.asarray(lin.q))
+    Jf = pin.getFrameJacobian(robot.model, robot.data, robot.flange_frame, pin.LOCAL_WORLD_ALIGNED)
+    Rf = robot.data.oMf[robot.flange_frame].rotation
+    r = Rf @ np.asarray(spec.payload.com_m)
+    skew = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+    J_payload = Jf[:3] - skew @ Jf[3:]
+    return PoseMatrices(M=np.asarray(lin.M), C=np.asarray(lin.C), K=np.asarray(lin.K), J=np.asarray(lin.J),
+                        R_tcp=np.asarray(lin.R_tcp), motion_dofs=np.asarray(robot.motion_dofs),
+                        virtual_dofs=np.asarray(vj[0]._idx) if vj else np.zeros(0, dtype=int),
+                        joint_k=spec.joint_stiffness, joint_d=spec.joint_damping,
+                        virtual_k=vj[0].stiffness if vj else 0.0, virtual_d=vj[0].damping if vj else 0.0,
+                        J_payload=J_payload, payload_mass_kg=spec.payload.mass_kg)
+
+
+class StructuralEffect(Effect):
+    """An element effect with a fast perturbation of the linearized matrices."""
+
+    stage = "element"
+
+    def perturb(self, pm: PoseMatrices, params: dict) -> PoseMatrices:
+        """The pose's matrices with the effect added (effects compose: apply one after the other)."""
+        raise NotImplementedError
+
+    def guesses(self, diagnosis: dict) -> list[dict]:
+        """Start points for the fit (default: the neutral values, else the middle of the bounds)."""
+        return [{p.name: (p.neutral if p.neutral is not None else
+                          (math.sqrt(p.lower * p.upper) if p.log else 0.5 * (p.lower + p.upper)))
+                 for p in self.parameters}]
+
+
+def _direction(polar_rad: float, azimuth_rad: float) -> np.ndarray:
+    return np.array([math.sin(polar_rad) * math.cos(azimuth_rad), math.sin(polar_rad) * math.sin(azimuth_rad),
+                     math.cos(polar_rad)])
+
+
+class TcpModeEffect(StructuralEffect):
+    name = "tcp_mode"
+    doc = ("A spindle / tool-holder mode at the TCP: an oscillator (frequency, damping ratio, stiffness) "
+           "along a direction fixed in the tool frame (polar angle from the tool axis, azimuth from TCP x).")
+    parameters = (
+        Parameter("freq_hz", 20.0, 3000.0, None, None, log=True, doc="natural frequency on a fixed base"),
+        Parameter("damping_ratio", 0.003, 0.3, None, None, log=True),
+        Parameter("stiffness_n_per_m", 1e4, 1e9, None, None, log=True,
+                  doc="detectable when 1 / (2 zeta k) exceeds the robot's receptance at freq_hz by the noise"),
+        Parameter("polar_rad", 0.0, math.pi, doc="direction: angle from the tool axis (TCP z)"),
+        Parameter("azimuth_rad", -math.pi, math.pi, doc="direction: angle about the tool axis from TCP x"),
+    )
+    observed_by = {"frf": "an extra peak, same frequency at every pose: 1 / (2 zeta k) above ~3x the noise of "
+                          "the measured receptance at that frequency",
+                   "stability": "shifts the lobes near its frequency"}
+    signatures = ("extra_peak",)
+
+    def table(self, params):
+        d = _direction(params["polar_rad"], params["azimuth_rad"])
+        return {"type": "tcp_mode", "freq_hz": float(params["freq_hz"]), "damping_ratio": float(params["damping_ratio"]),
+                "stiffness_n_per_m": float(params["stiffness_n_per_m"]), "direction": [float(x) for x in d]}
+
+    def perturb(self, pm, params):
+        k = params["stiffness_n_per_m"]
+        m = k / (2 * math.pi * params["freq_hz"]) ** 2
+        c = 2 * params["damping_ratio"] * math.sqrt(k * m)
+        d = pm.R_tcp @ _direction(params["polar_rad"], params["azimuth_rad"])
+        n = pm.M.shape[0]
+        Jd = pm.J.T @ d
+        M = np.zeros((n + 1, n + 1))
+        M[:n, :n] = pm.M                     # + m J^T J (mode body) - m J^T J (taken from the payload)
+        M[:n, n] = M[n, :n] = m * Jd
+        M[n, n] = m
+        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = c
+        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K; K[n, n] = k
+        return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, d[:, None]]),
+                       J_payload=np.hstack([pm.J_payload, np.zeros((3, 1))]))
+
+    def guesses(self, diagnosis):
+        f = diagnosis.get("extra_peak_hz")
+        amp = diagnosis.get("extra_peak_m_per_n")
+        if not f:
+            return []
+        f = float(np.clip(f, self.parameters[0].lower, self.parameters[0].upper))
+        zeta = 0.03
+        k = float(np.clip(1.0 / (2 * zeta * amp), 1e4, 1e9)) if amp else 1e6
+        d = diagnosis.get("extra_peak_direction_tcp")
+        if d is not None:     # from the residual's rank-one shape at the peak
+            starts = [(math.acos(max(-1.0, min(1.0, d[2]))), math.atan2(d[1], d[0]))]
+        else:
+            starts = [(0.5 * math.pi, 0.0), (0.5 * math.pi, 0.5 * math.pi), (0.0, 0.0)]   # TCP x, y, z
+        return [{"freq_hz": f, "damping_ratio": zeta, "stiffness_n_per_m": k, "polar_rad": p, "azimuth_rad": a}
+                for p, a in starts]
+
+
+class JointCorrectionEffect(StructuralEffect):
+    stage = "element"
+    observed_by = {"frf": "the robot's peaks shifted or reshaped in a pose-dependent way: stiffness off by "
+                          ">~10 % or damping off by >~30 % on an axis that moves the TCP",
+                   "stability": "moves the robot's lobes"}
+    signatures = ("pose_shift", "peak_height", "static_offset")
+
+    def __init__(self, joint: int):
+        self.joint = joint
+        self.name = f"joint_correction_a{joint}"
+        self.doc = f"axis {joint}: motion-axis stiffness and damping scaled"
+        self.parameters = (
+            Parameter("stiffness_scale", 0.4, 2.5, neutral=1.0, detect=0.1, log=True),
+            Parameter("damping_scale", 0.2, 5.0, neutral=1.0, detect=0.3, log=True),
+        )
+
+    def guesses(self, diagnosis):
+        # a scan of the stiffness: a mode shifted by more than its bandwidth is a local minimum
+        # of the least squares from the neutral start
+        return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0)]
+
+    def table(self, params):
+        return {"type": "joint_correction", "joint": self.joint, "stiffness_scale": float(params["stiffness_scale"]),
+                "damping_scale": float(params["damping_scale"])}
+
+    def perturb(self, pm, params):
+        i = pm.motion_dofs[self.joint - 1]
+        K, C = pm.K.copy(), pm.C.copy()
+        K[i, i] += (params["stiffness_scale"] - 1) * pm.joint_k[self.joint - 1]
+        C[i, i] += (params["damping_scale"] - 1) * pm.joint_d[self.joint - 1]
+        return replace(pm, C=C, K=K)
+
+    def applicable(self, model: ModelState) -> bool:
+        return self.joint <= model.case.robot.n_joints
+
+
+class OrthogonalCorrectionEffect(StructuralEffect):
+    name = "orthogonal_correction"
+    doc = "virtual-joint (orthogonal) stiffness and damping scaled; needs the orthogonal or backlash variant"
+    parameters = (Parameter("stiffness_scale", 0.2, 5.0, neutral=1.0, detect=0.3, log=True),
+                  Parameter("damping_scale", 0.2, 5.0, neutral=1.0, detect=0.5, log=True))
+    observed_by = {"frf": "the 18-DOF model's upper modes shifted at every pose (stiffness off by >~30 %)"}
+    signatures = ("uniform_shift", "pose_shift")
+
+    def applicable(self, model: ModelState) -> bool:
+        return model.variant in ("orthogonal", "backlash")
+
+    def guesses(self, diagnosis):
+        return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.3, 0.5, 0.7, 1.0, 1.5, 2.2, 3.5)]
+
+    def perturb(self, pm, params):
+        v = pm.virtual_dofs
+        K, C = pm.K.copy(), pm.C.copy()
+        K[v, v] += (params["stiffness_scale"] - 1) * pm.virtual_k
+        C[v, v] += (params["damping_scale"] - 1) * pm.virtual_d
+        return replace(pm, C=C, K=K)
+
+
+class PayloadMassEffect(StructuralEffect):
+    name = "payload_mass"
+    doc = "the payload (spindle) mass off by a factor, the difference a point mass at its centre of mass"
+    parameters = (Parameter("mass_scale", 0.6, 1.5, neutral=1.0, detect=0.08),)
+    observed_by = {"frf": "every robot peak shifted down (heavier) or up (lighter) by about the same ratio, "
+                          "mass off by >~8 %"}
+    signatures = ("uniform_shift",)
+
+    def __init__(self, payload_mass_kg: float | None = None):
+        self.payload_mass_kg = payload_mass_kg
+
+    def table(self, params):
+        raise NotImplementedError("payload_mass needs the payload's mass: use table_for(model, params)")
+
+    def apply(self, model, params):
+        from robolobes.cases.spec import ElementSpec
+        from .effects import check_params
+
+        params = check_params(self, params)
+        dm = (params["mass_scale"] - 1) * model.case.robot.payload.mass_kg
+        return model.with_element(ElementSpec("payload_mass", {"delta_mass_kg": float(dm)}))
+
+    def guesses(self, diagnosis):
+        return [{"mass_scale": s} for s in (0.7, 0.85, 1.0, 1.2, 1.4)]
+
+    def perturb(self, pm, params):
+        dm = (params["mass_scale"] - 1) * pm.payload_mass_kg
+        return replace(pm, M=pm.M + dm * pm.J_payload.T @ pm.J_payload)
+
+
+class ServoEffect(StructuralEffect):
+    """Servo dynamics of axis ``joint``: not a default candidate (name it with ``--effects``)."""
+
+    candidate = False
+    observed_by = {"frf": "an extra pose-dependent mode and reshaped robot modes when the position loop "
+                          "kp is within ~10x the joint stiffness"}
+    signatures = ("extra_peak", "pose_shift", "peak_height")
+
+    def __init__(self, joint: int):
+        self.joint = joint
+        self.name = f"servo_a{joint}"
+        self.doc = f"axis {joint}: rotor inertia and PD position loop behind the joint spring"
+        self.parameters = (Parameter("rotor_inertia_kg_m2", 0.05, 200.0, log=True),
+                           Parameter("kp_n_m_per_rad", 1e5, 1e9, log=True),
+                           Parameter("kd_n_m_s_per_rad", 1.0, 1e5, log=True))
+
+    def table(self, params):
+        return {"type": "servo_drive", "joint": self.joint, **{k: float(v) for k, v in params.items()}}
+
+    def applicable(self, model: ModelState) -> bool:
+        return self.joint <= model.case.robot.n_joints
+
+    def guesses(self, diagnosis):
+        return [{"rotor_inertia_kg_m2": 5.0, "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": 1e3} for kp in (3e6, 3e7)]
+
+    def perturb(self, pm, params):
+        i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
+        k = pm.joint_k[self.joint - 1]
+        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = params["rotor_inertia_kg_m2"]
+        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = params["kd_n_m_s_per_rad"]
+        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K
+        K[i, n] = K[n, i] = -k
+        K[n, n] = k + params["kp_n_m_per_rad"]
+        z = np.zeros((3, 1))
+        return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, z]), J_payload=np.hstack([pm.J_payload, z]))
+
+
+register(TcpModeEffect())
+for _j in range(1, 7):
+    register(JointCorrectionEffect(_j))
+register(OrthogonalCorrectionEffect())
+register(PayloadMassEffect())
+for _j in range(1, 7):
+    register(ServoEffect(_j))
