@@ -165,3 +165,14 @@ def test_steel_stability_observation_joint_damping(tmp_path, capsys):
     jd = next(e for e in d["effects"] if e["name"] == "joint_damping")
     assert jd["params"]["scale"] == pytest.approx(11.88, rel=0.06)
     assert jd["evidence"]["credible"] is False
+
+
+def test_cli_window_outside_the_pass_exits_2(tmp_path, capsys):
+    # the aluminium pass lasts ~1.75 s; a window at 5-5.01 s is rejected before any simulation
+    from robolobes.main import main
+
+    t = 5.0 + np.arange(600) / 50e3
+    d = _write_set(tmp_path / "late", t, np.zeros((600, 3)), 50000, (5.0, 5.01))
+    assert main(["identify", "--measured", str(d), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "window_s = [5.0, 5.01] s is outside the pass" in err[0], err
