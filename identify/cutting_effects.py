@@ -43,7 +43,7 @@ comment block (the case TOML keeps loading under the strict key check).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 

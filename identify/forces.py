@@ -32,9 +32,7 @@ from __future__ import annotations
 
 import itertools
 import math
-import sys
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -43,12 +41,12 @@ from robolobes.core.errors import BadInput
 from .cutting_effects import FORCE_EFFECTS, chain_transfer
 from .effects import SIGNATURES, ModelState, effects_for
 from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
-from .model_toml import model_toml
-from .selection import Trial, forward_select
 from .force_model import revolution_averages, simulate_forces, with_spindle_hz
-from .force_signals import (ERROR_METRIC, SyncAverage, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
+from .force_signals import (ERROR_METRIC, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
                             revolutions, shift_average, spectrum_lines, sync_average)
-from .result import EffectFit, Identification, SelectionStep
+from .model_toml import model_toml
+from .result import EffectFit, Identification
+from .selection import Trial, forward_select
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
            "identify_stability", "ForceContext", "check_window", "aicc"]
