@@ -393,6 +393,7 @@ def run_optimize(args: argparse.Namespace) -> int:
           "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
           "baseline_worst_pose_q_deg": (np.degrees(res.baseline.theta[res.baseline.worst]).tolist()
                                         if res.baseline.feasible else None),
+          "optimum_strict_ok": res.best.strict_ok, "baseline_strict_ok": res.baseline.strict_ok,
           "baseline_feasible": res.baseline.feasible, "baseline_reason": res.baseline.reason,
           "depth_along_pass_m": {"s_m": res.best.s_m, "baseline": res.baseline.depth_m, "optimum": res.best.depth_m},
           "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],
