@@ -113,7 +113,7 @@ def _small(case, n=4, speeds=(2500.0, 3100.0, 4000.0, 6000.0), **kw):
     return MapProblem.make(case, "basic", "placement", n=n, speeds_rpm=np.array(speeds), **kw)
 
 
-FAST = MapMethod(m=20, reduce_max_freq_hz=None, chunk_poses=1)
+FAST = MapMethod(m=20, reduce_max_freq_hz=None, prescan_m=None, chunk_poses=1)
 
 
 def _arrays(ds):
@@ -299,3 +299,17 @@ def test_optimizer_optimum_confirmed_by_lobes_solve(steel):
     p = LobeProblem(PhysicalStructure.from_linear(lin, res.best.feed), steel.tool, steel.cut, steel.law)
     ref = solve(p, SemiDiscretization(m=40), [3100.0], depth_max_m=opt.depth_max_m, rtol=1e-3).depth_limit_m[0]
     np.testing.assert_allclose(res.best.min_depth_m, ref, rtol=1e-12)
+
+
+def test_coarse_prescan_keeps_the_sdm_limits(steel):
+    # SemiDiscretization(prescan_m=12): the free-exact prescan only brackets; the SDM at m = 40
+    # verifies and refines, so the limits equal those with the default prescan to the root
+    # bracket (rtol 1e-3 of solve; observed 6e-14 at the bench poses).
+    robot = linearize.build_model(steel.robot, "basic")
+    lin = linearize.linearize(robot, steel.path.start_q_rad)
+    p = LobeProblem(PhysicalStructure.from_linear(lin, steel.cut.feed_direction), steel.tool, steel.cut, steel.law)
+    speeds = np.linspace(2000, 8000, 7)
+    a = solve(p, SemiDiscretization(m=40), speeds).depth_limit_m
+    b = solve(p, SemiDiscretization(m=40, prescan_m=12), speeds).depth_limit_m
+    assert np.array_equal(np.isfinite(a), np.isfinite(b))
+    np.testing.assert_allclose(b[np.isfinite(a)], a[np.isfinite(a)], rtol=1e-3)
