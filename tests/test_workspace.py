@@ -238,24 +238,22 @@ def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     table = pose_table(pr)
     ok = np.flatnonzero(table["reason"] <= 1)
     pick = np.sort(rng.choice(ok, size=20, replace=False))
-    sub = MapProblem(case=alu, variant="orthogonal", over="placement",
-                     axes=(("x_offset_m", pr.pose_values()["x_offset_m"][pick]),), speeds_rpm=pr.speeds_rpm,
-                     op_rpm=pr.op_rpm)
     robot = linearize.build_model(alu.robot, "orthogonal")
     from robolobes.workspace import compute_chunk
 
     got = compute_chunk(pr, MapMethod(), 0, table["theta"][pick], table["feed"][pick], np.ones(20, bool))
-    worst = 0.0
+    # a limit is searched up to 10 mm; inf means "none below 10 mm", so both are compared capped at
+    # 10 mm (a limit at 9.98 mm in one and "none below 10 mm" in the other agree to 0.2 %)
+    worst, n_cmp = 0.0, 0
     for k, i in enumerate(pick):
         lin = linearize.linearize(robot, table["theta"][i])
         p = LobeProblem(PhysicalStructure.from_linear(lin, table["feed"][i]), alu.tool, alu.cut, alu.law)
         ref = solve(p, SemiDiscretization(m=40), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
-        assert np.array_equal(np.isfinite(got.depth_limit_m[k]), np.isfinite(ref))
-        f = np.isfinite(ref)
-        worst = max(worst, float(np.max(np.abs(got.depth_limit_m[k][f] / ref[f] - 1), initial=0.0)))
-    print(f"20 random poses: largest relative difference of the depth limit {worst:.3e}")
+        a, b = np.minimum(got.depth_limit_m[k], 0.01), np.minimum(ref, 0.01)
+        worst = max(worst, float(np.max(np.abs(a / b - 1))))
+        n_cmp += len(b)
+    print(f"20 random poses, {n_cmp} limits: largest relative difference (capped at 10 mm) {worst:.3e}")
     assert worst < 0.01
-    del sub
 
 
 def test_tool_modes_add_in_series(alu):
