@@ -163,9 +163,8 @@ def test_reduced_map_within_one_percent_of_full_model(alu):
         p = LobeProblem(PhysicalStructure.from_linear(lin, ds["feed_direction"].values[i]), alu.tool, alu.cut, alu.law)
         ref = solve(p, SemiDiscretization(m=40), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
         got = ds["depth_limit_m"].values[i]
-        assert np.array_equal(np.isfinite(got), np.isfinite(ref))
-        f = np.isfinite(ref)
-        np.testing.assert_allclose(got[f], ref[f], rtol=0.01)
+        # capped at the searched 10 mm (inf: no limit below it)
+        np.testing.assert_allclose(np.minimum(got, 0.01), np.minimum(ref, 0.01), rtol=0.01)
         assert ds["truncation_frf_error"].values[i] < 0.01
 
 
