@@ -214,8 +214,9 @@ def test_local_cluster_bitwise_equal(steel):
         warnings.simplefilter("ignore")
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                                       host="127.0.0.1") as cluster:
-            with distributed.Client(cluster) as client:
-                res = solve_map(pr, FAST, scheduler=client)
+            # the address, as --scheduler tcp://HOST:PORT gives it
+            assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+            res = solve_map(pr, FAST, scheduler=cluster.scheduler_address)
     _assert_bitwise(_arrays(res.dataset), serial)
 
 
