@@ -206,7 +206,7 @@ def test_store_of_other_inputs_is_refused(steel, tmp_path):
         solve_map(_small(steel, n=2), FAST, path=tmp_path / "mine", scheduler="serial")
 
 
-def test_local_cluster_bitwise_equal(steel):
+def test_local_cluster_and_process_pool_bitwise_equal(steel):
     distributed = pytest.importorskip("distributed")
     pr = _small(steel)
     serial = _arrays(solve_map(pr, FAST, scheduler="serial").dataset)
@@ -218,6 +218,8 @@ def test_local_cluster_bitwise_equal(steel):
             assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
             res = solve_map(pr, FAST, scheduler=cluster.scheduler_address)
     _assert_bitwise(_arrays(res.dataset), serial)
+    # and the default local pool of two processes
+    _assert_bitwise(_arrays(solve_map(pr, FAST, scheduler="local", workers=2).dataset), serial)
 
 
 def test_bad_map_inputs(steel):
