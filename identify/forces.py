@@ -1,41 +1,387 @@
-"""Cutting-force sets, force statistics and stability observations (owned by the "forces" work).
+"""Identification pipelines of the force-side measurements: ``forces``, ``force_stats``, ``stability``.
 
-Stub of the contract :mod:`identify.api` dispatches to; each function raises NotImplementedError
-until the force pipeline lands. Readers take the path of the set (directory or file) and return a
-measurement object with at least ``kind``, ``path``, ``case`` (name in the file, or None) and
-``variant`` (or None); pipelines take ``(measurement, model: ModelState, *, alpha, max_effects,
-progress)`` and return an :class:`identify.result.Identification`.
+``forces`` (a cutting-force series)
+-----------------------------------
+1. The spindle frequency is estimated from the data and the model is run at it
+   (:mod:`identify.force_signals`).
+2. The complete revolutions of the window are split in two contiguous blocks: the first half
+   trains, the second is held out. Each block's time-synchronous average (TSA) is compared with the
+   model's average over the same pass times (the linearized pass, :mod:`identify.force_model`),
+   after a circular shift that aligns the unknown spindle phase (fitted on the training block).
+3. Greedy selection over the force-side library (:mod:`identify.cutting_effects`) by
+   :func:`identify.selection.forward_select`: each candidate is fitted on the training TSA (bounded
+   least squares, the phase shift a nuisance parameter) and scored on the held-out TSA. The
+   significance rule is the framework's (gain of squared held-out residual against the noise of
+   the held-out average, Bonferroni over the candidates, family-wise 1 %); the noise per bin and
+   axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
+
+``force_stats`` (8 published numbers)
+------------------------------------
+No held-out part: every subset of the library with at most 3 parameters in total is fitted to the
+8 numbers (least squares in N), ranked by AICc ``n ln(RSS/n) + 2k + 2k(k+1)/(n-k-1)``; a fit with
+a value on its bound is rejected. The error is the RMS over the 8 numbers (N); the degrees of
+freedom ``n - k`` are reported.
+
+``stability`` (observed stable / chatter cuts)
+----------------------------------------------
+See :func:`identify_stability`: the joint-damping scale (and the process damping it would take)
+that makes the lobes' verdict agree with every observation.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
+import sys
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from robolobes.core.errors import BadInput
+
+from .cutting_effects import FORCE_EFFECTS, chain_transfer
+from .effects import ModelState, effects_for
+from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
+from .model_toml import model_toml
+from .selection import Trial, forward_select
+from .force_model import revolution_averages, simulate_forces, with_spindle_hz
+from .force_signals import (ERROR_METRIC, SyncAverage, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
+                            revolutions, shift_average, spectrum_lines, sync_average)
+from .result import EffectFit, Identification, SelectionStep
+
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
-           "identify_stability"]
+           "identify_stability", "ForceContext", "check_window", "aicc"]
+
+read_forces = read_force_set
+
+#: Angle bins per revolution at most (fewer when a revolution holds fewer samples).
+MAX_BINS = 256
 
 
-def _todo(what):
-    raise NotImplementedError(f"{what} is not implemented yet")
+def check_window(path, window: tuple, case) -> None:
+    """BadInput when ``window`` (pass time, s) is not inside the case's pass."""
+    from robolobes.linearize.path import FeedProfile
+
+    feed = case.cut.feed_rate_m_per_s(case.tool)
+    dur = float(FeedProfile(travel_m=case.path.travel_m(case.tool), feed_m_per_s=feed,
+                            ramp_s=case.path.ramp_s).duration_s)
+    if window[1] > dur + 1e-9:
+        raise BadInput(f"{path}: window_s = {list(window)} s is outside the pass of case {case.name!r}, which lasts "
+                       f"{dur:.4g} s; valid: 0 <= t0 < t1 <= {dur:.4g}")
 
 
-def read_forces(path):
-    _todo("reading a cutting-force set")
+# ---------------------------------------------------------------------------------------------
+# cutting-force series
+# ---------------------------------------------------------------------------------------------
+
+class ForceContext:
+    """Measured averages of the training and held-out blocks, and the model's over the same times.
+
+    Attributes: ``spindle_hz``, ``bins``, ``train``/``heldout`` (:class:`SyncAverage`), ``blocks``
+    (revolution start times per block), ``t_end_s`` (model run length).
+    """
+
+    def __init__(self, series: ForceSeries, case, *, nominal_hz: float | None = None):
+        t, f = series.t_s, series.force_n
+        nominal = nominal_hz or case.cut.spindle_rpm / 60.0
+        self.spindle_hz = estimate_spindle_hz(t, f[:, :2], nominal)
+        per_rev = series.sample_rate_hz / self.spindle_hz
+        self.bins = int(min(MAX_BINS, 2 * (int(per_rev) // 2)))
+        starts, revs = revolutions(t, f, self.spindle_hz, self.bins)
+        if len(starts) < 8:
+            raise BadInput(f"{series.path}: the window holds {len(starts)} spindle revolutions; identification needs "
+                           f"at least 8 (4 to train, 4 held out)")
+        half = len(starts) // 2
+        period = 1.0 / self.spindle_hz
+        self.blocks = [starts[:half], starts[half:]]
+        self.train = sync_average(starts[:half], revs[:half], period)
+        self.heldout = sync_average(starts[half:], revs[half:], period)
+        self.t_end_s = float(starts[-1] + period + 4 * period / self.bins)
+
+    def raw_averages(self, state: ModelState) -> list:
+        t, f = simulate_forces(state, self.t_end_s)
+        return revolution_averages(t, f, self.spindle_hz, self.bins, self.blocks)
+
+    def filtered(self, avg: np.ndarray, h) -> np.ndarray:
+        return apply_transfer(avg, self.spindle_hz, h)
+
+    def averages(self, state: ModelState) -> list:
+        raw = self.raw_averages(state)
+        if not state.chain:
+            return raw
+        h = chain_transfer(state.chain)
+        return [self.filtered(a, h) for a in raw]
 
 
-def read_force_stats(path):
-    _todo("reading force statistics")
+@dataclass
+class _Fit:
+    values: np.ndarray
+    sigma: np.ndarray
+    shift: float
+    train: np.ndarray  # aligned model average of the training block (bins, 3)
+    heldout: np.ndarray  # aligned model average of the held-out block
+    on_bound: bool
 
 
-def read_stability(path):
-    _todo("reading stability observations")
+def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> _Fit:
+    from scipy.optimize import least_squares
+
+    family = effect.family(ctx, state)
+    h = chain_transfer(state.chain) if state.chain else None
+
+    def model(v):
+        avgs = family(v)
+        return [ctx.filtered(a, h) for a in avgs] if h is not None else avgs
+
+    lo, hi = np.array(effect.lower, float), np.array(effect.upper, float)
+    scale = hi - lo
+    meas = ctx.train.mean[:, :2]
+
+    def resid(x):
+        v = lo + x[:-1] * scale
+        return (shift_average(model(v)[0], x[-1])[:, :2] - meas).ravel()
+
+    best = None
+    for v0 in effect.starts():
+        x0 = np.append(np.clip((np.asarray(v0, float) - lo) / scale, 0, 1), shift0)
+        r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift0 - 0.5),
+                                             np.append(np.ones(len(lo)), shift0 + 0.5)), x_scale="jac")
+        if best is None or r.cost < best.cost:
+            best = r
+    x = best.x
+    v = lo + x[:-1] * scale
+    n, p = best.fun.size, x.size
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * (2 * best.cost / max(n - p, 1))
+        sig = np.sqrt(np.clip(np.diag(cov)[:-1], 0, None)) * scale
+    except np.linalg.LinAlgError:
+        sig = np.full(len(v), np.inf)
+    avgs = model(v)
+    on_bound = bool(np.any(x[:-1] <= 1e-6) or np.any(x[:-1] >= 1 - 1e-6))
+    return _Fit(values=v, sigma=sig, shift=float(x[-1]), train=shift_average(avgs[0], x[-1]),
+                heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound)
 
 
-def identify_forces(measurement, model, **kw):
-    _todo("identification from a cutting-force set")
+def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
+                    progress=None, effects=None) -> Identification:
+    """Identify the force-side effects in a cutting-force series (module docstring).
+
+    Parameters
+    ----------
+    measurement : ForceSeries
+    model : ModelState
+        The starting model (its case's commanded spindle speed is replaced by the measured one).
+    alpha : float
+        Family-wise false-positive rate of the selection (:func:`identify.selection.forward_select`).
+    max_effects : int
+    progress : callable ``(message)``, optional
+    effects : sequence of ForceEffect, optional
+        The library searched (default: every registered effect that observes ``"forces"``).
+    """
+    case = model.case
+    check_window(measurement.path, measurement.window_s, case)
+    ctx = ForceContext(measurement, case)
+    state = replace(model, case=with_spindle_hz(case, ctx.spindle_hz))
+    tr, ho = ctx.averages(state)
+    shift0 = align_shift(tr, ctx.train.mean)
+    meas = ctx.heldout.mean[:, :2].ravel()
+    sigma = ctx.heldout.noise[:, :2].ravel()
+    shifts = {id(state): shift0}
+    aligned = {id(state): shift_average(ho, shift0)}
+
+    def trial(st, eff):
+        if eff is None:
+            return Trial(residual=aligned[id(st)][:, :2].ravel() - meas, measured=meas, sigma=sigma, state=st)
+        fit = _fit_effect(ctx, eff, st, shifts[id(st)])
+        new = eff.apply_values(st, fit.values)
+        shifts[id(new)], aligned[id(new)] = fit.shift, fit.heldout
+        return Trial(residual=fit.heldout[:, :2].ravel() - meas, measured=meas, sigma=sigma, state=new,
+                     params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
+                     evidence={"signature": _signature_text(eff.name), "on_bound": fit.on_bound,
+                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift})
+
+    library = [e for e in (effects if effects is not None else effects_for("forces", state))
+               if hasattr(e, "family") and e.applicable(state)]
+    sel = forward_select(state, library, trial, alpha=alpha, max_effects=max_effects, progress=progress)
+    _, floor = heldout_error(aligned[id(state)], ctx.heldout)
+    final_ho = aligned[id(sel.state)]
+    extra = {"spindle_hz": ctx.spindle_hz, "spindle_rpm": ctx.spindle_hz * 60.0,
+             "phase_shift_rev": shifts[id(sel.state)], "bins_per_rev": ctx.bins,
+             "revolutions": {"train": ctx.train.n, "heldout": ctx.heldout.n},
+             "heldout_span_s": list(ctx.heldout.t_span_s),
+             "signatures_before": spectrum_lines(ctx.heldout.mean - aligned[id(state)], case.tool.teeth),
+             "signatures_after": spectrum_lines(ctx.heldout.mean - final_ho, case.tool.teeth),
+             "not_applicable": {e.name: e.reason_not_applicable(state) for e in FORCE_EFFECTS
+                                if not e.applicable(state)},
+             "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
+    return Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
+                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
+                          model_toml=model_toml(sel.state), extra=extra)
 
 
-def identify_force_stats(measurement, model, **kw):
-    _todo("identification from force statistics")
+_SIGNATURES = {
+    "edge_coefficients": "mean offsets and a step at each tooth entry and exit (force without chip)",
+    "runout": "once-per-revolution lines (tooth-to-tooth alternation of the force peaks)",
+    "dynamometer": "ringing above the tooth-passing harmonics after each entry; mean unchanged",
+    "lowpass": "tooth-passing harmonics rolled off, entry/exit edges rounded; mean unchanged",
+    "backlash": "amplitude-dependent change of the tooth-passing harmonics",
+}
 
 
-def identify_stability(measurement, model, **kw):
-    _todo("identification from stability observations")
+def _signature_text(name: str) -> str:
+    return _SIGNATURES.get(name, "")
+
+
+# ---------------------------------------------------------------------------------------------
+# force statistics (8 numbers)
+# ---------------------------------------------------------------------------------------------
+
+#: Angle bins per revolution for the statistics of a model run.
+STATS_BINS = 720
+#: Most parameters fitted to 8 statistics.
+MAX_STATS_PARAMS = 3
+
+
+def _stats_of(avg: np.ndarray) -> np.ndarray:
+    """(x min, max, mean, rms, y min, max, mean, rms) of a periodic average (bins, >=2), N."""
+    out = []
+    for j in range(2):
+        a = avg[:, j]
+        out += [a.min(), a.max(), a.mean(), math.sqrt(float(np.mean(a ** 2)))]
+    return np.array(out)
+
+
+class _StatsContext:
+    """Model averages over the statistics window: one block of every revolution in it."""
+
+    def __init__(self, stats: ForceStatistics, case):
+        self.spindle_hz = case.cut.spindle_rpm / 60.0
+        self.bins = STATS_BINS
+        t0, t1 = stats.window_s
+        period = 1.0 / self.spindle_hz
+        n = int(math.floor((t1 - t0) / period))
+        self.blocks = [t0 + period * np.arange(n)]
+        self.t_end_s = float(t0 + (n + 1) * period)
+
+    raw_averages = ForceContext.raw_averages
+    filtered = ForceContext.filtered
+    averages = ForceContext.averages
+
+
+def _fit_stats(ctx, combo, state, target):
+    """Fit a combination of effects to the 8 statistics; returns (values per effect, sigma, rss, on_bound,
+    fitted statistics). Cut-model effects combine by superposition of their changes of the average
+    (first order), measurement-chain effects filter the result."""
+    from scipy.optimize import least_squares
+
+    sizes = [len(e.params) for e in combo]
+    lo = np.concatenate([np.array(e.lower, float) for e in combo])
+    hi = np.concatenate([np.array(e.upper, float) for e in combo])
+    scale = hi - lo
+    base = ctx.raw_averages(state)[0]
+    fams = [e.family(ctx, state) for e in combo]
+    h_state = chain_transfer(state.chain) if state.chain else None
+
+    def model(x):
+        v = lo + x * scale
+        avg, k, chains = base.copy(), 0, []
+        for e, n, fam in zip(combo, sizes, fams):
+            if e.chain:
+                chains.append(e.transfer(v[k:k + n]))
+            else:
+                avg = avg + (fam(v[k:k + n])[0] - base)
+            k += n
+        for h in chains + ([h_state] if h_state is not None else []):
+            avg = ctx.filtered(avg, h)
+        return _stats_of(avg)
+
+    best = None
+    starts = [np.concatenate(s) for s in itertools.product(*[e.starts() for e in combo])]
+    for v0 in starts[:8]:
+        x0 = np.clip((v0 - lo) / scale, 1e-3, 1 - 1e-3)
+        r = least_squares(lambda x: model(x) - target, x0, bounds=(0, 1), diff_step=1e-4)
+        if best is None or r.cost < best.cost:
+            best = r
+    v = lo + best.x * scale
+    out, k = [], 0
+    for n in sizes:
+        out.append(v[k:k + n])
+        k += n
+    sig = np.full(len(v), np.nan)
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * (2 * best.cost / max(len(target) - len(v), 1))
+        sig = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
+    except np.linalg.LinAlgError:
+        pass
+    on_bound = bool(np.any(best.x <= 1e-4) or np.any(best.x >= 1 - 1e-4))
+    return out, sig, 2 * best.cost, on_bound, model(best.x)
+
+
+def aicc(rss: float, n: int, k: int) -> float:
+    """Akaike's criterion with the small-sample correction, for least squares with Gaussian errors."""
+    if n - k - 1 <= 0:
+        return math.inf
+    return n * math.log(max(rss, 1e-300) / n) + 2 * k + 2 * k * (k + 1) / (n - k - 1)
+
+
+def identify_force_stats(measurement: ForceStatistics, model: ModelState, *, alpha: float = 0.01,
+                         max_effects: int = 3, progress=None, effects=None) -> Identification:
+    """Fit at most 3 parameters of the library to 8 published force statistics by AICc (module docstring).
+
+    ``alpha`` is not used (no held-out part: the choice is by AICc); ``max_effects`` bounds the size of
+    the combinations tried."""
+    stats, case, state = measurement, model.case, model
+    check_window(stats.path, stats.window_s, case)
+    lib = [e for e in (effects if effects is not None else effects_for("force_stats", state)) if hasattr(e, "family")]
+    ctx = _StatsContext(stats, case)
+    target = stats.workpiece
+    base = _stats_of(ctx.averages(state)[0])
+    n = len(target)
+    rss0 = float(np.sum((base - target) ** 2))
+    rms0 = math.sqrt(rss0 / n)
+    combos = [c for r in range(1, min(3, max_effects) + 1)
+              for c in itertools.combinations([e for e in lib if e.applicable(state)], r)
+              if sum(len(e.params) for e in c) <= MAX_STATS_PARAMS]
+    table = [{"effects": [], "k": 0, "rss_n2": rss0, "aicc": aicc(rss0, n, 0), "rms_n": rms0}]
+    best = None
+    for i, combo in enumerate(combos):
+        if progress:
+            progress(f"force statistics {i + 1}/{len(combos)}: " + "+".join(e.name for e in combo))
+        vals, sig, rss, on_bound, fitted = _fit_stats(ctx, combo, state, target)
+        k = sum(len(e.params) for e in combo)
+        row = {"effects": [e.name for e in combo], "k": k, "rss_n2": rss, "aicc": aicc(rss, n, k),
+               "rms_n": math.sqrt(rss / n), "on_bound": on_bound,
+               "params": [e.as_dict(v) for e, v in zip(combo, vals)]}
+        table.append(row)
+        if not on_bound and row["aicc"] < table[0]["aicc"] and (best is None or row["aicc"] < best[0]["aicc"]):
+            best = (row, combo, vals, sig, fitted)
+    fits, final = [], state
+    err_after, fitted = rms0, base
+    if best is not None:
+        row, combo, vals, sig, fitted = best
+        k = 0
+        for e, v in zip(combo, vals):
+            fits.append(EffectFit(name=e.name, params=e.as_dict(v), uncertainty=e.as_dict(sig[k:k + len(v)]),
+                                  evidence={"aicc": row["aicc"], "aicc_without": table[0]["aicc"],
+                                            "dof": n - row["k"], "rss_n2": row["rss_n2"]}))
+            k += len(v)
+            final = e.apply_values(final, v)
+        err_after = row["rms_n"]
+    table.sort(key=lambda r: r["aicc"])
+    extra = {"n_statistics": n, "dof": n - (best[0]["k"] if best else 0), "aicc_table": table[:12],
+             "target_workpiece_axes_n": target.tolist(), "model_before_n": base.tolist(),
+             "model_after_n": np.asarray(fitted).tolist(), "error_unit": "N",
+             "note": "statistics-only data: no held-out part; errors are the RMS over the 8 numbers in N"}
+    return Identification(kind="force_stats", effects=tuple(fits), error_before=rms0, error_after=err_after,
+                          metric="RMS over the 8 statistics (x, y min, max, mean, rms) of model - measured, N "
+                                 "(training fit: statistics-only data have no held-out part; chosen by AICc)",
+                          noise_floor=float("nan"), steps=(), model_toml=model_toml(final), extra=extra)
+
+
+def identify_stability(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3, progress=None,
+                       **_) -> Identification:
+    """Stability observations: see :mod:`identify.force_stability`."""
+    from .force_stability import identify_stability as run
+
+    return run(measurement, model, progress=progress)

@@ -195,8 +195,11 @@ def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dic
     lo, hi = _bounds(layout)
     span = hi - lo
     best = None
-    for start in starts:
-        x0 = np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span)
+    x0s = [np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span) for start in starts]
+    if len(x0s) > 2:   # many starts (a scan): optimize from the two with the lowest cost
+        cost = [float(np.sum(_whitened(poses, fixed + _from_x(layout, x)) ** 2)) for x in x0s]
+        x0s = [x0s[i] for i in np.argsort(cost)[:2]]
+    for x0 in x0s:
         res = least_squares(lambda x: _whitened(poses, fixed + _from_x(layout, x)), x0, bounds=(lo, hi),
                             x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
         if best is None or res.cost < best.cost:
@@ -399,6 +402,7 @@ class _Trials:
         if effect.name == "tcp_mode":
             ev["extra_peak_hz"] = diag["extra_peak_hz"]
             ev["extra_peak_in_every_pose"] = diag["extra_peak_in_every_pose"]
+            ev["direction_tcp"] = effect.table(params[-1][1])["direction"]
         return Trial(r, m, s, state=params, params=dict(params[-1][1]), uncertainty=unc, evidence=ev)
 
 
@@ -411,11 +415,13 @@ def _splits(poses):
 
 
 def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
-                 progress: Callable[[str], None] | None = None, poles: bool = True) -> Identification:
+                 progress: Callable[[str], None] | None = None, poles: bool = True,
+                 effects=None) -> Identification:
     """Identify structural effects from a tool-tip FRF set (see the module doc).
 
     ``poles``: also fit the measurement's poles (LSCF/LSFD, :mod:`identify.modal`) and set them beside
-    the model's, before and after (a few seconds per pose).
+    the model's, before and after (a few seconds per pose). ``effects``: candidate names (default:
+    the library's default candidates).
     """
     from robolobes.core.errors import BadInput
 
@@ -424,8 +430,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     if len(measurement.poses) < 2:
         raise BadInput(f"{measurement.path}: leave-one-pose-out needs at least 2 poses with data, "
                        f"got {len(measurement.poses)}")
+    candidates = [e for e in effects_for("frf", model, effects) if isinstance(e, StructuralEffect)]
     poses = prepare(measurement, model, progress)
-    candidates = [e for e in effects_for("frf", model) if isinstance(e, StructuralEffect)]
     from .selection import z_threshold
     trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
     sel = forward_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress)

@@ -19,7 +19,7 @@ from robolobes.identify.effects import REGISTRY, ModelState, effects_for
 from robolobes.identify.selection import significance, z_threshold
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, TcpMode
+from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive, TcpMode
 from robolobes.main import main
 
 CASE = load_case("tx200-aluminium")
@@ -54,6 +54,8 @@ def _fast_vs_element(variant, effect_name, params, element):
     ("orthogonal", "orthogonal_correction", {"stiffness_scale": 0.5, "damping_scale": 1.5},
      OrthogonalCorrection(0.5, 1.5)),
     ("gravity", "joint_correction_a3", {"stiffness_scale": 1.3, "damping_scale": 1.0}, JointCorrection(3, 1.3, 1.0)),
+    ("basic", "servo_a2", {"rotor_inertia_kg_m2": 5.0, "kp_n_m_per_rad": 4e6, "kd_n_m_s_per_rad": 2e3},
+     ServoDrive(2, 5.0, 4e6, 2e3)),
 ])
 def test_fast_perturbation_equals_element_model(variant, name, params, element):
     # two independent paths: M, C, K perturbed in place (identify) vs pinocchio rebuilt with the
@@ -127,6 +129,7 @@ def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=F
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--variant", variant]
                             + ([] if poles else ["--no-poles"]), capsys)
     assert rc == 0, err
+    t["element"] = el
     return name, json.loads(out), t
 
 
@@ -144,6 +147,13 @@ def _correct(name, res, t):
 def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
     name, res, t = _identify_draw(tmp_path, capsys, kind, seed)
     assert _correct(name, res, t), (name, res["effects"], res["error_before"], res["error_after"], _truth_errors(t))
+    if kind == "tcp_mode":
+        # the Gauss-Newton standard deviations cover the truth: |fit - true| < 5 sigma (generous: the
+        # noise estimate is conservative and sigma is inflated by the reduced chi-square)
+        e, el = res["effects"][0], t["element"]
+        for k, true in (("freq_hz", el.freq_hz), ("damping_ratio", el.damping_ratio),
+                        ("stiffness_n_per_m", el.stiffness_n_per_m)):
+            assert abs(e["params"][k] - true) < 5 * e["uncertainty"][k], (k, e["params"][k], true, e["uncertainty"][k])
     assert res["metric"].startswith("held-out")
     assert "provenance" in res and len(res["provenance"]["inputs_sha256"]) == 64
     # the model output loads as a case and carries the effect
@@ -212,3 +222,19 @@ def test_cli_report(tmp_path, capsys):
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--alpha", "0.02", "--report", str(rep)],
                             capsys)
     assert rc == 2 and len(err.strip().splitlines()) == 1 and (rep / "report.md").read_text() == before
+
+
+def test_servo_named_with_effects_is_found(tmp_path, capsys):
+    # a soft position loop on axis 2 (kp = 4e6 N m/rad, 2/3 of the joint spring): only tried when
+    # named; among the named candidates it comes first and the error drops to the noise
+    d = tmp_path / "set"
+    t = synthetic_frf_set(d, CASE, elements=(ServoDrive(2, 5.0, 4e6, 2e3),), n_poses=3,
+                          f_hz=np.linspace(2, 300, 400), rel_noise=0.02, add_noise=0.02, seed=9)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles",
+                             "--effects", "servo_a2,joint_correction_a2,payload_mass"], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    e_gen, _ = _truth_errors(t)
+    assert res["effects"][0]["name"] == "servo_a2" and res["error_after"] <= 1.2 * e_gen, res["effects"]
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--effects", "servo_a9"], capsys)
+    assert rc == 2 and "servo_a9" in err

@@ -108,28 +108,20 @@ def test_bad_measurement_files_one_line_exit_2(tmp_path, capsys):
         np.savetxt(d / "a.csv", rows, delimiter=",", comments="",
                    header="# frame base\nfreq_hz,H_x_x_re_m_per_n,H_x_x_im_m_per_n")
     _bad(tmp_path / "3", capsys, decreasing, "increasing")
+    for k, (over, match) in enumerate([({"ordinate_spec_data_type": 9}, "ordinate_spec_data_type = 9"),
+                                       ({"rsp_dir": 4}, "rsp_dir = 4"),
+                                       ({"ordinate_spec_data_type": 12, "ordinate_axis_units_lab": "furlong"},
+                                        "unit 'furlong'")]):
+        _bad(tmp_path / f"uff{k}", capsys, lambda d: _uff_with(d, h, **over), match)
+
+
+def _uff_with(d, h, **over):
+    """One UFF58 dataset for pose a, with some fields overridden (written by pyuff directly)."""
     import pyuff
-    def bad_type(d):
-        s = pyuff.prepare_58(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1,
-                             ord_data_type=6, num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0,
-                             abscissa_spec_data_type=18, ordinate_spec_data_type=9, orddenom_spec_data_type=13,
-                             data=h.astype(complex), x=F)
-        pyuff.UFF(str(d / "a.uff")).write_sets([s], mode="add")
-    _bad(tmp_path / "5", capsys, bad_type, "ordinate_spec_data_type = 9")
-    def bad_dir(d):
-        s = pyuff.prepare_58(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=4, ref_node=1, ref_dir=1,
-                             ord_data_type=6, num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0,
-                             abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
-                             data=h.astype(complex), x=F)
-        pyuff.UFF(str(d / "a.uff")).write_sets([s], mode="add")
-    _bad(tmp_path / "6", capsys, bad_dir, "rsp_dir = 4")
-    def bad_unit2(d):
-        s = pyuff.prepare_58(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1,
-                             ord_data_type=6, num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0,
-                             abscissa_spec_data_type=18, ordinate_spec_data_type=12, ordinate_axis_units_lab="furlong",
-                             orddenom_spec_data_type=13, data=h.astype(complex), x=F)
-        pyuff.UFF(str(d / "a.uff")).write_sets([s], mode="add")
-    _bad(tmp_path / "7", capsys, bad_unit2, "unit 'furlong'")
+    fields = dict(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1, ord_data_type=6,
+                  num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0, abscissa_spec_data_type=18,
+                  ordinate_spec_data_type=8, orddenom_spec_data_type=13, data=h.astype(complex), x=F)
+    pyuff.UFF(str(d / "a.uff")).write_sets([pyuff.prepare_58(**{**fields, **over})], mode="add")
 
 
 def test_measurement_kind_recognised_from_files(tmp_path):

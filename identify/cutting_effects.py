@@ -1,0 +1,338 @@
+"""Force-side effects: what the cutting model or the measurement chain may lack.
+
+Each effect is a parametrized extension with physical bounds, added where the model composes:
+
+==================  =====================  =========================================================
+effect              enters as              parameters (SI), bounds, detection threshold
+==================  =====================  =========================================================
+edge_coefficients   cutting law            Kte, Kre in N/m, [0, 1e5] (0-100 N/mm); 5e3 N/m (5 N/mm)
+runout              tool (tooth radii)     delta_m = r_1 - r_2 in m, [-3e-5, 3e-5]; 3e-6 m
+dynamometer         measurement chain      fn_hz [500, 8000], zeta [0.005, 0.3]; fn <= 6 kHz
+lowpass             measurement chain      cutoff_hz [300, 20000] (4th-order Butterworth); <= 5 kHz
+backlash            robot (motion axes)    backlash_rad [0, 3e-4]; see :class:`Backlash`
+joint_damping       robot (motion axes)    scale [0.2, 50] on every joint damper (stability data)
+process_damping     cutting law            C_pd in N/m^2 ... (stability data, see :func:`process_damping_c`)
+==================  =====================  =========================================================
+
+The detection thresholds are for a cutting-force set of the TX200 aluminium pass (0.2 s of steady
+cut, 1-3 N noise): the smallest value whose change of the synchronous average exceeds 5 times the
+noise floor (computed with the model, not tuned on identification outcomes; see the README).
+
+* **Edge coefficients** (Altintas, *Manufacturing Automation*, ch. 2): ``dFt = Ktc h db + Kte db``,
+  ``dFr = Krc h db + Kre db``: a force independent of the chip while a tooth is engaged. Forces are
+  linear in (Kte, Kre) for a given motion, so the fit is a linear regression on two basis runs
+  (Altintas' average-force method is the same regression on mean forces only).
+* **Runout**: tooth tips at radii ``R + r_j``; the chip of tooth j grows by ``r_j - r_(j-1)``
+  (:func:`cases.milling.regeneration`), giving once-per-revolution lines. For a two-tooth cutter
+  only the difference ``delta = r_1 - r_2`` changes the forces (a common offset moves the wall by
+  micrometres); the axis-offset amplitude and phase of a cutter with more teeth are not built.
+* **Dynamometer**: one lightly damped mode per axis, ``H = 1 / (1 - (f/fn)^2 + 2 i zeta f/fn)``, unit
+  static gain: it leaves the mean force and rings after each tooth entry.
+* **Low-pass**: the acquisition's anti-aliasing filter, 4th-order Butterworth at ``cutoff_hz``: it
+  rounds the entry and exit edges; its delay is absorbed by the phase alignment.
+* **Backlash**: the paper's dead zone on the motion axes (variant ``backlash``, which includes the
+  orthogonal compliance); observable in forces only (amplitude-dependent, linearization takes the
+  gears as engaged).
+* **Joint damping** and **process damping**: observed by stability observations; see
+  :mod:`identify.forces` (``stability``).
+
+Each effect says which measurement kinds observe it (``observed_by``) and which case-TOML keys it
+writes (``toml``); measurement-chain effects are not part of the cut model and are written as a
+comment block (the case TOML keeps loading under the strict key check).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .effects import Effect, ModelState, Parameter, check_params, register
+
+__all__ = ["ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
+           "FORCE_EFFECTS", "chain_transfer", "process_damping_c"]
+
+
+class ForceEffect(Effect):
+    """An effect on forces (the framework's :class:`identify.effects.Effect`, registered in its
+    REGISTRY) plus what the force pipelines need to fit it fast: :meth:`family` (the model's
+    synchronous averages as a function of the parameter values) and :meth:`apply_values`.
+
+    ``parameters`` carry the physical bounds and the detection threshold (``detect``) for a
+    cutting-force set; ``observed_by`` names the kinds that observe the effect, with the threshold
+    in words.
+    """
+
+    toml = ""
+
+    @property
+    def chain(self) -> bool:
+        return self.stage == "chain"
+
+    @property
+    def params(self) -> tuple:
+        return self.names
+
+    @property
+    def lower(self) -> tuple:
+        return tuple(p.lower for p in self.parameters)
+
+    @property
+    def upper(self) -> tuple:
+        return tuple(p.upper for p in self.parameters)
+
+    @property
+    def threshold(self) -> dict:
+        return {p.name: p.detect for p in self.parameters if p.detect is not None}
+
+    def reason_not_applicable(self, state: ModelState) -> str | None:
+        """None if the effect can be added to ``state``, else why not."""
+        return None
+
+    def applicable(self, model: ModelState) -> bool:
+        return self.reason_not_applicable(model) is None
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        p = check_params(self, params)
+        return self.apply_values(model, [p[n] for n in self.names])
+
+    def apply_values(self, state: ModelState, values) -> ModelState:
+        raise NotImplementedError
+
+    def starts(self) -> list:
+        """Initial values for the nonlinear fit (inside the bounds)."""
+        lo, hi = np.array(self.lower), np.array(self.upper)
+        return [lo + 0.3 * (hi - lo)]
+
+    def family(self, ctx, state: ModelState):
+        """A callable ``values -> list of raw (bins, 3) averages`` for the context's blocks, before the
+        state's chain (the context applies the chain). Default: re-simulate the applied state."""
+        return lambda v: ctx.raw_averages(self.apply_values(state, v))
+
+    def as_dict(self, values) -> dict:
+        return {k: float(v) for k, v in zip(self.params, values)}
+
+    def toml_comment(self, values) -> str | None:
+        """A comment line for the case TOML when the effect is not a key of the case (chain, robot)."""
+        return None
+
+
+class EdgeCoefficients(ForceEffect):
+    name = "edge_coefficients"
+    stage = "cutting_law"
+    parameters = (Parameter("kte_n_per_m", 0.0, 1e5, neutral=0.0, detect=5e3, doc="tangential edge coefficient"),
+                  Parameter("kre_n_per_m", 0.0, 1e5, neutral=0.0, detect=5e3, doc="radial edge coefficient"))
+    observed_by = {"forces": "mean offsets and entry/exit steps: Kte or Kre >= 5 N/mm (8 N per tooth at ap 1.6 mm)",
+                   "force_stats": "means and RMS shifted (fitted with at most 3 parameters in all)"}
+    signatures = ("mean_offset",)
+    doc = "edge (ploughing) forces Kte db, Kre db of an engaged edge element (Altintas)"
+    toml = "[material] kte_n_per_mm, kre_n_per_mm"
+    #: Edge coefficients of the basis runs, N/m (any value works: the forces are linear in them).
+    BASIS = 2e4
+
+    def apply_values(self, state, values):
+        kte, kre = (float(v) for v in values)
+        law = state.case.law
+        new = replace(law, kte_n_per_m=law.kte_n_per_m + kte, kre_n_per_m=law.kre_n_per_m + kre)
+        case = replace(state.case, law=new)
+        st = state.with_override("material", "kte_n_per_mm", new.kte_n_per_m * 1e-3, case)
+        return st.with_override("material", "kre_n_per_mm", new.kre_n_per_m * 1e-3, case)
+
+    def family(self, ctx, state):
+        # forces are linear in (Kte, Kre) for the engaged elements: F = F0 + Kte G_te + Kre G_re
+        base = ctx.raw_averages(state)
+        gte = [(a - b) / self.BASIS for a, b in zip(ctx.raw_averages(self.apply_values(state, (self.BASIS, 0.0))), base)]
+        gre = [(a - b) / self.BASIS for a, b in zip(ctx.raw_averages(self.apply_values(state, (0.0, self.BASIS))), base)]
+        return lambda v: [b + v[0] * x + v[1] * y for b, x, y in zip(base, gte, gre)]
+
+    def starts(self):
+        return [np.array([1e4, 1e4])]
+
+
+
+class Runout(ForceEffect):
+    name = "runout"
+    stage = "cutting_law"
+    parameters = (Parameter("delta_m", -3e-5, 3e-5, neutral=0.0, detect=3e-6,
+                            doc="radius of tooth 1 minus tooth 2 (two-tooth cutters)"),)
+    observed_by = {"forces": "once-per-revolution lines: |r1 - r2| >= 3 um (3 % of the 0.1 mm chip)",
+                   "force_stats": "extremes of one tooth raised, of the other lowered"}
+    signatures = ("once_per_rev",)
+    doc = "tooth-tip radii R + r_j: the chip of tooth j changes by r_j - r_(j-1)"
+    toml = "[tool] runout_um"
+    #: Runs of the family, m; forces between them by cubic interpolation (they are nearly linear in
+    #: delta while both teeth cut: the chip of each tooth changes by +-delta).
+    GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
+
+    def reason_not_applicable(self, state):
+        if state.case.tool.teeth != 2:
+            return "runout is built for two-tooth cutters only (delta = r1 - r2)"
+        return None
+
+    def apply_values(self, state, values):
+        d = float(values[0])
+        tool = state.case.tool
+        r = np.asarray(tool.runout_m, float) + np.array([d / 2, -d / 2])
+        case = replace(state.case, tool=replace(tool, runout_m=tuple(r.tolist())))
+        return state.with_override("tool", "runout_um", [float(x) * 1e6 for x in r], case)
+
+    def family(self, ctx, state):
+        from scipy.interpolate import CubicSpline
+
+        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
+        splines = [CubicSpline(self.GRID, np.stack([r[b] for r in runs]), axis=0) for b in range(len(runs[0]))]
+        return lambda v: [s(float(v[0])) for s in splines]
+
+    def starts(self):
+        return [np.array([-1e-5]), np.array([1e-5])]
+
+
+
+def _dynamometer_h(fn_hz: float, zeta: float):
+    def h(f):
+        r = np.asarray(f, float) / fn_hz
+        return 1.0 / (1.0 - r ** 2 + 2j * zeta * r)
+    return h
+
+
+def _butterworth_h(cutoff_hz: float, order: int = 4):
+    # analog Butterworth: poles s_k = wc exp(i pi (2k + n - 1) / (2n)), k = 1..n; H(0) = 1
+    poles = np.exp(1j * np.pi * (2 * np.arange(1, order + 1) + order - 1) / (2 * order))
+
+    def h(f):
+        s = 1j * np.asarray(f, float) / cutoff_hz
+        out = np.ones_like(s, dtype=complex)
+        for p in poles:
+            out = out * (-p) / (s - p)
+        return out
+    return h
+
+
+class Dynamometer(ForceEffect):
+    name = "dynamometer"
+    stage = "chain"
+    parameters = (Parameter("fn_hz", 500.0, 8000.0, detect=6000.0, log=True, doc="dynamometer mode frequency"),
+                  Parameter("zeta", 0.005, 0.3, doc="its damping ratio"))
+    observed_by = {"forces": "ringing after each tooth entry: fn <= 6 kHz (within the first 10 tooth harmonics "
+                             "at 18 700 rpm)",
+                   "force_stats": "extremes overshoot (min below, max above the model), mean unchanged"}
+    signatures = ("entry_ringing",)
+    doc = "one lightly damped sensor mode per axis, unit static gain"
+    toml = "measurement chain (not written into the case)"
+
+    def transfer(self, values):
+        return _dynamometer_h(*values)
+
+    def apply_values(self, state, values):
+        return state.with_chain(self.name, self.as_dict(values))
+
+    def family(self, ctx, state):
+        base = ctx.raw_averages(state)
+        return lambda v: [ctx.filtered(a, self.transfer(v)) for a in base]
+
+    def starts(self):
+        return [np.array([f, 0.05]) for f in (800.0, 1500.0, 3000.0, 6000.0)]
+
+    def toml_comment(self, values):
+        return f"measurement chain: dynamometer mode fn = {values[0]:.1f} Hz, zeta = {values[1]:.4f}"
+
+
+class Lowpass(ForceEffect):
+    name = "lowpass"
+    stage = "chain"
+    parameters = (Parameter("cutoff_hz", 300.0, 20000.0, detect=5000.0, log=True,
+                            doc="-3 dB frequency of a 4th-order Butterworth"),)
+    observed_by = {"forces": "tooth harmonics rolled off: cutoff <= 5 kHz",
+                   "force_stats": "extremes reduced, mean unchanged"}
+    signatures = ("harmonic_rolloff",)
+    doc = "acquisition anti-aliasing filter"
+    toml = "measurement chain (not written into the case)"
+
+    def transfer(self, values):
+        return _butterworth_h(float(values[0]))
+
+    def apply_values(self, state, values):
+        return state.with_chain(self.name, self.as_dict(values))
+
+    def family(self, ctx, state):
+        base = ctx.raw_averages(state)
+        return lambda v: [ctx.filtered(a, self.transfer(v)) for a in base]
+
+    def starts(self):
+        return [np.array([f]) for f in (700.0, 2000.0, 6000.0)]
+
+    def toml_comment(self, values):
+        return f"measurement chain: 4th-order Butterworth low-pass at {values[0]:.1f} Hz"
+
+
+class Backlash(ForceEffect):
+    """The motion axes' dead zone (eq. 12). The model variant becomes ``backlash`` (orthogonal compliance
+    plus the dead zone, the paper's variant); family by linear interpolation between runs at
+    ``GRID`` (the response to a dead zone is not smooth in its width)."""
+
+    name = "backlash"
+    stage = "element"
+    parameters = (Parameter("backlash_rad", 0.0, 3e-4, neutral=0.0, detect=7.3e-5,
+                            doc="dead-zone half-width on every motion axis"),)
+    observed_by = {"forces": "amplitude-dependent change of the tooth harmonics (tested from the orthogonal "
+                             "variant only)"}
+    signatures = ("harmonic_rolloff",)
+    doc = "the paper's eq. 12 dead zone (variant 'backlash')"
+    toml = "robot file: backlash half-width, variant 'backlash'"
+    GRID = (0.0, 3e-5, 7.3e-5, 1.5e-4, 3e-4)
+
+    def reason_not_applicable(self, state):
+        if state.variant not in ("orthogonal", "backlash"):
+            return (f"backlash is added to the 'orthogonal' variant (the paper's backlash variant); the model here "
+                    f"is {state.variant!r}: identify with --variant orthogonal to test it")
+        return None
+
+    def apply_values(self, state, values):
+        s = float(values[0])
+        robot = replace(state.case.robot, backlash_half_width_rad=s)
+        return replace(state, case=replace(state.case, robot=robot), variant="backlash" if s > 0 else "orthogonal")
+
+    def table(self, params):  # not an element of the case file: the variant says it
+        return {}
+
+    def family(self, ctx, state):
+        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
+        grid = np.array(self.GRID)
+
+        def f(v):
+            s = float(np.clip(v[0], grid[0], grid[-1]))
+            i = int(np.clip(np.searchsorted(grid, s) - 1, 0, len(grid) - 2))
+            w = (s - grid[i]) / (grid[i + 1] - grid[i])
+            return [(1 - w) * a + w * b for a, b in zip(runs[i], runs[i + 1])]
+        return f
+
+    def starts(self):
+        return [np.array([5e-5]), np.array([1.5e-4])]
+
+    def toml_comment(self, values):
+        return f"robot: backlash half-width {values[0]:.3e} rad on the motion axes (variant 'backlash')"
+
+
+#: The force-side library, in the order candidates are tried (registered in identify.effects.REGISTRY).
+FORCE_EFFECTS = tuple(register(e) for e in (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash()))
+
+
+def chain_transfer(chain: tuple):
+    """The product of the transfer functions of a measurement chain ``((name, params), ...)``."""
+    by_name = {e.name: e for e in FORCE_EFFECTS if e.chain}
+    hs = [by_name[n].transfer(tuple(p[k] for k in by_name[n].params)) for n, p in chain]
+
+    def h(f):
+        out = np.ones(np.shape(f), dtype=complex)
+        for g in hs:
+            out = out * g(f)
+        return out
+    return h
+
+
+def process_damping_c(ksp_n_per_m3: float, flank_m: float, depth_m: float, speed_m_per_s: float) -> float:
+    """Equivalent viscous process damping ``c = Ksp b L^2 / (2 V)`` in N s/m (Altintas, Eynian & Onozuka
+    2008; Budak & Tunc 2010): the volume the flank of length ``L`` indents under a surface wave,
+    ``b L^2 ydot / (2 V)``, times the indentation coefficient ``Ksp`` (N/m^3)."""
+    return ksp_n_per_m3 * depth_m * flank_m ** 2 / (2.0 * speed_m_per_s)
+

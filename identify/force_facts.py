@@ -1,0 +1,110 @@
+"""The seed paper's measured facts, confronted with the model by identification (for the study report).
+
+(a) **Aluminium, Tab. 10** (:func:`tab10_fact`): the 8 measured force statistics against the basic
+    model, before and after the effects that force-statistics identification selects (AICc, at most
+    3 parameters; :func:`identify.forces.identify_force_stats`), beside the RMS of the paper's own
+    model rows (:func:`paper_rows_rms`, from ``cases/data/tx200-paper-results.toml``).
+(b) **Steel, measured stable, predicted unstable** (:func:`steel_fact`): the joint-damping scale and
+    the process damping that make the lobes agree with the stable cut, with the surface wavelength
+    ``V / f_chatter`` and whether each value is credible (:mod:`identify.force_stability`).
+
+Both return plain dicts (JSON-ready); :func:`facts_markdown` renders them for a report.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["paper_rows_rms", "tab10_fact", "steel_fact", "facts_markdown", "TAB10_FILE"]
+
+#: The shipped Tab. 10 experimental row, in the force_stats.toml format.
+TAB10_FILE = Path(__file__).resolve().parents[1] / "cases" / "data" / "measured" / "tx200-aluminium-tab10" / \
+    "force_stats.toml"
+
+
+def _tab10_file() -> Path:
+    from importlib import resources
+
+    p = Path(str(resources.files("robolobes.cases") / "data" / "measured" / "tx200-aluminium-tab10" /
+                 "force_stats.toml"))
+    return p if p.is_file() else TAB10_FILE
+
+
+def paper_rows_rms() -> dict:
+    """RMS over the 8 statistics of each of the paper's model rows against its experimental row, N.
+
+    Rows are ``[Fx min, Fy min, Fx max, Fy max, Fx mean, Fy mean, Fx rms, Fy rms]`` (paper axes)."""
+    from robolobes.cases.loader import load_reference
+
+    tab = load_reference("tx200-paper-results")["aluminium"]["tab10"]
+    exp = np.asarray(tab["experimental"], float)
+    return {k: float(np.sqrt(np.mean((np.asarray(v, float) - exp) ** 2)))
+            for k, v in tab.items() if k not in ("experimental", "window_s")}
+
+
+def tab10_fact(variant: str = "basic", progress=None) -> dict:
+    """Fact (a): identification on the paper's Tab. 10 experimental row (module docstring)."""
+    from .api import model_state, read_measurement
+    from .forces import identify_force_stats
+
+    m = read_measurement(_tab10_file())
+    state, _ = model_state(m, variant=variant)
+    res = identify_force_stats(m, state, progress=progress)
+    d = res.to_json()
+    return {"variant": variant, "rms_before_n": res.error_before, "rms_after_n": res.error_after,
+            "effects": d["effects"], "dof": d["dof"], "paper_rows_rms_n": paper_rows_rms(),
+            "model_before_n": d["model_before_n"], "model_after_n": d["model_after_n"],
+            "target_n": d["target_workpiece_axes_n"], "aicc_table": d["aicc_table"]}
+
+
+def steel_fact(variant: str = "basic", progress=None) -> dict:
+    """Fact (b): the steel cut observed stable at 3100 rpm, 1.6 mm, at the pass start (module docstring).
+
+    Slow: every bisection step is a robust lobes verdict (about 15-25 evaluations)."""
+    from robolobes.cases import load_case
+
+    from .effects import ModelState
+    from .force_data import StabilityObservation, StabilityObservations
+    from .force_stability import identify_stability
+
+    case = load_case("tx200-steel")
+    obs = StabilityObservations(path=Path("tx200-steel (paper, section 4.2)"),
+                                rows=(StabilityObservation(case="tx200-steel", rpm=case.cut.spindle_rpm,
+                                                           depth_m=case.cut.ap_m, chatter=False, path_s_m=0.0),))
+    res = identify_stability(obs, ModelState(case=case, variant=variant, case_ref="tx200-steel"), progress=progress)
+    d = res.to_json()
+    return {"variant": variant, "error_before": res.error_before, "error_after": res.error_after,
+            "verdict_before": d["verdicts_before"][0], "effects": d["effects"]}
+
+
+def _fmt_stats(v) -> str:
+    return ", ".join(f"{x:.1f}" for x in v)
+
+
+def facts_markdown(a: dict | None, b: dict | None) -> str:
+    """Markdown paragraphs for the report (either fact may be None)."""
+    out = []
+    if a is not None:
+        rows = a["paper_rows_rms_n"]
+        eff = "; ".join(f"{e['name']} " + ", ".join(f"{k} = {v:.4g}" for k, v in e["params"].items())
+                        for e in a["effects"]) or "none"
+        out.append(f"**(a) Aluminium, Tab. 10.** RMS over the 8 statistics: our {a['variant']} model "
+                   f"{a['rms_before_n']:.1f} N (paper's basic row {rows['basic']:.1f} N, backlash row "
+                   f"{rows['backlash']:.1f} N). Effects selected (AICc, at most 3 parameters, {a['dof']} degrees "
+                   f"of freedom left): {eff}; after: {a['rms_after_n']:.1f} N. Measured (workpiece axes) "
+                   f"{_fmt_stats(a['target_n'])}; model before {_fmt_stats(a['model_before_n'])}; after "
+                   f"{_fmt_stats(a['model_after_n'])} N.")
+    if b is not None:
+        parts = []
+        for e in b["effects"]:
+            ev = e["evidence"]
+            val = ", ".join(f"{k} = {v:.4g}" for k, v in e["params"].items())
+            parts.append(f"{e['name']} ({val}): {'credible' if ev['credible'] else 'not credible'}: {ev['why']}")
+        vb = b["verdict_before"]
+        out.append(f"**(b) Steel, observed stable.** The lobes say {vb['verdict']} (limit "
+                   f"{vb['depth_limit_m'] * 1e3:.3f} mm at 3100 rpm, chatter {vb['chatter_freq_hz']:.1f} Hz). "
+                   + " ".join(parts))
+    return "\n\n".join(out)
+

@@ -1,0 +1,96 @@
+"""The force model used for fitting: the linearized time-domain pass, its synchronous averages,
+and the measurement chain.
+
+Model forces come from the **linearized** time-domain path (:mod:`timedomain.simulate`, compiled
+fast path: the linearization at the pass start with the full nonlinear milling force on the eroded
+workpiece), run from t = 0 to the end of the measured window at the measured spindle speed. The
+synthetic data of the tests come from the full nonlinear path instead (a different code path:
+pinocchio's nonlinear dynamics, Newton on the full residual); the two agree to 3e-5 of the force
+RMS on the aluminium pass (tests/test_fastpath.py), far below the 1-3 N noise of a measurement.
+
+Runs are memoised per process (a pass takes ~2 s): the key is the cut, the law, the tool, the
+robot variant and the end time.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import replace
+
+import numpy as np
+
+from robolobes.cases.spec import MillingCase
+
+__all__ = ["simulate_forces", "with_spindle_hz", "with_law", "with_tool", "revolution_averages"]
+
+_CACHE: OrderedDict = OrderedDict()
+_CACHE_SIZE = 48
+
+
+def _key(state, t_end_s: float) -> tuple:
+    case = state.case
+    r = case.robot
+    return (case.name, repr(case.tool), repr(case.law), repr(case.cut), repr(case.path.ramp_s),
+            float(case.path.approach_m), float(case.path.part_length_m), state.variant, repr(state.elements),
+            round(float(t_end_s), 9), float(getattr(r, "backlash_half_width_rad", 0.0)),
+            tuple(np.round(np.asarray(r.joint_damping, float), 12)))
+
+
+def simulate_forces(state, t_end_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Forces on the workpiece (cut frame) of the linearized pass of a model state
+    (:class:`identify.effects.ModelState`: case, variant, added elements) from 0 to ``t_end_s``.
+
+    Returns ``(t_s (n,), force_n (n, 3))`` (N). Memoised (module docstring).
+    """
+    key = _key(state, t_end_s)
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+
+    run = simulate(SimulationProblem(state.robot(), state.case, t_end_s=float(t_end_s)), LinearizedNewmark(),
+                   verdict_companion=False)
+    out = (np.asarray(run.t_s), np.asarray(run.force_workpiece_n))
+    _CACHE[key] = out
+    if len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return out
+
+
+def with_spindle_hz(case: MillingCase, spindle_hz: float) -> MillingCase:
+    """The case at another spindle speed with the same feed rate (m/s): what a spindle whose real speed
+    differs from the commanded one does (the feed axis and the spindle are driven independently)."""
+    cut = case.cut
+    rpm = spindle_hz * 60.0
+    fz = cut.feed_per_tooth_m * cut.spindle_rpm / rpm
+    return replace(case, cut=replace(cut, spindle_rpm=rpm, feed_per_tooth_m=fz))
+
+
+def with_law(case: MillingCase, **changes) -> MillingCase:
+    """The case with cutting-law fields changed (``kte_n_per_m=...``)."""
+    return replace(case, law=replace(case.law, **changes))
+
+
+def with_tool(case: MillingCase, **changes) -> MillingCase:
+    """The case with tool fields changed (``runout_m=...``)."""
+    return replace(case, tool=replace(case.tool, **changes))
+
+
+def revolution_averages(t_s: np.ndarray, force_n: np.ndarray, spindle_hz: float, bins: int, blocks) -> list:
+    """Synchronous averages of a (model) series over blocks of revolutions given by their start times.
+
+    ``blocks``: list of arrays of revolution start times (s). Returns one (bins, 3) array per block: the
+    mean over the revolutions of the block, resampled like the measurement (same pass times).
+    """
+    period = 1.0 / spindle_hz
+    out = []
+    grid = np.arange(bins) / bins * period
+    t = np.asarray(t_s)
+    for starts in blocks:
+        tq = (np.asarray(starts)[:, None] + grid[None, :]).ravel()
+        if tq[0] < t[0] - 1e-12 or tq[-1] > t[-1] + period / bins:
+            raise ValueError(f"model run {t[0]:.4g}-{t[-1]:.4g} s does not cover the block {tq[0]:.4g}-{tq[-1]:.4g} s")
+        x = np.stack([np.interp(tq, t, force_n[:, j]) for j in range(force_n.shape[1])], axis=-1)
+        out.append(x.reshape(len(starts), bins, -1).mean(axis=0))
+    return out
+
