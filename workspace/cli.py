@@ -305,7 +305,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
         t_end = min(t_end_s, prob.pass_duration_s)
         run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
     s = run.summary
-    return {"stable": s.stable, "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
+    return {**s.verdict.to_json(), "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
             "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
 
 
