@@ -297,7 +297,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
         t_end = min(t_end_s, prob.pass_duration_s)
         run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
     s = run.summary
-    return {"stable": s.stable, "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
+    return {**s.verdict.to_json(), "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
             "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
 
 
@@ -385,6 +385,7 @@ def run_optimize(args: argparse.Namespace) -> int:
           "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
           "baseline_worst_pose_q_deg": (np.degrees(res.baseline.theta[res.baseline.worst]).tolist()
                                         if res.baseline.feasible else None),
+          "optimum_strict_ok": res.best.strict_ok, "baseline_strict_ok": res.baseline.strict_ok,
           "baseline_feasible": res.baseline.feasible, "baseline_reason": res.baseline.reason,
           "depth_along_pass_m": {"s_m": res.best.s_m, "baseline": res.baseline.depth_m, "optimum": res.best.depth_m},
           "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],
