@@ -63,9 +63,11 @@ def run_identify_cli(args) -> int:
         steps[0] += 1
         bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
 
-    kw = {"poles": False} if args.no_poles else {}
-    if args.effects:
-        kw["effects"] = [x.strip() for x in args.effects.split(",") if x.strip()]
+    kw = {"poles": False} if args.no_poles and measurement.kind == "frf" else {}
+    if args.effects:  # names -> the library's Effect objects (BadInput for a name the kind does not observe)
+        from .effects import effects_for
+        names = [x.strip() for x in args.effects.split(",") if x.strip()]
+        kw["effects"] = effects_for(measurement.kind, state, names)
     result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
     bar.done()
     out = {**result.to_json(), "provenance": prov}

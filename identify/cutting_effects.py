@@ -43,7 +43,7 @@ comment block (the case TOML keeps loading under the strict key check).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -112,10 +112,6 @@ class ForceEffect(Effect):
     def as_dict(self, values) -> dict:
         return {k: float(v) for k, v in zip(self.params, values)}
 
-    def toml_comment(self, values) -> str | None:
-        """A comment line for the case TOML when the effect is not a key of the case (chain, robot)."""
-        return None
-
 
 class EdgeCoefficients(ForceEffect):
     name = "edge_coefficients"
@@ -147,7 +143,6 @@ class EdgeCoefficients(ForceEffect):
 
     def starts(self):
         return [np.array([1e4, 1e4])]
-
 
 
 class Runout(ForceEffect):
@@ -187,7 +182,6 @@ class Runout(ForceEffect):
         return [np.array([-1e-5]), np.array([1e-5])]
 
 
-
 def _dynamometer_h(fn_hz: float, zeta: float):
     def h(f):
         r = np.asarray(f, float) / fn_hz
@@ -208,7 +202,23 @@ def _butterworth_h(cutoff_hz: float, order: int = 4):
     return h
 
 
-class Dynamometer(ForceEffect):
+class ChainEffect(ForceEffect):
+    """A measurement-chain stage: a linear filter ``transfer(values) -> h(f_hz)`` on the measured forces."""
+
+    stage = "chain"
+
+    def transfer(self, values):
+        raise NotImplementedError
+
+    def apply_values(self, state, values):
+        return state.with_chain(self.name, self.as_dict(values))
+
+    def family(self, ctx, state):
+        base = ctx.raw_averages(state)
+        return lambda v: [ctx.filtered(a, self.transfer(v)) for a in base]
+
+
+class Dynamometer(ChainEffect):
     name = "dynamometer"
     stage = "chain"
     parameters = (Parameter("fn_hz", 500.0, 8000.0, detect=6000.0, log=True, doc="dynamometer mode frequency"),
@@ -223,21 +233,12 @@ class Dynamometer(ForceEffect):
     def transfer(self, values):
         return _dynamometer_h(*values)
 
-    def apply_values(self, state, values):
-        return state.with_chain(self.name, self.as_dict(values))
-
-    def family(self, ctx, state):
-        base = ctx.raw_averages(state)
-        return lambda v: [ctx.filtered(a, self.transfer(v)) for a in base]
 
     def starts(self):
         return [np.array([f, 0.05]) for f in (800.0, 1500.0, 3000.0, 6000.0)]
 
-    def toml_comment(self, values):
-        return f"measurement chain: dynamometer mode fn = {values[0]:.1f} Hz, zeta = {values[1]:.4f}"
 
-
-class Lowpass(ForceEffect):
+class Lowpass(ChainEffect):
     name = "lowpass"
     stage = "chain"
     parameters = (Parameter("cutoff_hz", 300.0, 20000.0, detect=5000.0, log=True,
@@ -251,18 +252,9 @@ class Lowpass(ForceEffect):
     def transfer(self, values):
         return _butterworth_h(float(values[0]))
 
-    def apply_values(self, state, values):
-        return state.with_chain(self.name, self.as_dict(values))
-
-    def family(self, ctx, state):
-        base = ctx.raw_averages(state)
-        return lambda v: [ctx.filtered(a, self.transfer(v)) for a in base]
 
     def starts(self):
         return [np.array([f]) for f in (700.0, 2000.0, 6000.0)]
-
-    def toml_comment(self, values):
-        return f"measurement chain: 4th-order Butterworth low-pass at {values[0]:.1f} Hz"
 
 
 class Backlash(ForceEffect):
@@ -308,9 +300,6 @@ class Backlash(ForceEffect):
 
     def starts(self):
         return [np.array([5e-5]), np.array([1.5e-4])]
-
-    def toml_comment(self, values):
-        return f"robot: backlash half-width {values[0]:.3e} rad on the motion axes (variant 'backlash')"
 
 
 #: The force-side library, in the order candidates are tried (registered in identify.effects.REGISTRY).

@@ -33,7 +33,7 @@ pipeline can rely on.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 from robolobes.cases.spec import ElementSpec, MillingCase

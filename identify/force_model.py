@@ -21,7 +21,7 @@ import numpy as np
 
 from robolobes.cases.spec import MillingCase
 
-__all__ = ["simulate_forces", "with_spindle_hz", "with_law", "with_tool", "revolution_averages"]
+__all__ = ["simulate_forces", "with_spindle_hz", "revolution_averages"]
 
 _CACHE: OrderedDict = OrderedDict()
 _CACHE_SIZE = 48
@@ -64,16 +64,6 @@ def with_spindle_hz(case: MillingCase, spindle_hz: float) -> MillingCase:
     rpm = spindle_hz * 60.0
     fz = cut.feed_per_tooth_m * cut.spindle_rpm / rpm
     return replace(case, cut=replace(cut, spindle_rpm=rpm, feed_per_tooth_m=fz))
-
-
-def with_law(case: MillingCase, **changes) -> MillingCase:
-    """The case with cutting-law fields changed (``kte_n_per_m=...``)."""
-    return replace(case, law=replace(case.law, **changes))
-
-
-def with_tool(case: MillingCase, **changes) -> MillingCase:
-    """The case with tool fields changed (``runout_m=...``)."""
-    return replace(case, tool=replace(case.tool, **changes))
 
 
 def revolution_averages(t_s: np.ndarray, force_n: np.ndarray, spindle_hz: float, bins: int, blocks) -> list:

@@ -32,23 +32,21 @@ from __future__ import annotations
 
 import itertools
 import math
-import sys
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
 from robolobes.core.errors import BadInput
 
 from .cutting_effects import FORCE_EFFECTS, chain_transfer
-from .effects import ModelState, effects_for
+from .effects import SIGNATURES, ModelState, effects_for
 from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
-from .model_toml import model_toml
-from .selection import Trial, forward_select
 from .force_model import revolution_averages, simulate_forces, with_spindle_hz
-from .force_signals import (ERROR_METRIC, SyncAverage, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
+from .force_signals import (ERROR_METRIC, align_shift, apply_transfer, estimate_spindle_hz, heldout_error,
                             revolutions, shift_average, spectrum_lines, sync_average)
-from .result import EffectFit, Identification, SelectionStep
+from .model_toml import model_toml
+from .result import EffectFit, Identification
+from .selection import Trial, forward_select
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
            "identify_stability", "ForceContext", "check_window", "aicc"]
@@ -198,7 +196,7 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
         shifts[id(new)], aligned[id(new)] = fit.shift, fit.heldout
         return Trial(residual=fit.heldout[:, :2].ravel() - meas, measured=meas, sigma=sigma, state=new,
                      params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
-                     evidence={"signature": _signature_text(eff.name), "on_bound": fit.on_bound,
+                     evidence={"signature": [SIGNATURES[k] for k in eff.signatures], "on_bound": fit.on_bound,
                                "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift})
 
     library = [e for e in (effects if effects is not None else effects_for("forces", state))
@@ -218,19 +216,6 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
     return Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
                           error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
                           model_toml=model_toml(sel.state), extra=extra)
-
-
-_SIGNATURES = {
-    "edge_coefficients": "mean offsets and a step at each tooth entry and exit (force without chip)",
-    "runout": "once-per-revolution lines (tooth-to-tooth alternation of the force peaks)",
-    "dynamometer": "ringing above the tooth-passing harmonics after each entry; mean unchanged",
-    "lowpass": "tooth-passing harmonics rolled off, entry/exit edges rounded; mean unchanged",
-    "backlash": "amplitude-dependent change of the tooth-passing harmonics",
-}
-
-
-def _signature_text(name: str) -> str:
-    return _SIGNATURES.get(name, "")
 
 
 # ---------------------------------------------------------------------------------------------

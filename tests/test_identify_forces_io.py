@@ -165,3 +165,34 @@ def test_steel_stability_observation_joint_damping(tmp_path, capsys):
     jd = next(e for e in d["effects"] if e["name"] == "joint_damping")
     assert jd["params"]["scale"] == pytest.approx(11.88, rel=0.06)
     assert jd["evidence"]["credible"] is False
+
+
+def test_cli_window_outside_the_pass_exits_2(tmp_path, capsys):
+    # the aluminium pass lasts ~1.75 s; a window at 5-5.01 s is rejected before any simulation
+    from robolobes.main import main
+
+    t = 5.0 + np.arange(600) / 50e3
+    d = _write_set(tmp_path / "late", t, np.zeros((600, 3)), 50000, (5.0, 5.01))
+    assert main(["identify", "--measured", str(d), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "window_s = [5.0, 5.01] s is outside the pass" in err[0], err
+
+
+def test_force_effects_write_a_case_toml_that_loads(tmp_path):
+    # edge coefficients and runout become [material]/[tool] keys (file units N/mm, um); the
+    # measurement chain is not written; the file loads under the strict key check
+    from robolobes.cases import load_case
+    from robolobes.identify.effects import ModelState, REGISTRY, effects_for
+    from robolobes.identify.model_toml import model_toml
+
+    effects_for("forces")
+    st = ModelState(case=load_case("tx200-aluminium"), variant="basic", case_ref="tx200-aluminium")
+    st = REGISTRY["edge_coefficients"].apply(st, {"kte_n_per_m": 12000.0, "kre_n_per_m": 8000.0})
+    st = REGISTRY["runout"].apply(st, {"delta_m": 1e-5})
+    st = REGISTRY["dynamometer"].apply(st, {"fn_hz": 2000.0, "zeta": 0.05})
+    p = tmp_path / "model.toml"
+    p.write_text(model_toml(st))
+    c = load_case(p)
+    assert (c.law.kte_n_per_m, c.law.kre_n_per_m) == pytest.approx((12000.0, 8000.0))
+    assert c.tool.runout_m == pytest.approx((5e-6, -5e-6))  # delta = r1 - r2 split +-delta/2
+    assert "dynamometer" not in p.read_text().split("[tool]")[1]

@@ -7,15 +7,13 @@ identifier uses its own fast perturbation of M, C, K, so the data do not come fr
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 from robolobes.cases import load_case
-from robolobes.identify.effects import REGISTRY, ModelState, effects_for
+from robolobes.identify.effects import REGISTRY
 from robolobes.identify.selection import significance, z_threshold
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, linearize
@@ -238,3 +236,46 @@ def test_servo_named_with_effects_is_found(tmp_path, capsys):
     assert res["effects"][0]["name"] == "servo_a2" and res["error_after"] <= 1.2 * e_gen, res["effects"]
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--effects", "servo_a9"], capsys)
     assert rc == 2 and "servo_a9" in err
+
+
+def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
+    # a tool mode and a softer axis 3 together: the larger residual (the mode) first, then the axis;
+    # the third step keeps nothing; after both the error is the generating model's (within 1.2x)
+    els = (TcpMode(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 1.0))
+    d = tmp_path / "set"
+    t = synthetic_frf_set(d, CASE, elements=els, n_poses=4, f_hz=np.linspace(2, 300, 400), seed=31)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles"], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    assert [e["name"] for e in res["effects"]] == ["tcp_mode", "joint_correction_a3"]
+    steps = res["steps"]
+    assert [s["kept"] for s in steps] == ["tcp_mode", "joint_correction_a3", None]
+    assert all(s["statistic"] > s["threshold"] for s in steps[:2]) and steps[2]["statistic"] <= steps[2]["threshold"]
+    e_gen, _ = _truth_errors(t)
+    assert res["error_after"] <= 1.2 * e_gen
+    assert_allclose(res["effects"][1]["params"]["stiffness_scale"], 0.75, atol=5 * res["effects"][1]["uncertainty"]
+                    ["stiffness_scale"])
+
+
+def test_cut_frame_accelerance_set_with_cross_pairs(tmp_path, capsys):
+    # the same robot measured in the cut frame (feed, normal, axial), as accelerance in m/s^2/N,
+    # pairs feed-normal and axial-feed only: read, converted and rotated right, nothing is missing
+    # (held-out error at the noise) and a mode is still found
+    # feed along base +y, so that the cut frame (x feed, y = z x x = -x_base, z up) is not the base frame
+    from importlib import resources
+    text = (resources.files("robolobes.cases") / "data" / "tx200-aluminium.toml").read_text()
+    assert "feed_direction = [1, 0, 0]" in text
+    case_file = tmp_path / "case_feed_y.toml"
+    case_file.write_text(text.replace("feed_direction = [1, 0, 0]", "feed_direction = [0, 1, 0]"))
+    case = load_case(str(case_file))
+    d = tmp_path / "set"
+    el = TcpMode(180.0, 0.03, 0.2 * (2 * math.pi * 180) ** 2, (0.0, 1.0, 0.0))
+    t = synthetic_frf_set(d, case, elements=(el,), n_poses=3, pairs=((0, 0), (1, 1), (0, 1), (2, 0)),
+                          f_hz=np.linspace(2, 300, 400), frame="cut", ordinate=12, seed=41,
+                          offsets_deg=[[0] * 6, [20, 0, 0, 0, 0, 0], [-25, 0, 0, 0, 0, 0]])  # tool stays vertical
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles",
+                             "--case", str(case_file)], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    e_gen, _ = _truth_errors(t)
+    assert [e["name"] for e in res["effects"]] == ["tcp_mode"] and res["error_after"] <= 1.2 * e_gen

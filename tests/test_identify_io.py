@@ -136,3 +136,19 @@ def test_measurement_kind_recognised_from_files(tmp_path):
         measurement_kind(tmp_path)
     with pytest.raises(BadInput, match="no such file"):
         measurement_kind(tmp_path / "nothing")
+
+
+def test_case_in_the_files_and_the_override_note(tmp_path):
+    from robolobes.identify.api import model_state
+    d = tmp_path / "set"
+    d.mkdir()
+    (d / "poses.csv").write_text("pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,case\na,0,10,20,0,30,0,tx200-steel\n")
+    write_uff_pairs(d / "a.uff", "a", F, [(0, 0)], np.array([_h()]))
+    m = read_frf_set(d)
+    assert m.case == "tx200-steel"
+    state, notes = model_state(m)
+    assert state.case.name == "tx200-steel" and notes == []
+    state, notes = model_state(m, case="tx200-aluminium")
+    assert state.case.name == "tx200-aluminium" and "overrides" in notes[0]
+    with pytest.raises(BadInput, match="variant"):
+        model_state(m, variant="stiff")
