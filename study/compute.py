@@ -246,11 +246,10 @@ def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Pr
     """Damping bracket by the time-domain verdict of the steel pass (always the linearized fast
     path: a bisection takes about nine passes).
 
-    ``seed``: scales tried besides ``settings.damping_scales`` (the study gives the lobes' bracket).
-    The search assumes one crossing; the time-domain verdict is not monotone in the scale far above
-    it (at x20-x40 the non-synchronous motion is ~1e-6 of the forced motion and its fitted rate can
-    come out "undetermined" or slightly positive), so seeding it near the lobes' crossing finds the
-    crossing that the two methods can be compared on."""
+    ``seed``: scales tried besides ``settings.damping_scales`` (the study gives the lobes' bracket,
+    so that the probes land where the two methods are compared). The search assumes one crossing;
+    far above it (x20-x40) the non-synchronous motion is ~1e-6 of the forced motion, where only the
+    verdict's amplitude resolution keeps it monotone."""
     fast = replace(settings, td_linearized=True)
     n = [0]
 
