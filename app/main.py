@@ -27,12 +27,14 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 # subcommand -> module that registers it (imported lazily, in data-flow order)
 _COMMANDS = {
-    "study": "robolobes.identify.cli",
+    "study": "robolobes.study.cli",
     "modes": "robolobes.linearize.cli",
     "frf": "robolobes.linearize.cli",
     "lobes": "robolobes.lobes.cli",
     "simulate": "robolobes.timedomain.cli",
     "identify": "robolobes.identify.cli",
+    "map": "robolobes.workspace.cli",
+    "optimize": "robolobes.workspace.cli",
 }
 
 
@@ -57,21 +59,6 @@ def _format_warning(message, category, filename, lineno, line=None):
     return f"robolobes: warning: {message}\n"
 
 
-def _input_errors() -> tuple[type, ...]:
-    """:class:`BadInput`, plus the package error classes raised only by user input that do not yet
-    derive from it (transitional: an entry goes once its class is a ``BadInput`` subclass)."""
-    from robolobes.core.errors import BadInput
-
-    classes = [BadInput]
-    for module, name in (("robolobes.lobes._errors", "LobeError"), ("robolobes.cases.milling", "MillingError"),
-                         ("robolobes.linearize.path", "PassError"), ("robolobes.linearize.kinematics", "KinematicsError"),
-                         ("robolobes.linearize.linear", "SingularConfigurationError")):
-        cls = getattr(sys.modules.get(module), name, None)  # only modules this run imported
-        if isinstance(cls, type) and not issubclass(cls, BadInput):
-            classes.append(cls)
-    return tuple(classes)
-
-
 def _error(command: str, message) -> None:
     print(f"robolobes {command}: error: {message}", file=sys.stderr)
 
@@ -83,6 +70,8 @@ def main(argv: list[str] | None = None) -> int:
     raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C; 1 out
     of memory (one line). Any other exception is an internal error and keeps its traceback.
     """
+    from robolobes.core.errors import BadInput
+
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -94,9 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError:
         _error(args.command, "out of memory: reduce the grid sizes (--n, --m, --n-rpm) or the simulated duration")
         return 1
-    except Exception as e:
-        if not isinstance(e, _input_errors()):
-            raise  # an internal error: keep its traceback
+    except BadInput as e:  # only bad input; any other error is internal and keeps its traceback
         _error(args.command, e)
         return 2
 

@@ -16,25 +16,24 @@ t(all threads) / t(1 thread), not seconds). Workloads:
 
 from __future__ import annotations
 
-import math
 import os
-import sys
-import time
 
-import numpy as np
-from threadpoolctl import ThreadpoolController
+# read before anything loads BLAS (bench_lobes, imported below, pins its own process to one thread)
+USER_SET = [v for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS") if os.environ.get(v)]
 
-from robolobes import cases, linearize
-from robolobes.cases.milling import Cut, CuttingLaw, Tool
-from robolobes.lobes import LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization, solve
+import math  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
+import numpy as np  # noqa: E402  (loads BLAS with its default threads)
+from threadpoolctl import ThreadpoolController  # noqa: E402
 
-def insperger_2dof() -> LobeProblem:
-    fn, zeta, mt = 922.0, 0.011, 0.03993
-    k = mt * (2 * np.pi * fn) ** 2
-    s = ModalStructure((Mode(fn, zeta, k, (1.0, 0.0)), Mode(fn, zeta, k, (0.0, 1.0))))
-    return LobeProblem(s, Tool(diameter_m=0.01, teeth=2), Cut(ae_m=0.0005, ap_m=1e-3, spindle_rpm=1e4, mode="down"),
-                       CuttingLaw(ktc_pa=6e8, krc_pa=2e8))
+from robolobes import cases, linearize  # noqa: E402
+from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_lobes import insperger_2dof  # noqa: E402
 
 
 def workloads():
@@ -61,9 +60,8 @@ def workloads():
 
 
 def main() -> int:
-    set_vars = [v for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS") if os.environ.get(v)]
-    if set_vars:
-        print(f"unset {', '.join(set_vars)} first: BLAS read them at load time and cannot be compared", file=sys.stderr)
+    if USER_SET:
+        print(f"unset {', '.join(USER_SET)} first: BLAS read them at load time and cannot be compared", file=sys.stderr)
         return 2
     ctl = ThreadpoolController()
     n_all = os.cpu_count() or 1

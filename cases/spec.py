@@ -12,6 +12,7 @@ from typing import Literal
 
 import numpy as np
 
+from robolobes.core.errors import BadInput
 from robolobes.core.validate import readonly
 
 from .milling import Cut, CuttingLaw, Tool
@@ -153,7 +154,7 @@ class RobotSpec:
 
     def __post_init__(self):
         if len(self.links) != len(self.joints) + 1:
-            raise ValueError(
+            raise BadInput(
                 f"robot {self.name!r}: {len(self.links)} links need {len(self.links) - 1} joints, got {len(self.joints)}"
             )
 

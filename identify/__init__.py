@@ -1,8 +1,9 @@
 """Identify: close the loop with measured data.
 
-Planned (no code yet): compute the residual between a measurement (FRFs, cutting forces) and the
-model, trace it to an effect the model lacks (a spindle mode, servo dynamics, a stiffness or
-damping correction), add that effect as a :class:`linearize.Element`, refit, and report the error
-before and after. It also holds ``robolobes study``, the comparison of the model with the paper's
+``identify(measurement, model)`` (:mod:`identify.api`) computes the residual between a measurement
+(tool-tip FRF sets; cutting forces in :mod:`identify.forces`) and the model, traces it to an effect
+the model lacks (:mod:`identify.effects`, the library: a tool-holder mode, joint or orthogonal
+stiffness and damping corrections, a payload mass error, cutting-law effects), adds it, refits,
+and reports the held-out error before and after (:mod:`identify.selection`). It also holds ``robolobes study``, the comparison of the model with the paper's
 measured facts.
 """

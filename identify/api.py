@@ -13,7 +13,8 @@ kind            files                                         reader / pipeline
 =============== ============================================= ==========================================
 
 Every pipeline has the signature ``pipeline(measurement, model: ModelState, *, alpha, max_effects,
-progress) -> Identification``; every reader ``reader(path) -> measurement`` with attributes ``kind``,
+progress, effects=None) -> Identification`` (``effects``: the candidate Effect objects, default the
+library's default candidates for the kind); every reader ``reader(path) -> measurement`` with attributes ``kind``,
 ``path``, ``case`` (the case named in the files, or None) and ``variant`` (or None).
 """
 
@@ -114,8 +115,8 @@ def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects
     """
     if not 0 < alpha < 1:
         raise BadInput(f"alpha = {alpha}: must be in (0, 1)")
-    if max_effects < 0:
-        raise BadInput(f"max_effects = {max_effects}: must be >= 0")
+    if not 0 <= max_effects <= 10:
+        raise BadInput(f"max_effects = {max_effects}: must be in 0..10 (each step fits every candidate)")
     kind = measurement.kind
     if kind not in PIPELINES:
         raise BadInput(f"measurement kind {kind!r}; valid: {', '.join(PIPELINES)}")

@@ -1,4 +1,4 @@
-"""``robolobes study``: the main job (see :mod:`identify.study`)."""
+"""``robolobes identify``: fit the model to measured data (``robolobes study`` is in :mod:`robolobes.study.cli`)."""
 
 from __future__ import annotations
 
@@ -6,40 +6,10 @@ import sys
 
 from robolobes.core.io import Progress
 
-__all__ = ["register", "run_study_cli", "run_identify_cli"]
-
-
-def run_study_cli(args) -> int:
-    from .study import run_study, study_output
-
-    out = study_output(args.out, args.quick)  # before any work: refuses a directory or file of the user's
-    try:
-        with Progress("study" + (" --quick" if args.quick else ""), enabled=not args.quiet) as bar:
-            res = run_study(out, quick=args.quick, progress=bar)
-            bar.done()
-    except KeyboardInterrupt:
-        print(f"\nrobolobes study: interrupted; {args.out} left as it was", file=sys.stderr)
-        return 130
-    ex = res["explanation"]
-    al, st = ex["aluminium"], ex["steel"]
-    print(f"aluminium {al['spindle_rpm']:.0f} rpm, ap {al['depth_m'] * 1e3:.1f} mm: lobes limit "
-          f"{al['local_limit_m'] * 1e3:.2f} mm (margin {al['local_margin']:+.2f}), time domain "
-          f"{'stable' if al['time_domain_stable_basic'] else 'unstable' if al['time_domain_stable_basic'] is False else 'no verdict'}")
-    print(f"steel     {st['spindle_rpm']:.0f} rpm, ap {st['depth_m'] * 1e3:.1f} mm: lobes limit "
-          f"{st['local_limit_m'] * 1e3:.2f} mm (margin {st['local_margin']:+.2f}), time domain "
-          f"{'stable' if st['time_domain_stable_basic'] else 'unstable' if st['time_domain_stable_basic'] is False else 'no verdict'}")
-    print(f"report: {args.out}/report.md, numbers: {args.out}/results.json")
-    return 0
+__all__ = ["register", "run_identify_cli"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("study", help="the main job: why aluminium is stable and steel is not (TX200)",
-                       description="Modes, lobes and time-domain runs for the built-in TX200 cases beside the "
-                                   "paper; writes report.md, results.json and figures.")
-    p.add_argument("--quick", action="store_true", help="coarser grids and shorter runs (under 3 minutes)")
-    p.add_argument("--out", default="robolobes-study", help="output directory (default ./robolobes-study)")
-    p.add_argument("--quiet", action="store_true", help="no progress display")
-    p.set_defaults(run=run_study_cli)
     _register_identify(sub)
 
 
@@ -72,11 +42,12 @@ def run_identify_cli(args) -> int:
     import json
 
     from robolobes.core.io import provenance, to_jsonable
-    from robolobes.core.outdir import OutputDir, cli_inputs
+    from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
 
     from .api import identify, model_state, read_measurement
 
-    measurement = read_measurement(args.measured)
+    with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
+        measurement = read_measurement(args.measured)
     state, notes = model_state(measurement, args.case, args.variant)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
@@ -92,7 +63,11 @@ def run_identify_cli(args) -> int:
         steps[0] += 1
         bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
 
-    kw = {"poles": False} if args.no_poles else {}
+    kw = {"poles": False} if args.no_poles and measurement.kind == "frf" else {}
+    if args.effects:  # names -> the library's Effect objects (BadInput for a name the kind does not observe)
+        from .effects import effects_for
+        names = [x.strip() for x in args.effects.split(",") if x.strip()]
+        kw["effects"] = effects_for(measurement.kind, state, names)
     result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
     bar.done()
     out = {**result.to_json(), "provenance": prov}
@@ -108,7 +83,7 @@ def run_identify_cli(args) -> int:
         print(f"  {e.name}: {ps}")
     print(f"metric: {result.metric}")
     if report is not None:
-        print(f"report: {report}/report.md")
+        print(f"report: {report.target}/report.md")
     return 0
 
 
@@ -127,6 +102,9 @@ def _register_identify(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--report", default=None, help="write report.md and figures into this directory (never "
                                                     "replaces a user's files)")
+    p.add_argument("--effects", default=None,
+                   help="comma-separated candidate effects (default: the library's default candidates; "
+                        "e.g. servo_a2 is tried only when named)")
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")

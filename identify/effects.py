@@ -33,7 +33,7 @@ pipeline can rely on.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 from robolobes.cases.spec import ElementSpec, MillingCase
@@ -160,6 +160,7 @@ class Effect:
 
     name: str = "effect"
     stage: str = "element"
+    candidate: bool = True     # tried by default; False: only when named (``robolobes identify --effects``)
     parameters: tuple = ()
     observed_by: Mapping[str, str] = {}
     signatures: tuple = ()
@@ -233,10 +234,23 @@ def register(effect: Effect) -> Effect:
     return effect
 
 
-def effects_for(kind: str, model: ModelState | None = None) -> list[Effect]:
-    """The registered effects that ``kind`` observes (and that apply to ``model``), in registry order."""
+def effects_for(kind: str, model: ModelState | None = None, names=None) -> list[Effect]:
+    """The registered effects that ``kind`` observes (and that apply to ``model``), in registry order.
+
+    ``names``: only these (BadInput for a name not in the library or not observed by ``kind``);
+    default: every effect with ``candidate = True``.
+    """
     _load_library()
-    return [e for e in REGISTRY.values() if kind in e.observed_by and (model is None or e.applicable(model))]
+    if names is not None:
+        bad = [n for n in names if n not in REGISTRY or kind not in REGISTRY[n].observed_by]
+        if bad:
+            valid = [n for n, e in REGISTRY.items() if kind in e.observed_by]
+            raise BadInput(f"--effects {','.join(bad)}: not an effect a {kind} measurement observes; valid: "
+                           f"{', '.join(valid)}")
+        chosen = [REGISTRY[n] for n in names]
+    else:
+        chosen = [e for e in REGISTRY.values() if kind in e.observed_by and e.candidate]
+    return [e for e in chosen if model is None or e.applicable(model)]
 
 
 def _load_library() -> None:

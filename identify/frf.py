@@ -11,7 +11,8 @@ Noise of each line, from the data: for white noise of variance ``sigma^2`` (``E|
 smooth FRF, the fourth difference ``d = (H_(f-2) - 4 H_(f-1) + 6 H_f - 4 H_(f+1) + H_(f+2)) / sqrt(70)``
 has ``E|d|^2 = sigma^2`` and is blind to any cubic trend of the FRF; the noise relative to ``|H|``
 is the running median (41 lines) of ``|d|^2 / |H|^2`` divided by ``ln 2`` (the median of an
-exponential variable, ``|d|^2`` of complex Gaussian noise, is ``ln 2`` times its mean). Lines
+exponential variable, ``|d|^2`` of complex Gaussian noise, is ``ln 2`` times its mean), times
+``|H|^2`` averaged over 5 lines (not the line's own, which carries its noise). Lines
 near a sharp peak, where the FRF's own curvature enters ``d``, are a minority of every window, so
 the median ignores them; any bias left makes ``sigma`` larger, i.e. the selection more cautious.
 
@@ -29,7 +30,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import median_filter, uniform_filter1d
 from scipy.optimize import least_squares
 
 from robolobes.linearize.frf_io import FRFSet
@@ -45,6 +46,7 @@ __all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METR
 METRIC = ("held-out (leave-one-pose-out) RMS over lines of |H_model - H_measured| / RMS |H_measured|, "
           "receptance in m/N, not squared")
 SHORTLIST = 3
+MAX_LINES = 500_000   # lines over all poses and pairs (the 1200-line, 24-pair bench has 28 800)
 _NOISE_WINDOW = 41
 
 
@@ -86,7 +88,9 @@ def line_noise(H: np.ndarray) -> np.ndarray:
     d = np.zeros(len(H), dtype=complex)
     d[2:-2] = (H[:-4] - 4 * H[1:-3] + 6 * H[2:-2] - 4 * H[3:-1] + H[4:]) / math.sqrt(70.0)
     d[:2], d[-2:] = d[2], d[-3]
-    mag2 = np.maximum(np.abs(H) ** 2, 1e-300)
+    # |H|^2 averaged over 5 lines: a weight from the line's own |H| would down-weight the lines whose
+    # noise happened to raise |H| and bias the fit (peaks too low)
+    mag2 = np.maximum(uniform_filter1d(np.abs(H) ** 2, size=5, mode="nearest"), 1e-300)
     rel = median_filter(np.abs(d) ** 2 / mag2, size=min(_NOISE_WINDOW, len(H) | 1), mode="nearest")
     return np.sqrt(rel * mag2 / math.log(2))
 
@@ -195,8 +199,11 @@ def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dic
     lo, hi = _bounds(layout)
     span = hi - lo
     best = None
-    for start in starts:
-        x0 = np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span)
+    x0s = [np.clip(_to_x(layout, start), lo + 1e-6 * span, hi - 1e-6 * span) for start in starts]
+    if len(x0s) > 2:   # many starts (a scan): optimize from the two with the lowest cost
+        cost = [float(np.sum(_whitened(poses, fixed + _from_x(layout, x)) ** 2)) for x in x0s]
+        x0s = [x0s[i] for i in np.argsort(cost)[:2]]
+    for x0 in x0s:
         res = least_squares(lambda x: _whitened(poses, fixed + _from_x(layout, x)), x0, bounds=(lo, hi),
                             x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
         if best is None or res.cost < best.cost:
@@ -399,6 +406,7 @@ class _Trials:
         if effect.name == "tcp_mode":
             ev["extra_peak_hz"] = diag["extra_peak_hz"]
             ev["extra_peak_in_every_pose"] = diag["extra_peak_in_every_pose"]
+            ev["direction_tcp"] = effect.table(params[-1][1])["direction"]
         return Trial(r, m, s, state=params, params=dict(params[-1][1]), uncertainty=unc, evidence=ev)
 
 
@@ -411,21 +419,27 @@ def _splits(poses):
 
 
 def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
-                 progress: Callable[[str], None] | None = None, poles: bool = True) -> Identification:
+                 progress: Callable[[str], None] | None = None, poles: bool = True,
+                 effects=None) -> Identification:
     """Identify structural effects from a tool-tip FRF set (see the module doc).
 
     ``poles``: also fit the measurement's poles (LSCF/LSFD, :mod:`identify.modal`) and set them beside
-    the model's, before and after (a few seconds per pose).
+    the model's, before and after (a few seconds per pose). ``effects``: the candidate
+    :class:`Effect` s (default: the library's default candidates, ``effects_for("frf", model)``).
     """
     from robolobes.core.errors import BadInput
 
     from .model_toml import model_toml
 
+    if measurement.n_lines > MAX_LINES:
+        raise BadInput(f"{measurement.path}: {measurement.n_lines} FRF lines; at most {MAX_LINES} (run time and "
+                       "memory grow with it): decimate the frequency axis or measure fewer pairs")
     if len(measurement.poses) < 2:
         raise BadInput(f"{measurement.path}: leave-one-pose-out needs at least 2 poses with data, "
                        f"got {len(measurement.poses)}")
+    chosen = effects_for("frf", model) if effects is None else list(effects)
+    candidates = [e for e in chosen if isinstance(e, StructuralEffect)]
     poses = prepare(measurement, model, progress)
-    candidates = [e for e in effects_for("frf", model) if isinstance(e, StructuralEffect)]
     from .selection import z_threshold
     trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
     sel = forward_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress)

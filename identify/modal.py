@@ -39,8 +39,8 @@ def pose_poles(pd, approx_hz) -> tuple[np.ndarray, np.ndarray] | None:
     import sdypy.EMA as EMA
 
     pairs = np.unique(pd.pair)
-    n = [np.sum(pd.pair == k) for k in pairs]
-    if len(set(n)) != 1:
+    idx = [pd.index[pd.pair == k] for k in pairs]
+    if any(not np.array_equal(i, idx[0]) for i in idx):
         return None           # pairs on different lines: not one EMA model
     f = pd.omega[pd.index[pd.pair == pairs[0]]] / (2 * math.pi)
     frf = np.array([pd.H[pd.pair == k] for k in pairs])
@@ -48,7 +48,8 @@ def pose_poles(pd, approx_hz) -> tuple[np.ndarray, np.ndarray] | None:
     approx = [a for a in approx_hz if lo < a < hi]
     if not approx:
         return None
-    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()), \
+            warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = EMA.Model(frf=frf, freq=f, lower=lo, upper=hi, pol_order_high=POLE_ORDER, frf_form="receptance")
         m.get_poles("lscf", show_progress=False)

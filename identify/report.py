@@ -43,12 +43,27 @@ def _fig_pose(pd, before, after, path, provenance):
     plt.close(fig)
 
 
+def _poles_lines(extra: dict) -> list[str]:
+    """Measured poles beside the model's (before): per mode the mean shift and its spread over poses."""
+    pb = extra.get("poles_before")
+    if not pb:
+        return []
+    out = ["", "## Measured poles (LSCF/LSFD) beside the model's, before", "",
+           "| model mode | mean frequency shift | spread over poses | poses |", "|---|---|---|---|"]
+    for k, v in pb.get("shifts", {}).items():
+        out.append(f"| {k} | {v['mean_shift']:+.2%} | {v['shift_spread']:.2%} | {v['n_poses']} |")
+    extra_poles = {p: d.get("extra_poles_hz", []) for p, d in pb.get("per_pose", {}).items()}
+    out += ["", "Measured poles with no model pole within 5 %: " +
+            "; ".join(f"{p}: {', '.join(f'{f:.1f} Hz' for f in fs) or 'none'}" for p, fs in extra_poles.items())]
+    return out
+
+
 def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict, model=None,
                      theta=None) -> None:
     """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
     from .frf import predict
 
-    lines = [f"# robolobes identify: tool-tip FRF set", "",
+    lines = ["# robolobes identify: tool-tip FRF set", "",
              f"- metric: {result.metric}",
              f"- error before: {result.error_before:.4g}; after: {result.error_after:.4g}; "
              f"noise floor (from the data): {result.noise_floor:.4g}",
@@ -68,6 +83,7 @@ def write_frf_report(directory: Path, result, poses, effects_state, provenance: 
     for i, s in enumerate(result.steps, 1):
         lines.append(f"| {i} | {s.kept or '-'} | {s.statistic:.3g} | {s.threshold:.3g} | {s.error_before:.4g} | "
                      f"{s.error_after:.4g} |")
+    lines += _poles_lines(result.extra)
     lines += ["", "## Poses", ""]
     for pd in poses:
         before, after = predict(pd, []), predict(pd, list(effects_state))

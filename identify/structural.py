@@ -12,6 +12,8 @@ costs a few microseconds instead of rebuilding and re-linearizing the pinocchio 
   element's pinocchio model gives the same M, C, K up to the gravity load of the small mass);
 * ``joint_correction_aN``: ``K[i, i] += (s_k - 1) k_N``, ``C[i, i] += (s_d - 1) d_N`` (exact);
 * ``orthogonal_correction``: the same on every virtual joint (exact);
+* ``servo_aN``: one rotor coordinate more, ``M[n, n] = J``, ``C[n, n] = kd``, ``K[n, n] = k + kp``,
+  ``K[i, n] = K[n, i] = -k`` (exact);
 * ``payload_mass``: ``M += dm J_G^T J_G`` with ``J_G`` the translational Jacobian of the payload's
   centre of mass (exact for the basic variant; with gravity the small change of the gravity
   stiffness is neglected).
@@ -182,6 +184,11 @@ class JointCorrectionEffect(StructuralEffect):
             Parameter("damping_scale", 0.2, 5.0, neutral=1.0, detect=0.3, log=True),
         )
 
+    def guesses(self, diagnosis):
+        # a scan of the stiffness: a mode shifted by more than its bandwidth is a local minimum
+        # of the least squares from the neutral start
+        return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0)]
+
     def table(self, params):
         return {"type": "joint_correction", "joint": self.joint, "stiffness_scale": float(params["stiffness_scale"]),
                 "damping_scale": float(params["damping_scale"])}
@@ -207,6 +214,9 @@ class OrthogonalCorrectionEffect(StructuralEffect):
 
     def applicable(self, model: ModelState) -> bool:
         return model.variant in ("orthogonal", "backlash")
+
+    def guesses(self, diagnosis):
+        return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.3, 0.5, 0.7, 1.0, 1.5, 2.2, 3.5)]
 
     def perturb(self, pm, params):
         v = pm.virtual_dofs
@@ -238,9 +248,49 @@ class PayloadMassEffect(StructuralEffect):
         dm = (params["mass_scale"] - 1) * model.case.robot.payload.mass_kg
         return model.with_element(ElementSpec("payload_mass", {"delta_mass_kg": float(dm)}))
 
+    def guesses(self, diagnosis):
+        return [{"mass_scale": s} for s in (0.7, 0.85, 1.0, 1.2, 1.4)]
+
     def perturb(self, pm, params):
         dm = (params["mass_scale"] - 1) * pm.payload_mass_kg
         return replace(pm, M=pm.M + dm * pm.J_payload.T @ pm.J_payload)
+
+
+class ServoEffect(StructuralEffect):
+    """Servo dynamics of axis ``joint``: not a default candidate (name it with ``--effects``)."""
+
+    candidate = False
+    observed_by = {"frf": "an extra pose-dependent mode and reshaped robot modes when the position loop "
+                          "kp is within ~10x the joint stiffness"}
+    signatures = ("extra_peak", "pose_shift", "peak_height")
+
+    def __init__(self, joint: int):
+        self.joint = joint
+        self.name = f"servo_a{joint}"
+        self.doc = f"axis {joint}: rotor inertia and PD position loop behind the joint spring"
+        self.parameters = (Parameter("rotor_inertia_kg_m2", 0.05, 200.0, log=True),
+                           Parameter("kp_n_m_per_rad", 1e5, 1e9, log=True),
+                           Parameter("kd_n_m_s_per_rad", 1.0, 1e5, log=True))
+
+    def table(self, params):
+        return {"type": "servo_drive", "joint": self.joint, **{k: float(v) for k, v in params.items()}}
+
+    def applicable(self, model: ModelState) -> bool:
+        return self.joint <= model.case.robot.n_joints
+
+    def guesses(self, diagnosis):
+        return [{"rotor_inertia_kg_m2": 5.0, "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": 1e3} for kp in (3e6, 3e7)]
+
+    def perturb(self, pm, params):
+        i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
+        k = pm.joint_k[self.joint - 1]
+        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = params["rotor_inertia_kg_m2"]
+        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = params["kd_n_m_s_per_rad"]
+        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K
+        K[i, n] = K[n, i] = -k
+        K[n, n] = k + params["kp_n_m_per_rad"]
+        z = np.zeros((3, 1))
+        return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, z]), J_payload=np.hstack([pm.J_payload, z]))
 
 
 register(TcpModeEffect())
@@ -248,3 +298,5 @@ for _j in range(1, 7):
     register(JointCorrectionEffect(_j))
 register(OrthogonalCorrectionEffect())
 register(PayloadMassEffect())
+for _j in range(1, 7):
+    register(ServoEffect(_j))

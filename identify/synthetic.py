@@ -52,8 +52,12 @@ def write_uff_pairs(path: Path, pose: str, f_hz: np.ndarray, pairs, H: np.ndarra
 
 def synthetic_frf_set(directory, case, *, variant: str = "basic", elements=(), n_poses: int = 4,
                       pairs=PAIRS, f_hz=None, rel_noise: float = 0.02, add_noise: float = 0.02, seed: int = 0,
-                      ordinate: int = 8) -> dict:
+                      ordinate: int = 8, frame: str = "base", offsets_deg=None) -> dict:
     """Write ``poses.csv`` and ``p<k>.uff`` into the new ``directory``; return the truth.
+
+    ``frame``: the axes of the written FRFs (``"base"`` or ``"cut"``, the case's feed direction).
+    ``offsets_deg``: (n_poses, 6) motor-angle offsets from the case's start pose (default
+    :data:`POSE_OFFSETS_DEG`).
 
     Returns
     -------
@@ -72,17 +76,19 @@ def synthetic_frf_set(directory, case, *, variant: str = "basic", elements=(), n
     q0 = np.degrees(case.path.start_q_rad)
     lines = ["pose," + ",".join(f"q{i + 1}_deg" for i in range(6)) + ",case"]
     out = {"H_true": [], "H_base": [], "H_meas": [], "f_hz": f_hz}
+    offsets = POSE_OFFSETS_DEG if offsets_deg is None else np.asarray(offsets_deg, dtype=float)
     for k in range(n_poses):
-        q = q0 + POSE_OFFSETS_DEG[k]
+        q = q0 + offsets[k]
         lines.append(f"p{k}," + ",".join(f"{v:.12g}" for v in q) + f",{case.name}")
-        Ht = linearize(truth, np.radians(q)).frf(w).H
-        Hb = linearize(base, np.radians(q)).frf(w).H
+        fd = case.cut.feed_direction
+        Ht = linearize(truth, np.radians(q)).frf(w, frame=frame, feed_direction=fd).H
+        Hb = linearize(base, np.radians(q)).frf(w, frame=frame, feed_direction=fd).H
         ht = np.array([Ht[o, i] for o, i in pairs])
         hb = np.array([Hb[o, i] for o, i in pairs])
         cn = lambda: (rng.standard_normal(ht.shape) + 1j * rng.standard_normal(ht.shape)) / math.sqrt(2)
         rms = np.sqrt(np.mean(np.abs(ht) ** 2, axis=1, keepdims=True))
         hm = ht + rel_noise * np.abs(ht) * cn() + add_noise * rms * cn()
-        write_uff_pairs(d / f"p{k}.uff", f"p{k}", f_hz, pairs, hm, ordinate=ordinate,
+        write_uff_pairs(d / f"p{k}.uff", f"p{k}", f_hz, pairs, hm, ordinate=ordinate, frame=frame,
                         units={8: "m", 11: "m/s", 12: "m/s^2"}[ordinate])
         out["H_true"].append(ht)
         out["H_base"].append(hb)

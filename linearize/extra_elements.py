@@ -26,6 +26,13 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     type = "payload_mass"          # a point mass added at the payload's centre of mass (may be < 0)
     delta_mass_kg = 5.0
 
+    [[elements]]
+    type = "servo_drive"           # rotor + PD position loop behind the joint spring of axis 2
+    joint = 2
+    rotor_inertia_kg_m2 = 5.0      # link side (reflected)
+    kp_n_m_per_rad = 2.0e7
+    kd_n_m_s_per_rad = 2.0e3
+
 :data:`ELEMENT_TYPES` maps each ``type`` to its class; :func:`element_from_spec` checks the keys
 strictly (unknown or missing keys, values out of range: :class:`BadInput` naming them).
 """
@@ -40,10 +47,11 @@ import pinocchio as pin
 
 from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
+from robolobes.core.validate import finite
 
 from .model import Element, ModelBuilder, VirtualJoints
 
-__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ELEMENT_TYPES",
+__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "ELEMENT_TYPES",
            "element_from_spec", "element_table"]
 
 
@@ -55,8 +63,23 @@ def _unit(v, what: str) -> np.ndarray:
 
 
 def _positive(name, v, *, zero_ok=False):
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 or (v == 0 and not zero_ok):
-        raise BadInput(f"{name} must be a finite number {'>= 0' if zero_ok else '> 0'}, got {v!r}")
+    if isinstance(v, bool):
+        raise BadInput(f"{name} must be a number, got {v!r}")
+    finite(name, v, positive=not zero_ok, nonneg=zero_ok)
+
+
+def _diagonal(robot, idx, k, d, q=None, v=None, rest=0.0):
+    """Force ``-k (q[idx] - rest) - d v[idx]`` (q, v given) or its tangent ``(-k, -d)`` on the
+    diagonal (q None), for springs and dampers acting on single coordinates ``idx``."""
+    if q is not None:
+        tau = np.zeros(robot.nv)
+        tau[idx] = -k * (q[idx] - rest) - d * v[idx]
+        return tau
+    kq = np.zeros((robot.nv, robot.nv))
+    kv = np.zeros((robot.nv, robot.nv))
+    kq[idx, idx] = -k
+    kv[idx, idx] = -d
+    return kq, kv
 
 
 @dataclass(frozen=True)
@@ -120,16 +143,10 @@ class TcpMode(Element):
         object.__setattr__(self, "_iv", robot.model.joints[jid].idx_v)
 
     def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._iv] = -self.stiffness_n_per_m * q[self._iv] - self.damping_n_s_per_m * v[self._iv]
-        return tau
+        return _diagonal(robot, self._iv, self.stiffness_n_per_m, self.damping_n_s_per_m, q, v)
 
     def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._iv, self._iv] = -self.stiffness_n_per_m
-        kv[self._iv, self._iv] = -self.damping_n_s_per_m
-        return kq, kv
+        return _diagonal(robot, self._iv, self.stiffness_n_per_m, self.damping_n_s_per_m)
 
 
 @dataclass(frozen=True)
@@ -162,16 +179,10 @@ class JointCorrection(Element):
         object.__setattr__(self, "_dd", (self.damping_scale - 1) * robot.spec.joints[j].damping_n_m_s_per_rad)
 
     def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._iv] = -self._dk * (q[self._iv] - theta[self.joint - 1]) - self._dd * v[self._iv]
-        return tau
+        return _diagonal(robot, self._iv, self._dk, self._dd, q, v, rest=theta[self.joint - 1])
 
     def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._iv, self._iv] = -self._dk
-        kv[self._iv, self._iv] = -self._dd
-        return kq, kv
+        return _diagonal(robot, self._iv, self._dk, self._dd)
 
 
 @dataclass(frozen=True)
@@ -195,16 +206,10 @@ class OrthogonalCorrection(Element):
         object.__setattr__(self, "_dd", (self.damping_scale - 1) * vj[0].damping)
 
     def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._idx] = -self._dk * q[self._idx] - self._dd * v[self._idx]
-        return tau
+        return _diagonal(robot, self._idx, self._dk, self._dd, q, v)
 
     def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._idx, self._idx] = -self._dk
-        kv[self._idx, self._idx] = -self._dd
-        return kq, kv
+        return _diagonal(robot, self._idx, self._dk, self._dd)
 
 
 @dataclass(frozen=True)
@@ -230,8 +235,78 @@ class PayloadMass(Element):
                                   pin.SE3.Identity())
 
 
+@dataclass(frozen=True)
+class ServoDrive(Element):
+    """Servo dynamics of motion axis ``joint`` (1-based): a rotor between the command and the joint spring.
+
+    Without it the joint spring ``k`` pulls the link towards the commanded angle ``theta`` (an
+    ideal, infinitely stiff position loop). With it the spring pulls towards the rotor angle
+    ``q_m = theta + phi`` (link side, through the gear), and the rotor (reflected inertia ``J``) is
+    held by a PD position loop on its error ``phi``::
+
+        link:   tau = -k (q - theta) + k phi                    (total: -k (q - q_m))
+        rotor:  J phid2 = -k (phi + theta - q) - kp phi - kd phid
+
+    The rotor is a revolute joint on the base (its angle is ``phi``, 0 at rest, so the rigid
+    configuration is the unloaded equilibrium); the commanded acceleration's inertial torque is
+    taken as compensated by the drive's feed-forward. ``kp -> inf`` recovers the model without it.
+
+    Parameters
+    ----------
+    joint : int >= 1
+    rotor_inertia_kg_m2 : float > 0     link-side (reflected) rotor inertia, kg m^2
+    kp_n_m_per_rad : float > 0          position-loop stiffness, link side
+    kd_n_m_s_per_rad : float >= 0       position-loop damping, link side
+    """
+
+    joint: int
+    rotor_inertia_kg_m2: float
+    kp_n_m_per_rad: float
+    kd_n_m_s_per_rad: float = 0.0
+    name: str = "servo drive"
+
+    def __post_init__(self):
+        if isinstance(self.joint, bool) or not isinstance(self.joint, int) or self.joint < 1:
+            raise BadInput(f"servo_drive joint must be an axis number 1, 2, ..., got {self.joint!r}")
+        _positive("servo_drive rotor_inertia_kg_m2", self.rotor_inertia_kg_m2)
+        _positive("servo_drive kp_n_m_per_rad", self.kp_n_m_per_rad)
+        _positive("servo_drive kd_n_m_s_per_rad", self.kd_n_m_s_per_rad, zero_ok=True)
+
+    def finish(self, b: ModelBuilder) -> None:
+        name = f"servo_rotor_{self.joint}_{b.model.njoints}"
+        jid = b.model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), name)
+        J = self.rotor_inertia_kg_m2
+        b.model.appendBodyToJoint(jid, pin.Inertia(1e-9, np.zeros(3), np.diag([J, J, J])), pin.SE3.Identity())
+        object.__setattr__(self, "_joint_name", name)
+
+    def bind(self, robot):
+        n = robot.spec.n_joints
+        if self.joint > n:
+            raise BadInput(f"servo_drive joint = {self.joint}: the robot has axes 1..{n}")
+        object.__setattr__(self, "_im", robot.model.joints[robot.model.getJointId(self._joint_name)].idx_v)
+        object.__setattr__(self, "_iq", int(robot.motion_dofs[self.joint - 1]))
+        object.__setattr__(self, "_k", robot.spec.joints[self.joint - 1].stiffness_n_m_per_rad)
+
+    def force(self, robot, q, v, theta):
+        tau = np.zeros(robot.nv)
+        phi, th = q[self._im], theta[self.joint - 1]
+        tau[self._iq] = self._k * phi
+        tau[self._im] = -self._k * (phi + th - q[self._iq]) - self.kp_n_m_per_rad * phi - self.kd_n_m_s_per_rad * v[self._im]
+        return tau
+
+    def tangent(self, robot, q, v, theta, engaged=False):
+        kq = np.zeros((robot.nv, robot.nv))
+        kv = np.zeros((robot.nv, robot.nv))
+        kq[self._iq, self._im] = self._k
+        kq[self._im, self._iq] = self._k
+        kq[self._im, self._im] = -(self._k + self.kp_n_m_per_rad)
+        kv[self._im, self._im] = -self.kd_n_m_s_per_rad
+        return kq, kv
+
+
 ELEMENT_TYPES = {"tcp_mode": TcpMode, "joint_correction": JointCorrection,
-                 "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass}
+                 "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
+                 "servo_drive": ServoDrive}
 
 
 def _keys(cls) -> list[str]:

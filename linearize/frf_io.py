@@ -54,7 +54,7 @@ def _fmt(path: Path) -> str:
     try:
         return _FMT[path.suffix.lower()]
     except KeyError:
-        raise ValueError(f"FRF file {path} must end in .csv, .uff or .unv (UFF58)") from None
+        raise BadInput(f"FRF file {path} must end in .csv, .uff or .unv (UFF58)") from None
 
 
 def write_frf(frf: FRF, path: str | Path, provenance: dict | None = None) -> Path:
@@ -82,10 +82,10 @@ def write_frf(frf: FRF, path: str | Path, provenance: dict | None = None) -> Pat
             import pyuff
             f = np.asarray(frf.freq_hz)
             if nf < 2:
-                raise ValueError("UFF58 export needs at least 2 frequencies")
+                raise BadInput("UFF58 export needs at least 2 frequencies")
             df = np.diff(f)
             if not np.allclose(df, df[0], rtol=1e-9, atol=0):
-                raise ValueError("UFF58 export needs evenly spaced frequencies (pyuff writes uneven ones "
+                raise BadInput("UFF58 export needs evenly spaced frequencies (pyuff writes uneven ones "
                                  "with 6 significant digits); use a linear frequency grid or CSV")
             tmp.unlink()  # pyuff appends; start from no file
             uff = pyuff.UFF(str(tmp))

@@ -140,7 +140,7 @@ def equilibrium(robot: FlexibleRobot, theta: np.ndarray, f_tcp: np.ndarray | Non
     theta = q_r[robot.motion_dofs]
     f = np.zeros(3) if f_tcp is None else np.asarray(f_tcp, dtype=float)
     if f.shape != (3,) or not np.all(np.isfinite(f)):
-        raise ValueError(f"f_tcp must be a finite force (3,) in N, got {f_tcp!r}")
+        raise BadInput(f"f_tcp must be a finite force (3,) in N, got {f_tcp!r}")
     s = robot.backlash_rad
     if s > 0:
         twin = robot.engaged_twin()
@@ -347,10 +347,10 @@ class LinearModel:
             return np.eye(3)
         if frame == "cut":
             if feed_direction is None:
-                raise ValueError("frame 'cut' needs the feed direction (base frame)")
+                raise BadInput("frame 'cut' needs the feed direction (base frame)")
             from robolobes.cases.milling import cut_frame
             return cut_frame(feed_direction, self.tool_axis)
-        raise ValueError(f"unknown frame {frame!r}; valid: 'base', 'cut'")
+        raise BadInput(f"unknown frame {frame!r}; valid: 'base', 'cut'")
 
     def tcp_matrix(self, frame: FrameName = "base", feed_direction=None) -> np.ndarray:
         """TCP displacement per generalized coordinate in the named frame, (3, n)."""
@@ -379,7 +379,7 @@ class LinearModel:
         """Tool-tip receptance FRF (m/N) at ``omega_rad_s`` (F,), in the named frame."""
         w = np.asarray(omega_rad_s, dtype=float)
         if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w < 0):
-            raise ValueError(f"omega_rad_s must be a 1-D array of finite frequencies >= 0 rad/s, got shape {w.shape}")
+            raise BadInput(f"omega_rad_s must be a 1-D array of finite frequencies >= 0 rad/s, got shape {w.shape}")
         axes = self.frame_axes(frame, feed_direction)
         Jf = axes @ self.J
         if method == "direct":
@@ -387,7 +387,7 @@ class LinearModel:
         elif method == "modal":
             H = frf_modal(modal_analysis(self.M, self.C, self.K, Jf), w)
         else:
-            raise ValueError(f"unknown FRF method {method!r}; valid: 'direct', 'modal'")
+            raise BadInput(f"unknown FRF method {method!r}; valid: 'direct', 'modal'")
         labels = BASE_LABELS if frame == "base" else CUT_LABELS
         return FRF(omega=w, H=H, frame=frame, axes=axes, labels=labels)
 
@@ -459,7 +459,7 @@ def linearize_many(robot: FlexibleRobot, thetas: np.ndarray, progress=None) -> L
     """
     thetas = np.asarray(thetas, dtype=float)
     if thetas.ndim != 2 or thetas.shape[1] != robot.spec.n_joints:
-        raise ValueError(f"thetas must have shape (P, {robot.spec.n_joints}), got {thetas.shape}")
+        raise BadInput(f"thetas must have shape (P, {robot.spec.n_joints}), got {thetas.shape}")
     P, n = len(thetas), robot.nv
     out = {k: np.empty((P,) + sh) for k, sh in
            (("q", (n,)), ("M", (n, n)), ("C", (n, n)), ("K", (n, n)), ("J", (3, n)), ("p_tcp", (3,)), ("R_tcp", (3, 3)))}
@@ -499,7 +499,7 @@ def linearize(robot: FlexibleRobot, theta: np.ndarray, *, q: np.ndarray | None =
         theta = rigid_q(robot, theta)[robot.motion_dofs]
         q = np.asarray(q, dtype=float)
         if q.shape != (robot.nq,):
-            raise ValueError(f"q must have shape ({robot.nq},), got {q.shape}")
+            raise BadInput(f"q must have shape ({robot.nq},), got {q.shape}")
     v0 = np.zeros(robot.nv)
     M = pin.crba(robot.model, robot.data, q)
     M = 0.5 * (M + M.T)

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robolobes.core.errors import BadInput
+
 from robolobes.core.threads import blas_single_threaded
 
 from .kinematics import KinematicsError, JointLimitWarning, ik
@@ -86,7 +88,7 @@ def pass_map(robot: FlexibleRobot, pas, n: int = 25, progress=None) -> PoseMap:
     progress : callable(done, total), optional
     """
     if n < 2:
-        raise ValueError(f"a pass map needs n >= 2 points, got {n}")
+        raise BadInput(f"a pass map needs n >= 2 points, got {n}")
     s = np.linspace(0.0, pas.travel_m, n)
     thetas = np.array([pas.theta_at_s(si) for si in s])
     return _fill(robot, thetas, np.array([pas.tcp_position_at_s(si) for si in s]), s, [], progress)
@@ -111,7 +113,7 @@ def grid_map(robot: FlexibleRobot, positions_m: np.ndarray, orientation: np.ndar
     """
     positions = np.asarray(positions_m, dtype=float)
     if positions.ndim != 2 or positions.shape[1] != 3 or not np.all(np.isfinite(positions)):
-        raise ValueError(f"positions_m must be a finite (P, 3) array in m, got shape {positions.shape}")
+        raise BadInput(f"positions_m must be a finite (P, 3) array in m, got shape {positions.shape}")
     spec = robot.spec
     thetas = np.full((len(positions), spec.n_joints), np.nan)
     failures = []

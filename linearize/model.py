@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from robolobes.cases.spec import PayloadSpec, RobotSpec
+from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite_array
 
 __all__ = [
@@ -336,9 +337,9 @@ def variant_elements(spec: RobotSpec, variant: str, damping_scale: float = 1.0) 
     ``damping_scale`` multiplies the motion-axis damping (the paper's x10 experiment).
     """
     if variant not in VARIANTS:
-        raise ValueError(f"unknown model variant {variant!r}; valid: {', '.join(VARIANTS)}")
+        raise BadInput(f"unknown model variant {variant!r}; valid: {', '.join(VARIANTS)}")
     if not (math.isfinite(damping_scale) and damping_scale >= 0):
-        raise ValueError(f"damping_scale must be a finite number >= 0, got {damping_scale!r}")
+        raise BadInput(f"damping_scale must be a finite number >= 0, got {damping_scale!r}")
     backlash = spec.backlash_half_width_rad if variant == "backlash" else 0.0
     els: list[Element] = [
         Payload(spec.payload),

@@ -283,4 +283,5 @@ def run(args: argparse.Namespace) -> int:
             print(f"operating point {op.spindle_rpm:.6g} rpm, {op.depth_m * 1e3:.4g} mm: {op.verdict.status}, "
                   f"margin {op.margin:+.4g} (+-{op.margin_error:.2g}), |mu| = {op.spectral_radius:.7f}, "
                   f"{op.bifurcation}, chatter {op.chatter_freq_hz:.5g} Hz")
+            print(f"  verdict: {op.verdict.reason}")
     return 0

@@ -204,7 +204,12 @@ class DirectionalPlan:
             for th, g in zip(self.tooth_angle_rad, self.tooth_group):
                 unit[:, g] += self._step_average(a0 + th)
             return b[:, None, None, None, None] * unit[None]
-        # helix: the lag of each slice depends on the depth; chunk over depths to bound memory
+        # helix: the lag of each slice depends on the depth. Batched callers often repeat a depth
+        # (a coarse scan evaluates one depth at every speed): compute each distinct depth once.
+        ub, inv = np.unique(b, return_inverse=True)
+        if len(ub) < len(b):
+            return self.wbar(ub, steps)[inv.reshape(-1)]
+        # chunk over depths to bound memory
         ns = self.slices
         zfrac = (np.arange(ns) + 0.5) / ns  # (ns,) slice mid-heights as fractions of the depth
         chunk = max(1, int(2e6 // max(1, len(steps) * self.quadrature * ns)))

@@ -441,7 +441,7 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     while True:
         levels.append(_sdm_level(problem, method, 2 * levels[-1]["m"], dmax, rtol, coarse_points))
         b_ext, err = richardson(levels[-2]["depth_limit_m"], levels[-1]["depth_limit_m"])
-        verdict = depth_verdict(depth, b_ext, err, (levels[-2]["m"], levels[-1]["m"]))
+        verdict = depth_verdict(depth, b_ext, err, (levels[-2]["m"], levels[-1]["m"]), dmax)
         if verdict.status != "undetermined" or not adaptive or 2 * levels[-1]["m"] > m_max:
             break
     last = levels[-1]
@@ -457,18 +457,20 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
         method=method, history=tuple(levels))
 
 
-def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tuple[int, int]) -> Verdict:
+def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tuple[int, int],
+                  depth_max_m: float = math.inf) -> Verdict:
     """The lobes' decision rule: compare the cut depth with the limit and its error bound.
 
     ``depth < limit - error``: stable; ``depth > limit + error``: unstable; otherwise undetermined
     (the discretization error bound of the Richardson limit straddles the depth). Depths in m;
-    ``m_levels`` (coarse, fine) are named in the reason.
+    ``m_levels`` (coarse, fine) and ``depth_max_m`` (the largest depth searched, when the limit is
+    ``inf``) are named in the reason.
     """
     mm = lambda x: f"{x * 1e3:.5g} mm"
     ms = f"SDM m = {m_levels[0]}/{m_levels[1]}, Richardson"
     if depth_m < limit_m - error_m:
         if math.isinf(limit_m):
-            return Verdict("stable", f"no stability limit below the depths searched ({ms})")
+            return Verdict("stable", f"no stability limit up to the {mm(depth_max_m)} searched ({ms})")
         return Verdict("stable", f"depth {mm(depth_m)} below the limit {mm(limit_m)} - {mm(error_m)} ({ms})")
     if depth_m > limit_m + error_m:
         return Verdict("unstable", f"depth {mm(depth_m)} above the limit {mm(limit_m)} + {mm(error_m)} ({ms})")

@@ -1,1 +1,15 @@
-"""The study: the TX200 model beside the paper's measured facts (``robolobes study``)."""
+"""The study: the TX200 model beside the paper's measured facts (``robolobes study``).
+
+Why the paper's cut was stable in aluminium and unstable in steel, computed:
+:func:`compute.compute_study` returns a typed :class:`result.StudyResult` (modes, lobes, time
+domain, damping search, roughness, Tab. 10); :mod:`output`, :mod:`report` and :mod:`figures`
+render it; :mod:`findings` and :mod:`prose` put its comparisons into words computed from the
+numbers; :mod:`readme` regenerates the README's block from a ``results.json``.
+"""
+
+from .compute import compute_study
+from .result import StudyResult
+from .run import run_study
+from .settings import StudySettings
+
+__all__ = ["compute_study", "run_study", "StudyResult", "StudySettings"]

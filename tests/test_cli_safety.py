@@ -35,17 +35,30 @@ def modal(tmp_path):
     return f
 
 
+_WORKING = {"forbidden": False}
+
+
+def _guarded(fn):
+    """``fn``, failing while a ``no_work`` test runs (harmless where a module bound it at import)."""
+    def wrapper(*a, **k):
+        if _WORKING["forbidden"]:
+            raise AssertionError("work started before the output was checked")
+        return fn(*a, **k)
+    return wrapper
+
+
 @pytest.fixture
 def no_work(monkeypatch):
     """Fail the test if a command starts computing (the checks must come first)."""
     import importlib
 
-    def boom(*a, **k):
-        raise AssertionError("work started before the output was checked")
-
     for module, name in (("robolobes.linearize.linear", "linearize"), ("robolobes.lobes.cli", "solve"),
                          ("robolobes.timedomain.simulation", "simulate")):
-        monkeypatch.setattr(importlib.import_module(module), name, boom)
+        mod = importlib.import_module(module)
+        monkeypatch.setattr(mod, name, _guarded(getattr(mod, name)))
+    _WORKING["forbidden"] = True
+    yield
+    _WORKING["forbidden"] = False
 
 
 # ---- --out never destroys a user's file; checked before the work -----------------------------------

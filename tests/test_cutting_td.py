@@ -372,27 +372,31 @@ def test_coupled_stiff_tool_deflects_by_mean_force_over_k():
     2 k zeta / (N Ktc) ~ 1.6 mm of this 5 kHz, 5 % mode): periodic steady state, where Newmark's
     discrete relations make the revolution sums of a and v vanish, so mean(q) = mean(F) / k exactly."""
     k = 1e7
-    cut, out, t, q, f = _spring_mounted_tool(0.5e-3, k, 5000.0, 0.05, n_rev=40)
+    cut, out, t, q, f = _spring_mounted_tool(0.5e-3, k, 5000.0, 0.05, n_rev=45)
     assert out.completed and out.stats.rejected == 0
     # the tool (starting with its front at the entry face) is fully engaged once its centre has
     # passed the face: R / (2 fz) = 25 revolutions; average over the last 10 (whole revolutions)
     last = slice(-10 * 100, None)
     # the transient decays as exp(-zeta w t), e-folding in 0.2 revolution: gone; Newton atol 1e-13 m
     assert_allclose(q[last].mean(0), f[last].mean(0)[:2] / k, rtol=1e-6, atol=1e-13)
-    from robolobes.timedomain.signals import stability
+    from robolobes.timedomain.verdict import chip_scale, decide
 
-    v = stability(t, q, cut.spindle_period_s, t_start_s=t[-1] - 15 * cut.spindle_period_s)
-    assert v.label == "stable" and v.ratio < 1e-3
+    # the verdict over the 20 revolutions of full engagement (40 tooth periods)
+    v = decide(t, q, cut.spindle_period_s / 2, chip_scale(Tool(diameter_m=2 * R, teeth=2), cut),
+               t_start_s=t[-1] - 20 * cut.spindle_period_s, t_end_s=t[-1])
+    assert v.verdict.status == "stable" and v.regenerative_ratio < 1e-3, v.verdict.reason
 
 
 def test_coupled_soft_tool_chatters_near_its_natural_frequency():
     """ap = 3 mm is ~25 x the smallest stability limit of an 800 Hz, 2 %, 2e6 N/m mode: chatter, at
     a frequency just above the natural frequency (the cutting stiffness adds to the structure's)."""
-    from robolobes.timedomain.signals import chatter_frequency, stability
+    from robolobes.timedomain.signals import chatter_frequency
+    from robolobes.timedomain.verdict import chip_scale, decide
 
     cut, out, t, q, f = _spring_mounted_tool(3e-3, 2e6, 800.0, 0.02, n_rev=45)
     start = t[-1] - 20 * cut.spindle_period_s
-    v = stability(t, q, cut.spindle_period_s, t_start_s=start)
-    assert v.label == "unstable"
+    v = decide(t, q, cut.spindle_period_s / 2, chip_scale(Tool(diameter_m=2 * R, teeth=2), cut),
+               t_start_s=start, t_end_s=t[-1])
+    assert v.verdict.status == "unstable", v.verdict.reason
     est = chatter_frequency(t, q, 1 / cut.spindle_period_s, t_start_s=start)
     assert 800.0 <= est.freq_hz <= 880.0 and est.ratio > 1

@@ -20,6 +20,7 @@ from robolobes.cases.milling import Cut, Tool
 from robolobes.timedomain import fastpath
 from robolobes.timedomain.fastpath import FastPathConvergenceError, FastPathError, run_linear_milling
 from robolobes.timedomain.newmark import NewmarkConvergenceError, NewmarkInterrupted
+from robolobes.linearize.extra_elements import JointCorrection, TcpMode
 from robolobes.linearize.model import build_model
 from robolobes.timedomain.drivers import run_full, run_linearized, run_linearized_python
 from robolobes.timedomain.equations import PassSetup, linear_system_data
@@ -30,22 +31,27 @@ ALU = cases.load_case("tx200-aluminium")
 STEEL = cases.load_case("tx200-steel")
 
 
-def _setup(case, variant, t_end, linearized=True):
+def _setup(case, variant, t_end, linearized=True, extra=()):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the Tab. 7 pose is 2.86 deg past A3's limit (accepted, warned)
-        robot = build_model(case.robot, variant)
+        robot = build_model(case.robot, variant, extra_elements=extra)
         method = LinearizedNewmark() if linearized else NonlinearNewmark()
         return PassSetup(SimulationProblem(robot, case, t_end_s=t_end), method)
 
 
 # The tool enters the aluminium part at 0.063 s and the steel part at 0.264 s (1 mm approach after
 # the feed ramp): the runs below cover the approach, the entry and 2-8 revolutions of cutting.
-REFERENCE_RUNS = [(ALU, "basic", 0.1), (ALU, "backlash", 0.1), (STEEL, "backlash", 0.4)]
+# The last run adds identification's elements (a 900 Hz mode at the TCP: one more DOF; a softer,
+# more damped axis 2): the compiled loop takes any built robot.
+EXTRA = (TcpMode(freq_hz=900.0, damping_ratio=0.03, stiffness_n_per_m=2e7, direction=(1.0, 0.0, 0.0)),
+         JointCorrection(joint=2, stiffness_scale=0.8, damping_scale=1.5))
+REFERENCE_RUNS = [(ALU, "basic", 0.1, ()), (ALU, "backlash", 0.1, ()), (STEEL, "backlash", 0.4, ()),
+                  (ALU, "basic", 0.1, EXTRA)]
 
 
-@pytest.mark.parametrize("case, variant, t_end", REFERENCE_RUNS,
-                         ids=[f"{c.name}-{v}" for c, v, _ in REFERENCE_RUNS])
-def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_end):
+@pytest.mark.parametrize("case, variant, t_end, extra", REFERENCE_RUNS,
+                         ids=[f"{c.name}-{v}{'-extra' if e else ''}" for c, v, _, e in REFERENCE_RUNS])
+def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_end, extra):
     # Same equations, same Newmark update, same Newton iteration and tolerances: the two agree to
     # round-off as long as they take the same number of iterations at every step. Where round-off
     # flips a convergence test, one path takes one more increment, of at most atol = 1e-11 m (rad)
@@ -54,8 +60,8 @@ def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_en
     # (cutting stiffness <= 5e6 N/m) x 1e-11 m = 5e-5 N, i.e. < 1e-6 of the peak force (100-240 N).
     # Hence: forces to 1e-6 of the peak, centre to 1e-10 m, wall to 1e-9 m (the brief's bound; a
     # wall column is the minimum of chords through the tips, which move with the centre).
-    S_c = _setup(case, variant, t_end)
-    S_p = _setup(case, variant, t_end)
+    S_c = _setup(case, variant, t_end, extra=extra)
+    S_p = _setup(case, variant, t_end, extra=extra)
     rc = run_linearized(S_c, None)
     rp = run_linearized_python(S_p, None)
     n = S_c.n_steps + 1

@@ -10,8 +10,8 @@ from robolobes.cases import load_case
 from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.extra_elements import (JointCorrection, OrthogonalCorrection, PayloadMass, TcpMode,
-                                                element_from_spec, element_table)
+from robolobes.linearize.extra_elements import (JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive,
+                                                TcpMode, element_from_spec, element_table)
 
 CASE = load_case("tx200-aluminium")
 TAB7 = CASE.path.start_q_rad
@@ -116,7 +116,7 @@ def test_payload_mass_equals_heavier_payload():
 
 def test_element_tables_round_trip_and_strict_keys():
     for el in (TcpMode(800.0, 0.02, 1e7, (0, 1, 0)), JointCorrection(3, 1.2, 0.5), OrthogonalCorrection(0.8, 1.0),
-               PayloadMass(-3.0)):
+               PayloadMass(-3.0), ServoDrive(2, 5.0, 2e7, 1e3)):
         t = element_table(el)
         assert element_from_spec(ElementSpec(t.pop("type"), t)) == el
     with pytest.raises(BadInput, match="unknown key"):
@@ -150,3 +150,40 @@ def test_model_toml_loads_and_builds_the_identified_robot(tmp_path):
     assert_allclose(a.K, b.K, rtol=1e-12)
     assert_allclose(a.M, b.M, rtol=1e-12)
     assert case.law == CASE.law and case.cut == CASE.cut
+
+
+def test_model_toml_runs_in_lobes_and_modes(tmp_path, capsys):
+    # the written model is a case like any other for the commands upstream of identify
+    import json
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.model_toml import model_toml
+    from robolobes.main import main
+    state = ModelState(case=CASE, variant="basic", case_ref="tx200-aluminium",
+                       elements=(ElementSpec("tcp_mode", {"freq_hz": 900.0, "damping_ratio": 0.03,
+                                                          "stiffness_n_per_m": 2e7, "direction": [1.0, 0, 0]}),))
+    p = tmp_path / "model.toml"
+    p.write_text(model_toml(state))
+    assert main(["lobes", "--case", str(p), "--n-rpm", "5", "--json", "--quiet"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["rpm"]) == 5
+    assert main(["modes", "--case", str(p), "--json"]) == 0
+    modes = json.loads(capsys.readouterr().out)
+    assert any(abs(f - 900) < 20 for f in modes["freq_hz"])
+
+
+def test_servo_drive_stiff_loop_recovers_the_model_and_static_series_springs():
+    # kp -> inf: the rotor is locked and the robot is the one without servo (1e-4 of the peak at
+    # kp = 1e12, k / kp = 6e-6). Statics: joint spring k and loop kp in series give the axis a
+    # stiffness k kp / (k + kp), so the static TCP compliance equals that of a joint table with it.
+    import dataclasses
+    spec = CASE.robot
+    w = 2 * math.pi * np.linspace(2, 200, 100)
+    base = linearize(build_model(spec, "basic"), TAB7).frf(w).H
+    stiff = linearize(build_model(spec, "basic", extra_elements=(ServoDrive(2, 5.0, 1e12, 1e3),)), TAB7).frf(w).H
+    assert_allclose(stiff, base, rtol=0, atol=1e-4 * np.abs(base).max())
+    k, kp = spec.joints[1].stiffness_n_m_per_rad, 3e6
+    servo = linearize(build_model(spec, "basic", extra_elements=(ServoDrive(2, 5.0, kp, 1e3),)), TAB7)
+    joints = list(spec.joints)
+    joints[1] = dataclasses.replace(joints[1], stiffness_n_m_per_rad=k * kp / (k + kp))
+    series = linearize(build_model(dataclasses.replace(spec, joints=tuple(joints)), "basic"), TAB7)
+    assert_allclose(servo.compliance(), series.compliance(), rtol=1e-9)

@@ -7,19 +7,17 @@ identifier uses its own fast perturbation of M, C, K, so the data do not come fr
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 from robolobes.cases import load_case
-from robolobes.identify.effects import REGISTRY, ModelState, effects_for
+from robolobes.identify.effects import REGISTRY
 from robolobes.identify.selection import significance, z_threshold
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, TcpMode
+from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive, TcpMode
 from robolobes.main import main
 
 CASE = load_case("tx200-aluminium")
@@ -54,6 +52,8 @@ def _fast_vs_element(variant, effect_name, params, element):
     ("orthogonal", "orthogonal_correction", {"stiffness_scale": 0.5, "damping_scale": 1.5},
      OrthogonalCorrection(0.5, 1.5)),
     ("gravity", "joint_correction_a3", {"stiffness_scale": 1.3, "damping_scale": 1.0}, JointCorrection(3, 1.3, 1.0)),
+    ("basic", "servo_a2", {"rotor_inertia_kg_m2": 5.0, "kp_n_m_per_rad": 4e6, "kd_n_m_s_per_rad": 2e3},
+     ServoDrive(2, 5.0, 4e6, 2e3)),
 ])
 def test_fast_perturbation_equals_element_model(variant, name, params, element):
     # two independent paths: M, C, K perturbed in place (identify) vs pinocchio rebuilt with the
@@ -127,6 +127,7 @@ def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=F
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--variant", variant]
                             + ([] if poles else ["--no-poles"]), capsys)
     assert rc == 0, err
+    t["element"] = el
     return name, json.loads(out), t
 
 
@@ -144,6 +145,13 @@ def _correct(name, res, t):
 def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
     name, res, t = _identify_draw(tmp_path, capsys, kind, seed)
     assert _correct(name, res, t), (name, res["effects"], res["error_before"], res["error_after"], _truth_errors(t))
+    if kind == "tcp_mode":
+        # the Gauss-Newton standard deviations cover the truth: |fit - true| < 5 sigma (generous: the
+        # noise estimate is conservative and sigma is inflated by the reduced chi-square)
+        e, el = res["effects"][0], t["element"]
+        for k, true in (("freq_hz", el.freq_hz), ("damping_ratio", el.damping_ratio),
+                        ("stiffness_n_per_m", el.stiffness_n_per_m)):
+            assert abs(e["params"][k] - true) < 5 * e["uncertainty"][k], (k, e["params"][k], true, e["uncertainty"][k])
     assert res["metric"].startswith("held-out")
     assert "provenance" in res and len(res["provenance"]["inputs_sha256"]) == 64
     # the model output loads as a case and carries the effect
@@ -212,3 +220,62 @@ def test_cli_report(tmp_path, capsys):
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--alpha", "0.02", "--report", str(rep)],
                             capsys)
     assert rc == 2 and len(err.strip().splitlines()) == 1 and (rep / "report.md").read_text() == before
+
+
+def test_servo_named_with_effects_is_found(tmp_path, capsys):
+    # a soft position loop on axis 2 (kp = 4e6 N m/rad, 2/3 of the joint spring): only tried when
+    # named; among the named candidates it comes first and the error drops to the noise
+    d = tmp_path / "set"
+    t = synthetic_frf_set(d, CASE, elements=(ServoDrive(2, 5.0, 4e6, 2e3),), n_poses=3,
+                          f_hz=np.linspace(2, 300, 400), rel_noise=0.02, add_noise=0.02, seed=9)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles",
+                             "--effects", "servo_a2,joint_correction_a2,payload_mass"], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    e_gen, _ = _truth_errors(t)
+    assert res["effects"][0]["name"] == "servo_a2" and res["error_after"] <= 1.2 * e_gen, res["effects"]
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--effects", "servo_a9"], capsys)
+    assert rc == 2 and "servo_a9" in err
+
+
+def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
+    # a tool mode and a softer axis 3 together: the larger residual (the mode) first, then the axis;
+    # the third step keeps nothing; after both the error is the generating model's (within 1.2x)
+    els = (TcpMode(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 1.0))
+    d = tmp_path / "set"
+    t = synthetic_frf_set(d, CASE, elements=els, n_poses=4, f_hz=np.linspace(2, 300, 400), seed=31)
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles"], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    assert [e["name"] for e in res["effects"]] == ["tcp_mode", "joint_correction_a3"]
+    steps = res["steps"]
+    assert [s["kept"] for s in steps] == ["tcp_mode", "joint_correction_a3", None]
+    assert all(s["statistic"] > s["threshold"] for s in steps[:2]) and steps[2]["statistic"] <= steps[2]["threshold"]
+    e_gen, _ = _truth_errors(t)
+    assert res["error_after"] <= 1.2 * e_gen
+    assert_allclose(res["effects"][1]["params"]["stiffness_scale"], 0.75, atol=5 * res["effects"][1]["uncertainty"]
+                    ["stiffness_scale"])
+
+
+def test_cut_frame_accelerance_set_with_cross_pairs(tmp_path, capsys):
+    # the same robot measured in the cut frame (feed, normal, axial), as accelerance in m/s^2/N,
+    # pairs feed-normal and axial-feed only: read, converted and rotated right, nothing is missing
+    # (held-out error at the noise) and a mode is still found
+    # feed along base +y, so that the cut frame (x feed, y = z x x = -x_base, z up) is not the base frame
+    from importlib import resources
+    text = (resources.files("robolobes.cases") / "data" / "tx200-aluminium.toml").read_text()
+    assert "feed_direction = [1, 0, 0]" in text
+    case_file = tmp_path / "case_feed_y.toml"
+    case_file.write_text(text.replace("feed_direction = [1, 0, 0]", "feed_direction = [0, 1, 0]"))
+    case = load_case(str(case_file))
+    d = tmp_path / "set"
+    el = TcpMode(180.0, 0.03, 0.2 * (2 * math.pi * 180) ** 2, (0.0, 1.0, 0.0))
+    t = synthetic_frf_set(d, case, elements=(el,), n_poses=3, pairs=((0, 0), (1, 1), (0, 1), (2, 0)),
+                          f_hz=np.linspace(2, 300, 400), frame="cut", ordinate=12, seed=41,
+                          offsets_deg=[[0] * 6, [20, 0, 0, 0, 0, 0], [-25, 0, 0, 0, 0, 0]])  # tool stays vertical
+    rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles",
+                             "--case", str(case_file)], capsys)
+    assert rc == 0, err
+    res = json.loads(out)
+    e_gen, _ = _truth_errors(t)
+    assert [e["name"] for e in res["effects"]] == ["tcp_mode"] and res["error_after"] <= 1.2 * e_gen

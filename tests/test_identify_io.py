@@ -108,28 +108,20 @@ def test_bad_measurement_files_one_line_exit_2(tmp_path, capsys):
         np.savetxt(d / "a.csv", rows, delimiter=",", comments="",
                    header="# frame base\nfreq_hz,H_x_x_re_m_per_n,H_x_x_im_m_per_n")
     _bad(tmp_path / "3", capsys, decreasing, "increasing")
+    for k, (over, match) in enumerate([({"ordinate_spec_data_type": 9}, "ordinate_spec_data_type = 9"),
+                                       ({"rsp_dir": 4}, "rsp_dir = 4"),
+                                       ({"ordinate_spec_data_type": 12, "ordinate_axis_units_lab": "furlong"},
+                                        "unit 'furlong'")]):
+        _bad(tmp_path / f"uff{k}", capsys, lambda d: _uff_with(d, h, **over), match)
+
+
+def _uff_with(d, h, **over):
+    """One UFF58 dataset for pose a, with some fields overridden (written by pyuff directly)."""
     import pyuff
-    def bad_type(d):
-        s = pyuff.prepare_58(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1,
-                             ord_data_type=6, num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0,
-                             abscissa_spec_data_type=18, ordinate_spec_data_type=9, orddenom_spec_data_type=13,
-                             data=h.astype(complex), x=F)
-        pyuff.UFF(str(d / "a.uff")).write_sets([s], mode="add")
-    _bad(tmp_path / "5", capsys, bad_type, "ordinate_spec_data_type = 9")
-    def bad_dir(d):
-        s = pyuff.prepare_58(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=4, ref_node=1, ref_dir=1,
-                             ord_data_type=6, num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0,
-                             abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
-                             data=h.astype(complex), x=F)
-        pyuff.UFF(str(d / "a.uff")).write_sets([s], mode="add")
-    _bad(tmp_path / "6", capsys, bad_dir, "rsp_dir = 4")
-    def bad_unit2(d):
-        s = pyuff.prepare_58(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1,
-                             ord_data_type=6, num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0,
-                             abscissa_spec_data_type=18, ordinate_spec_data_type=12, ordinate_axis_units_lab="furlong",
-                             orddenom_spec_data_type=13, data=h.astype(complex), x=F)
-        pyuff.UFF(str(d / "a.uff")).write_sets([s], mode="add")
-    _bad(tmp_path / "7", capsys, bad_unit2, "unit 'furlong'")
+    fields = dict(binary=0, id1="pose a", func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1, ord_data_type=6,
+                  num_pts=len(F), abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1.0, abscissa_spec_data_type=18,
+                  ordinate_spec_data_type=8, orddenom_spec_data_type=13, data=h.astype(complex), x=F)
+    pyuff.UFF(str(d / "a.uff")).write_sets([pyuff.prepare_58(**{**fields, **over})], mode="add")
 
 
 def test_measurement_kind_recognised_from_files(tmp_path):
@@ -144,3 +136,19 @@ def test_measurement_kind_recognised_from_files(tmp_path):
         measurement_kind(tmp_path)
     with pytest.raises(BadInput, match="no such file"):
         measurement_kind(tmp_path / "nothing")
+
+
+def test_case_in_the_files_and_the_override_note(tmp_path):
+    from robolobes.identify.api import model_state
+    d = tmp_path / "set"
+    d.mkdir()
+    (d / "poses.csv").write_text("pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,case\na,0,10,20,0,30,0,tx200-steel\n")
+    write_uff_pairs(d / "a.uff", "a", F, [(0, 0)], np.array([_h()]))
+    m = read_frf_set(d)
+    assert m.case == "tx200-steel"
+    state, notes = model_state(m)
+    assert state.case.name == "tx200-steel" and notes == []
+    state, notes = model_state(m, case="tx200-aluminium")
+    assert state.case.name == "tx200-aluminium" and "overrides" in notes[0]
+    with pytest.raises(BadInput, match="variant"):
+        model_state(m, variant="stiff")

@@ -35,6 +35,7 @@ from numpy.testing import assert_allclose
 from scipy.linalg import expm
 
 from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, in_cut
+from robolobes.core.frf import FRF
 from robolobes.core.numerics import richardson
 from robolobes.lobes import (LobeError, LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
                    ZeroOrder, average_directional_matrix, classify_multiplier, solve, stability)
@@ -468,6 +469,9 @@ def test_progress_and_result_arrays():
         (lambda: PhysicalStructure(np.eye(2), np.eye(2), [[1, np.nan], [0, 1]], np.ones((2, 2))), "finite"),
         (lambda: PhysicalStructure(np.zeros((2, 2)), np.eye(2), np.eye(2), np.ones((2, 2))), "singular"),
         (lambda: ModalStructure(()), "at least one"),
+        (lambda: ModalStructure((Mode(922, 0.01, 1e6, (1, 0)),)).frf([-1.0]), "omega_rad_s must be >= 0"),
+        (lambda: FRF(np.ones(3), np.ones((3, 3, 4)), "cut"), r"FRF needs omega \(F,\)"),
+        (lambda: FRF(np.ones(4), np.ones((3, 3, 4)), ""), "frame"),
         (lambda: solve(problem(0.05), SemiDiscretization(), []), "empty"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [1000.0, -5.0]), "> 0 rpm"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [float("nan")]), "finite"),
@@ -486,7 +490,7 @@ def test_bad_input_is_named(make, match):
         make()
 
 
-def test_adaptive_refinement_decides_a_marginal_point():
+def test_adaptive_refinement_decides_an_undetermined_point():
     """0.3185 mm at 10126 rpm is 0.7 % above the converged limit 0.31636 mm: m = 40/80 cannot tell
     (bound |b80 - b40| = 4.4e-3 mm > 2.1e-3 mm), m = 80/160 can (bound 1.1e-3 mm)."""
     p = problem(1.0, rpm=10126.0, depth=0.3185e-3)
@@ -511,3 +515,18 @@ def test_richardson_option_of_solve():
     assert_allclose(r.depth_error_m[0], abs(b80 - b40), rtol=1e-5)
     assert_allclose(r.depth_limit_m[0], 0.3163574e-3, rtol=1e-4)
     assert r.stats["m_richardson"] == 80
+
+
+def test_depth_verdict_rule():
+    """The rule on hand-made numbers: stable below limit - error, unstable above limit + error,
+    undetermined in between (edges included in the band), with the numbers in the reason."""
+    from robolobes.lobes import depth_verdict
+
+    assert depth_verdict(1.0e-3, 2.0e-3, 0.5e-3, (40, 80)).status == "stable"
+    assert depth_verdict(3.0e-3, 2.0e-3, 0.5e-3, (40, 80)).status == "unstable"
+    for d in (1.5e-3, 2.0e-3, 2.5e-3):
+        v = depth_verdict(d, 2.0e-3, 0.5e-3, (40, 80))
+        assert v.status == "undetermined" and v.stable is None and "m = 40/80" in v.reason
+    v = depth_verdict(1.0e-3, math.inf, 0.0, (40, 80), depth_max_m=0.016)
+    assert v.status == "stable" and "16 mm" in v.reason
+    assert depth_verdict(1.0e-3, math.inf, math.inf, (40, 80)).status == "undetermined"

@@ -14,7 +14,8 @@ shape: ``simulate(SimulationProblem(robot, case), LinearizedNewmark())``.
 * :mod:`timedomain.workpiece_force` -- the milling force on the eroded part (law from
   :mod:`cases.milling`), prescribed runs;
 * :mod:`timedomain.newmark` -- average-acceleration Newmark in residual form;
-* :mod:`timedomain.signals` -- force statistics, stability test, chatter frequency, roughness;
+* :mod:`timedomain.verdict` -- the stability verdict (growth rate of the non-synchronous motion);
+* :mod:`timedomain.signals` -- force statistics, chatter frequency, roughness;
 * :mod:`timedomain.output` -- series, wall, JSON summary and plots of a run.
 """
 

@@ -29,7 +29,7 @@ from robolobes.core.validate import finite, integer
 from robolobes.linearize.model import FlexibleRobot
 
 __all__ = ["SimulationError", "SimulationProblem", "LinearizedNewmark", "NonlinearNewmark", "Method",
-           "MAX_RECORD_BYTES", "RECORD_BYTES_PER_STEP", "MAX_DISCS", "max_steps", "step_count"]
+           "MAX_RECORD_BYTES", "RECORD_BYTES_PER_STEP", "MAX_DISCS", "max_steps", "step_count", "pass_duration_s"]
 
 #: Memory of a run's records: t (8 B), force (3 x 8), centre (2 x 8), TCP (3 x 8) per step.
 RECORD_BYTES_PER_STEP = 8 * (1 + 3 + 2 + 3)
@@ -157,20 +157,25 @@ class SimulationProblem:
 
     @property
     def pass_duration_s(self) -> float:
-        """Duration of the whole pass (S-curve feed over the path), s (the feed profile of
-        :class:`linearize.path.Pass`, without its inverse kinematics)."""
-        from robolobes.linearize.path import FeedProfile
-
-        c = self.case
-        feed = c.cut.feed_rate_m_per_s(c.tool)
-        if not feed > 0:
-            raise SimulationError(f"case {c.name!r}: the feed rate is {feed} m/s; a pass needs a feed rate > 0")
-        return float(FeedProfile(travel_m=c.path.travel_m(c.tool), feed_m_per_s=feed, ramp_s=c.path.ramp_s).duration_s)
+        """Duration of the whole pass, s (:func:`pass_duration_s`)."""
+        return pass_duration_s(self.case)
 
     @property
     def end_time_s(self) -> float:
         """The simulated end time, s: ``t_end_s`` or the pass duration."""
         return float(self.t_end_s) if self.t_end_s is not None else self.pass_duration_s
+
+
+def pass_duration_s(case: MillingCase) -> float:
+    """Duration of a case's whole pass (S-curve feed over the path), s: the feed profile of
+    :class:`linearize.path.Pass`, without its inverse kinematics."""
+    from robolobes.linearize.path import FeedProfile
+
+    feed = case.cut.feed_rate_m_per_s(case.tool)
+    if not feed > 0:
+        raise SimulationError(f"case {case.name!r}: the feed rate is {feed} m/s; a pass needs a feed rate > 0")
+    return float(FeedProfile(travel_m=case.path.travel_m(case.tool), feed_m_per_s=feed,
+                             ramp_s=case.path.ramp_s).duration_s)
 
 
 def step_count(problem: SimulationProblem, method: Method) -> tuple[float, int]:

@@ -49,8 +49,18 @@ class SimulationSummary:
     verdict : Verdict
         ``stable`` / ``unstable`` / ``undetermined`` with its reason (:mod:`core.verdict`); JSON
         ``verdict``, ``stable`` (true / false / null) and ``verdict_reason``.
+    growth_rate_per_s, growth_rate_se_per_s : float or None
+        Growth rate of the non-synchronous motion and its standard error, 1/s.
+    growth_rate_ci_per_s : (float, float) or None
+        Its 95 % confidence interval, 1/s.
+    regenerative_ratio : float or None
+        Regenerative chip variation over the mean chip.
+    chip_loss_fraction : float or None
+        Share of the chip-weighted arc where teeth leave the cut (>= 0.05: saturated regime).
+    duration_to_decide_s : float or None
+        Steady window that would decide an undetermined verdict, s.
     stability : dict or None
-        The verdict rule's numbers.
+        The verdict rule's other numbers (window, periods, degrees of freedom).
     chatter_freq_hz : float or None
         Chatter frequency (only when unstable), Hz.
     nonsynchronous_peak_hz : float or None
@@ -93,6 +103,12 @@ class SimulationSummary:
     force_stats_paper_axes: dict | None = None
     verdict_section: str | None = None
     verdict: Verdict = Verdict("undetermined", "not evaluated")
+    growth_rate_per_s: float | None = None
+    growth_rate_se_per_s: float | None = None
+    growth_rate_ci_per_s: tuple[float, float] | None = None
+    regenerative_ratio: float | None = None
+    chip_loss_fraction: float | None = None
+    duration_to_decide_s: float | None = None
     stability: dict | None = None
     chatter_freq_hz: float | None = None
     nonsynchronous_peak_hz: float | None = None

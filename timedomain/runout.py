@@ -13,20 +13,23 @@ from robolobes.cases.milling import principal_period
 
 from .result import SimulationSummary
 from .summary import has_runout
+from .verdict import VERDICT_KEYS
 
 __all__ = ["needs_companion", "companion_problem", "with_companion_verdict", "VERDICT_FIELDS"]
 
 #: The summary fields the companion run decides.
-VERDICT_FIELDS = ("verdict", "stability", "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio",
-                  "verdict_section", "note")
+#: (``verdict`` is the Verdict object: JSON verdict / stable / verdict_reason.)
+VERDICT_FIELDS = tuple(k for k in VERDICT_KEYS if k not in ("stable", "verdict_reason")) + (
+    "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio", "note")
 #: Longest steady cut simulated by the companion run, s.
 COMPANION_STEADY_S = 2.0
 
 
 def needs_companion(problem, summary: SimulationSummary) -> bool:
-    """A verdict was reached on a tool with runout whose principal period is the tooth period."""
+    """A verdict was attempted (the steady window holds a section) on a tool with runout whose
+    principal period is the tooth period."""
     tool = problem.case.tool
-    return (summary.stable is not None and has_runout(tool)
+    return (summary.stability is not None and has_runout(tool)
             and principal_period(tool, problem.case.cut)[1] == "tooth")
 
 

@@ -1,31 +1,10 @@
-"""Post-processing of time-domain milling results: force statistics, stability verdict, chatter
-frequency, roughness of the machined wall.
+"""Post-processing of time-domain milling results: force statistics, once-per-revolution sections,
+chatter frequency, roughness of the machined wall.
 
 All inputs and outputs are SI (s, m, N); ``_hz`` and ``_um`` appear only in names that say so.
 
-Stability verdict (:func:`stability`)
--------------------------------------
-A stable cut settles on a motion that repeats every spindle revolution (tooth passing, runout and
-variable pitch are all periodic in one revolution), so the once-per-revolution samples
-``P_k = x(t_0 + k T)`` (a Poincare section) converge to a point. Chatter adds motion at a
-frequency that is not a spindle harmonic, and the samples spread over an ellipse (Hopf) or jump
-between points (flip). The criterion, after Honeycutt and Schmitz (2016, "A new metric for
-automated stability identification in time domain milling simulation"), made scale-free:
-
-* ``spread``: RMS scatter of the once-per-revolution samples about a least-squares line (so a slow
-  quasi-static drift of the forced response does not count), summed over axes, evaluated on the
-  first and on the last third of the window; sections are taken at 8 spindle phases and the
-  largest spread is kept (a flip sampled at its zero crossings would otherwise be missed);
-* ``forced_ptp``: peak-to-peak of the synchronous average (the signal averaged over the
-  revolutions of the window, as a function of the spindle phase), root-sum-square over axes;
-* ``ratio = spread_last / forced_ptp`` and ``decay = spread_last / spread_first``.
-
-The cut is **unstable** when ``ratio > threshold`` (default 0.05) **and** ``decay > decay_limit``
-(default 0.5): the non-synchronous motion is a noticeable fraction of the forced motion (5 % of
-its peak-to-peak, i.e. for ``x = A_f cos(N Omega t) + A_c cos(w_c t)`` a chatter amplitude of about
-``A_c = 0.14 A_f``) and it is not dying out (it lost less than half of its RMS between the first
-and the last third of the window). A transient that decays (entry shock, low robot modes) is
-stable even while still visible, and a tiny non-synchronous residue (numerical noise) is stable.
+The stability verdict is not here: it is :mod:`timedomain.verdict` (a growth rate of the
+non-synchronous motion with its confidence interval, and a chip-based saturation criterion).
 
 Chatter frequency (:func:`chatter_frequency`)
 ---------------------------------------------
@@ -59,15 +38,12 @@ import numpy as np
 
 __all__ = [
     "SignalError",
-    "StabilityLabel",
     "HarmonicSet",
     "FormRemoval",
     "ForceStats",
     "force_stats",
     "once_per_revolution",
     "synchronous_average",
-    "StabilityVerdict",
-    "stability",
     "ChatterFrequency",
     "chatter_frequency",
     "Roughness",
@@ -75,7 +51,6 @@ __all__ = [
     "gaussian_mean_line",
 ]
 
-StabilityLabel = Literal["stable", "unstable"]
 HarmonicSet = Literal["spindle", "tooth"]
 FormRemoval = Literal["line", "gaussian"]
 
@@ -252,174 +227,6 @@ def synchronous_average(
     tt = lo + period * (np.arange(n_rev)[:, None] + np.arange(bins)[None, :] / bins)
     avg = _spline(t, xx)(tt.ravel()).reshape(n_rev, bins, -1).mean(0)
     return _ro(avg[:, 0] if one_d else avg)
-
-
-@dataclass(frozen=True)
-class StabilityVerdict:
-    """Once-per-revolution stability verdict (criterion in the module docstring).
-
-    Attributes
-    ----------
-    label : {"stable", "unstable"}
-    ratio : float
-        Spread of the once-per-revolution samples over the last third of the window divided by
-        the peak-to-peak of the synchronous average.
-    decay : float
-        Spread over the last third / spread over the first third (< 1: dying out).
-    threshold, decay_limit : float
-        The criterion's constants used.
-    spread_first, spread_last, forced_ptp : float
-        In the units of the signal.
-    samples_t_s : array (n_rev,)
-    samples : array (n_rev, m)
-        The once-per-revolution samples (Poincare section).
-    """
-
-    label: StabilityLabel
-    ratio: float
-    decay: float
-    threshold: float
-    decay_limit: float
-    spread_first: float
-    spread_last: float
-    forced_ptp: float
-    samples_t_s: np.ndarray
-    samples: np.ndarray
-    rule: str = "thirds"
-    trend_per_s: float = math.nan
-    trend_se_per_s: float = math.nan
-
-    @property
-    def stable(self) -> bool:
-        return self.label == "stable"
-
-
-def _detrended_spread(p: np.ndarray) -> float:
-    k = np.arange(p.shape[0], dtype=float)
-    a = np.vstack([np.ones_like(k), k]).T
-    coef, *_ = np.linalg.lstsq(a, p, rcond=None)
-    res = p - a @ coef
-    return float(np.sqrt((res**2).mean(0).sum()))
-
-
-def stability(
-    t_s,
-    x,
-    spindle_period_s: float,
-    *,
-    t_start_s: float | None = None,
-    t_end_s: float | None = None,
-    threshold: float = 0.05,
-    decay_limit: float = 0.5,
-    phases: int = 8,
-    rule: Literal["thirds", "trend"] = "thirds",
-    segments: int = 6,
-    growth_floor: float = 1e-5,
-    min_decay_per_s: float = 0.0,
-    min_growth_per_window: float = 2.0,
-) -> StabilityVerdict:
-    """Stable / unstable from the once-per-revolution samples of ``x`` (criterion: module docstring).
-
-    Parameters
-    ----------
-    t_s : array (n,)
-        Uniform times, s.
-    x : array (n,) or (n, m)
-        Tool displacement (or force) in the cut frame.
-    spindle_period_s : float
-        ``60 / rpm``, s.
-    t_start_s, t_end_s : float, optional
-        Window; it must hold at least 15 revolutions (5 per third). Start it after the entry.
-    threshold : float
-        Largest ``ratio`` of a stable cut (> 0).
-    decay_limit : float
-        ``decay`` below which the non-synchronous motion counts as dying out (in (0, 1]).
-    phases : int
-        Poincare sections taken at this many spindle phases; the spread is the largest over them
-        (a flip at ``(k + 1/2) f_s`` sampled once per revolution at its zero crossing would be
-        invisible to a single section).
-    rule : {"thirds", "trend"}
-        How "dying out" is decided. "thirds": ``decay = spread_last / spread_first <= decay_limit``.
-        "trend": the spread is computed in ``segments`` consecutive segments, ``log(spread)`` is
-        fitted by a line in time, slope ``trend_per_s`` (1/s) with standard error
-        ``trend_se_per_s``; dying out iff ``trend + 2 se < 0`` (the decay is significant). A
-        chaotic or saturated chatter whose RMS fluctuates from segment to segment can pass the
-        two-point "thirds" test by chance; it does not show a significant exponential decay.
-        Also unstable under "trend": a clear exponential growth (``trend - 2 se`` above
-        ``min_growth_per_window / window``, i.e. by e^2 over the window by default) of a
-        non-synchronous motion above ``growth_floor`` times the forced peak-to-peak, even while it
-        is still below ``threshold`` (a slow instability caught early; slower trends are drift of
-        the forced response, e.g. along a pass).
-    segments : int
-        Segments of the "trend" rule (>= 3, each of at least 5 sections).
-    growth_floor : float
-        Smallest ``ratio`` for which a significant growth counts ("trend" rule): above round-off
-        and numerical noise (~1e-6 of the forced motion in the simulations here).
-    min_decay_per_s : float
-        "trend" rule: dying out needs ``trend + 2 se < -min_decay_per_s`` (1/s, >= 0): a decay so
-        slow that it is not distinguishable from saturated chatter over the window does not count.
-
-    Returns
-    -------
-    StabilityVerdict
-    """
-    threshold = _positive("threshold", threshold)
-    decay_limit = _positive("decay_limit", decay_limit)
-    if decay_limit > 1:
-        raise SignalError(f"decay_limit must be in (0, 1], got {decay_limit}")
-    if isinstance(phases, bool) or not isinstance(phases, (int, np.integer)) or phases < 1:
-        raise SignalError(f"phases must be an integer >= 1, got {phases!r}")
-    t, xx, _ = _series(t_s, x)
-    period = _positive("spindle_period_s", spindle_period_s)
-    lo, hi = _window(t, t_start_s, t_end_s)
-    n = int(math.floor((hi - lo) / period + 1e-9))
-    if n < 15:
-        raise SignalError(
-            f"the window holds {n} revolutions; the stability verdict needs at least 15 (5 per third):"
-            f" lengthen the window to >= {15 * period:.6g} s"
-        )
-    tk = lo + period * (np.arange(n)[:, None] + np.arange(phases)[None, :] / phases)  # (n, phases)
-    pk = _spline(t, xx)(tk.ravel()).reshape(n, phases, -1)
-    third = n // 3
-    s1 = max(_detrended_spread(pk[:third, i]) for i in range(phases))
-    s3 = max(_detrended_spread(pk[-third:, i]) for i in range(phases))
-    p = pk[:, 0]
-    avg = synchronous_average(t_s, x, spindle_period_s, t_start_s=t_start_s, t_end_s=t_end_s)
-    ptp = float(np.sqrt((np.ptp(avg.reshape(avg.shape[0], -1), axis=0) ** 2).sum()))
-    ratio = s3 / ptp if ptp > 0 else (0.0 if s3 == 0 else math.inf)
-    decay = s3 / s1 if s1 > 0 else (0.0 if s3 == 0 else math.inf)
-    trend = se = math.nan
-    growing = False
-    if rule == "thirds":
-        dying = decay <= decay_limit
-    elif rule == "trend":
-        if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 3:
-            raise SignalError(f"segments must be an integer >= 3, got {segments!r}")
-        m = n // segments
-        if m < 5:
-            raise SignalError(f"the window holds {n} periods: the trend rule needs >= 5 per segment "
-                              f"({5 * segments} in all)")
-        sp = np.array([max(_detrended_spread(pk[i * m:(i + 1) * m, j]) for j in range(phases))
-                       for i in range(segments)])
-        tc = lo + period * m * (np.arange(segments) + 0.5)
-        if np.all(sp > 0):
-            A = np.vstack([np.ones(segments), tc - tc.mean()]).T
-            coef, res, *_ = np.linalg.lstsq(A, np.log(sp), rcond=None)
-            resid = np.log(sp) - A @ coef
-            trend = float(coef[1])
-            se = float(np.sqrt((resid ** 2).sum() / (segments - 2) / ((tc - tc.mean()) ** 2).sum()))
-            dying = trend + 2 * se < -float(min_decay_per_s)
-            growing = trend - 2 * se > float(min_growth_per_window) / (hi - lo) and ratio > growth_floor
-        else:
-            dying = True  # no non-synchronous motion left at all in some segment
-    else:
-        raise SignalError(f"rule must be 'thirds' or 'trend', got {rule!r}")
-    label: StabilityLabel = "unstable" if ((ratio > threshold and not dying) or growing) else "stable"
-    return StabilityVerdict(
-        rule=rule, trend_per_s=trend, trend_se_per_s=se,
-        label=label, ratio=ratio, decay=decay, threshold=threshold, decay_limit=decay_limit,
-        spread_first=s1, spread_last=s3, forced_ptp=ptp, samples_t_s=_ro(tk[:, 0]), samples=_ro(p),
-    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -33,10 +33,9 @@ from .summary import summarize
 __all__ = ["simulate"]
 
 
-def _slowest_decay(S: PassSetup) -> float:
-    """Smallest modal decay rate ``zeta w_n`` of the linearized robot at the start, 1/s."""
-    lin = linearize(S.robot, S.th_tab[0])
-    return float(np.min(-np.asarray(lin.modes().poles).real))
+def _poles(S: PassSetup) -> np.ndarray:
+    """Poles of the linearized robot at the start, rad/s (complex; the verdict's beat period)."""
+    return np.asarray(linearize(S.robot, S.th_tab[0]).modes().poles)
 
 
 def _deviation(S: PassSetup, rec: Records) -> np.ndarray:
@@ -98,7 +97,7 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
                  linearized=isinstance(method, LinearizedNewmark), **rec.stats)
     result = _result(problem, method, S, rec, stats)
     summary = summarize(result, S.workpiece, last_centre_x_m=float(rec.center_m[-1, 0]),
-                        slowest_decay_per_s=_slowest_decay(S))
+                        poles_rad_s=_poles(S))
     if verdict_companion and needs_companion(problem, summary):
         summary = with_companion_verdict(summary, lambda p: simulate(p, method, verdict_companion=False), problem,
                                          float(rec.t_s[-1]), S.steady[0])

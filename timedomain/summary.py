@@ -17,7 +17,6 @@ steady window the run does not reach is ``None``, not ``[t0, t_end]`` with ``t_e
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
@@ -28,15 +27,13 @@ from robolobes.linearize.model import MotionSprings
 
 from .problem import LinearizedNewmark, SimulationProblem
 from .result import SimulationResult, SimulationSummary
-from .signals import chatter_frequency, force_stats, stability
+from .signals import chatter_frequency, force_stats
+from .verdict import verdict_summary
 from .workpiece import Workpiece
 
-__all__ = ["summarize", "stability_verdict", "has_runout", "DECAY_LIMIT", "MIN_STEADY_PERIODS",
+__all__ = ["summarize", "stability_verdict", "has_runout", "MIN_STEADY_PERIODS",
            "simulation_inputs"]
 
-#: The window must be long enough for the slowest free robot mode to lose at least 20 % of its
-#: amplitude over two thirds of it; shorter, ringing after the entry cannot be told from chatter.
-DECAY_LIMIT = 0.8
 #: Spindle revolutions of steady cut needed for statistics and a verdict.
 MIN_STEADY_PERIODS = 15
 #: The finished wall must exceed the 0.8 mm cutoff's run-in and run-out plus a sampling length.
@@ -104,69 +101,30 @@ def _force_fields(result: SimulationResult, window: tuple[float, float]) -> dict
                                             "rms": fp.rms_n[i]} for i, ax in enumerate("xy")}}
 
 
-def stability_verdict(result: SimulationResult, window: tuple[float, float],
-                      slowest_decay_per_s: float | None) -> dict:
-    """The time-domain stability verdict (the one policy; summary fields ``verdict_section``,
-    ``verdict``, ``stability``, ``chatter_freq_hz``, ``nonsynchronous_peak_hz``,
-    ``nonsynchronous_ratio``, ``note``).
-
-    Once-per-principal-period samples (:func:`cases.milling.principal_period`: tooth period for a
-    uniform pitch, else the revolution) of the TCP deviation (x, y) over the steady ``window``
-    (:func:`timedomain.signals.stability`, ``rule="trend"``): unstable when the non-synchronous
-    motion exceeds 5 % of the forced peak-to-peak and does not decay significantly (log-linear fit
-    over 6 segments: dying out iff slope + 2 standard errors < -sigma/4, a quarter of the slowest
-    free robot mode's decay rate), or when it grows significantly from more than 1e-5 of the forced
-    motion (a slow instability caught early). The robot's slowest mode rings after the entry with a
-    decay rate ``sigma = min(zeta w_n)`` (0.5-1 1/s for the TX200): if over two thirds of the window
-    it would not fall below ``DECAY_LIMIT`` itself, the window cannot tell a ringing stable robot
-    from chatter and the verdict is ``None``. Fewer than 30 principal periods (6 segments of 5
-    sections): ``None``.
+def stability_verdict(result: SimulationResult, window: tuple[float, float], poles_rad_s=()) -> dict:
+    """The time-domain stability verdict, the one policy: :func:`timedomain.verdict.verdict_summary`
+    on the TCP deviation (x, y) over the steady ``window`` (the rule is stated once, in
+    :mod:`timedomain.verdict`: growth rate of the non-synchronous motion with its 95 % interval,
+    saturated chatter by the regenerative chip ratio, no decision on a window shorter than the
+    structure's beat period ``poles_rad_s``), plus the chatter frequency, reported when unstable.
     """
     case = result.problem.case
-    T = case.cut.spindle_period_s
     t = np.asarray(result.t_s)
-    t0, t1 = window
+    dev = np.asarray(result.tcp_deviation_m)[:, :2]
+    out = verdict_summary(t, dev, case.tool, case.cut, window, poles_rad_s=poles_rad_s)
     Tp, pname = principal_period(case.tool, case.cut)
-    out: dict = {"verdict_section": f"once per {pname} period ({Tp * 1e3:.3f} ms)"}
-    n_sec = int((t1 - t0) / Tp + 1e-9)
-    if n_sec < 30:
-        # the trend rule needs 6 segments of >= 5 sections
-        note = (f"steady window {t0:.3f}-{t1:.3f} s holds {n_sec} {pname} periods; the stability "
-                f"verdict needs 30: simulate longer")
-        out.update(verdict=Verdict("undetermined", note), chatter_freq_hz=None, note=note)
-        return out
-    # a transient must decay at least at a quarter of the slowest free robot mode's rate
-    # (cutting slows the decay near the boundary; slower than that is, over a window of a few
-    # seconds, indistinguishable from saturated chatter: conservative)
-    min_decay = 0.25 * slowest_decay_per_s if slowest_decay_per_s is not None else 0.0
-    verdict = stability(t, result.tcp_deviation_m[:, :2], Tp, t_start_s=t0, t_end_s=t1, decay_limit=DECAY_LIMIT,
-                        rule="trend", min_decay_per_s=min_decay)
     forced = "tooth" if (pname == "tooth" and not has_runout(case.tool)) else "spindle"
-    cf = chatter_frequency(t, result.tcp_deviation_m[:, :2], 1.0 / T, teeth=case.tool.teeth, harmonics=forced,
-                           t_start_s=t0, t_end_s=t1)
-    ringing = None if slowest_decay_per_s is None else math.exp(-slowest_decay_per_s * (t1 - t0) * 2 / 3)
-    stable = verdict.stable
-    reason = (f"trend rule on once-per-{pname}-period samples: non-synchronous motion {verdict.ratio:.3g} of the "
-              f"forced peak-to-peak (threshold {verdict.threshold:g}), trend {verdict.trend_per_s:+.3g} "
-              f"+- {2 * verdict.trend_se_per_s:.2g} 1/s (2 SE), required decay {min_decay:.3g} 1/s")
-    if not stable and ringing is not None and ringing > DECAY_LIMIT:
-        # a free robot mode would itself lose less than the required 20 % over this window (and
-        # close modes beat): ringing after the entry cannot be told from chatter
-        stable = None
-        reason = out["note"] = (f"window too short for a verdict: the slowest robot mode (decay rate "
-                                f"{slowest_decay_per_s:.2f} 1/s) keeps {ringing:.2f} of its amplitude over two "
-                                f"thirds of the {t1 - t0:.2f} s steady window; simulate longer")
-    out["verdict"] = Verdict.from_stable(stable, reason)
-    out["stability"] = {"ratio": verdict.ratio, "decay": verdict.decay, "threshold": verdict.threshold,
-                        "trend_per_s": verdict.trend_per_s, "trend_se_per_s": verdict.trend_se_per_s,
-                        "slowest_mode_decay_over_window": ringing}
+    cf = chatter_frequency(t, dev, 1.0 / case.cut.spindle_period_s, teeth=case.tool.teeth, harmonics=forced,
+                           t_start_s=window[0], t_end_s=window[1])
+    stable = out.pop("stable")
+    out["verdict"] = Verdict(out["verdict"], out.pop("verdict_reason") or "")
     out["chatter_freq_hz"] = cf.freq_hz if stable is False else None
     out["nonsynchronous_peak_hz"] = cf.freq_hz
     out["nonsynchronous_ratio"] = cf.ratio
     return out
 
 
-def _steady_fields(result: SimulationResult, slowest_decay_per_s: float | None) -> dict:
+def _steady_fields(result: SimulationResult, poles_rad_s=()) -> dict:
     """Steady window clipped to the run, statistics and verdict over it (or None with a note)."""
     T = result.problem.case.cut.spindle_period_s
     t = np.asarray(result.t_s)
@@ -183,7 +141,7 @@ def _steady_fields(result: SimulationResult, slowest_decay_per_s: float | None) 
         out["verdict"] = Verdict("undetermined", out["note"])
         return out
     out.update(_force_fields(result, (t0, t1)))
-    out.update(stability_verdict(result, (t0, t1), slowest_decay_per_s))
+    out.update(stability_verdict(result, (t0, t1), poles_rad_s))
     dy = result.tcp_deviation_m[(t >= t0) & (t <= t1), 1]
     out["tcp_deviation_y_um"] = {"min": float(dy.min() * 1e6), "max": float(dy.max() * 1e6)}
     return out
@@ -209,7 +167,7 @@ def _roughness_fields(result: SimulationResult, workpiece: Workpiece, last_centr
 
 
 def summarize(result: SimulationResult, workpiece: Workpiece, *, last_centre_x_m: float,
-              slowest_decay_per_s: float | None = None, wall_s: float | None = None) -> SimulationSummary:
+              poles_rad_s=(), wall_s: float | None = None) -> SimulationSummary:
     """The :class:`SimulationSummary` of a run (module docstring).
 
     Parameters
@@ -219,12 +177,12 @@ def summarize(result: SimulationResult, workpiece: Workpiece, *, last_centre_x_m
         The part after the run (roughness).
     last_centre_x_m : float
         Tool centre along the feed at the end of the run, cut frame, m.
-    slowest_decay_per_s : float, optional
-        Smallest modal decay rate ``zeta w_n`` of the robot, 1/s (verdict window check).
+    poles_rad_s : array (k,), complex, optional
+        Poles of the linearized robot, rad/s (the verdict's shortest window, its beat period).
     wall_s : float, optional
         Wall-clock time of the run, s.
     """
     fields = _model_fields(result.problem, result.method, float(result.t_s[-1]))
-    fields.update(_steady_fields(result, slowest_decay_per_s))
+    fields.update(_steady_fields(result, poles_rad_s))
     fields.update(_roughness_fields(result, workpiece, last_centre_x_m))
     return SimulationSummary(**fields, wall_s=wall_s)

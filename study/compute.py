@@ -1,0 +1,407 @@
+"""Compute the study: modes, lobes, time domain, damping search, paper tables -> :class:`StudyResult`.
+
+For the two built-in cases (``tx200-aluminium``, ``tx200-steel``):
+
+1. modes and tool-tip FRFs at the start, middle and end of the pass, four model variants;
+2. each cut against the stability lobes at those poses (margin, limit, bifurcation, chatter
+   frequency, the mode that chatters), lobe diagrams and the absolute (ZOA) limits;
+3. time-domain passes of both cases in the four variants;
+4. the smallest joint-damping scale that stabilizes steel (the paper says x10) by the lobes and by
+   the time domain, each as a bracket [largest unstable, smallest stable];
+5. the paper's Tab. 10 (forces) and Tab. 11/12 (roughness) beside ours.
+
+Nothing here writes a file: :mod:`.output` renders the result.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import asdict, replace
+from typing import Callable
+
+import numpy as np
+
+from robolobes import cases
+from robolobes.core.io import provenance, to_jsonable
+from robolobes.linearize.summary import modes_summary
+from robolobes.linearize.kinematics import JointLimitWarning
+from robolobes.linearize.model import VARIANTS
+from robolobes.linearize.path import Pass
+
+from .linearizations import Linearizations
+from .result import (AbsoluteLimit, DampingProbe, DampingSearch, DominantMode, LobeDiagram, MaterialFacts, ModeSet,
+                     OperatingPoint, RoughnessRow, StudyResult, Tab10Row, TimeDomainRun, as_verdict)
+from .settings import LOBE_RANGES_RPM, MATERIALS, PAPER, POSES, StudySettings
+
+__all__ = ["compute_study", "load_inputs", "study_poses", "compute_modes", "compute_operating_points",
+           "compute_diagrams", "compute_absolute_limits", "bracket_search", "damping_by_lobes",
+           "damping_by_time_domain", "compute_time_domain", "FRF_FREQ_HZ"]
+
+Progress = Callable[[float], None]
+
+#: Frequencies of the study's FRFs, Hz (600 points over the robot's modes).
+FRF_FREQ_HZ = np.linspace(1.0, 300.0, 600)
+
+
+def _quiet(f: float) -> None:
+    return None
+
+
+def _sub(progress: Progress, lo: float, hi: float) -> Progress:
+    return lambda f: progress(lo + (hi - lo) * f)
+
+
+# ------------------------------------------------------------------------------------------ inputs
+def load_inputs() -> tuple[dict, Pass, dict]:
+    """``(cases by material, the aluminium pass, the paper's results)``.
+
+    When both cases carry equal robots, steel gets aluminium's robot object, so that the shared
+    :class:`Linearizations` builds and linearizes it once for both.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", JointLimitWarning)  # the Tab. 7 A3 warning, reported in the notes
+        cs = {k: cases.load_case(v) for k, v in MATERIALS.items()}
+        pas = Pass.from_case(cs["aluminium"])
+    if repr(cs["steel"].robot) == repr(cs["aluminium"].robot):
+        cs["steel"] = replace(cs["steel"], robot=cs["aluminium"].robot)
+    return cs, pas, cases.load_reference(PAPER)
+
+
+def study_poses(pas: Pass) -> dict[str, np.ndarray]:
+    """Motor angles (6,) rad of the study's poses (``POSES``: fractions of the pass travel)."""
+    return {k: pas.theta_at_s(f * pas.travel_m) for k, f in POSES.items()}
+
+
+def study_inputs(settings: StudySettings, cs: dict, paper: dict) -> dict:
+    """What the study's result depends on (hashed into its provenance)."""
+    def describe(case):
+        try:
+            return to_jsonable(asdict(case))
+        except TypeError:
+            return repr(case)
+    return {"study": "tx200 aluminium vs steel", "settings": to_jsonable(asdict(settings)),
+            "cases": {k: describe(c) for k, c in cs.items()}, "reference": to_jsonable(paper)}
+
+
+# ------------------------------------------------------------------------------------------ modes
+def _frf_peaks_um_per_n(frf) -> dict:
+    """Largest |H_ii| (um/N) of the direct feed and normal receptances of a cut-frame FRF (3, 3, n)."""
+    H = np.asarray(frf.H)
+    return {ax: float(np.max(np.abs(H[i, i])) * 1e6) for i, ax in enumerate(("feed", "normal"))}
+
+
+def compute_modes(lins: Linearizations, case, poses: dict, progress: Progress = _quiet) -> tuple:
+    """Modes, TCP stiffness and cut-frame FRFs of the four variants at the study's poses."""
+    out = []
+    w = 2 * math.pi * FRF_FREQ_HZ
+    jobs = [(v, p) for v in VARIANTS for p in poses]
+    for k, (variant, pose) in enumerate(jobs):
+        robot = lins.robot(case.robot, variant)
+        summary = modes_summary(robot, poses[pose], case)
+        frf = lins.at(case.robot, variant, pose, poses[pose]).frf(
+            w, frame="cut", feed_direction=case.cut.feed_direction)
+        keep = ("freq_hz", "damped_freq_hz", "damping_ratio", "q_deg", "tcp_position_m", "tool_axis",
+                "tcp_static_stiffness_n_per_m", "modal_stiffness_n_per_m", "tcp_gravity_deflection_m", "notes")
+        out.append(ModeSet(variant, pose, {kk: summary[kk] for kk in keep}, _frf_peaks_um_per_n(frf),
+                           f"frf/frf_{variant}_{pose}.csv", frf))
+        progress((k + 1) / len(jobs))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------------------------------ lobes
+def mode_contributions(lin, case, freq_hz: float) -> np.ndarray:
+    """|contribution| of each mode (n_modes,) to the normal cut-frame receptance at ``freq_hz``, m/N."""
+    modes = lin.modes("cut", case.cut.feed_direction)
+    w = 2 * math.pi * freq_hz
+    res = np.asarray(modes.residues)[:, 1, 1]
+    lam = np.asarray(modes.poles)
+    contrib = res / (1j * w - lam)
+    out = np.zeros(modes.freq_hz.shape[-1])
+    for r in range(len(out)):  # pair each listed mode (upper pole) with its conjugate
+        conj = int(np.argmin(np.abs(lam - np.conj(lam[r]))))
+        out[r] = abs(contrib[r] + (contrib[conj] if conj != r else 0))
+    return out
+
+
+def _dominant_mode(lin, case, freq_hz: float) -> DominantMode | None:
+    if not math.isfinite(freq_hz):
+        return None
+    contrib = mode_contributions(lin, case, freq_hz)
+    r = int(np.argmax(contrib))
+    modes = lin.modes()
+    return DominantMode(r + 1, float(modes.freq_hz[r]), float(modes.damping_ratio[r]),
+                        float(contrib[r] / contrib.sum()))
+
+
+def _lobe_problem(st, case):
+    from robolobes.lobes.problem import LobeProblem
+    return LobeProblem(st, case.tool, case.cut, case.law)
+
+
+def _operating_point(lins, case, material, variant, pose, theta, method) -> OperatingPoint:
+    from robolobes.lobes.solver import stability
+    lin, st = lins.structure(case, variant, pose, theta)
+    op = stability(_lobe_problem(st, case), method)
+    f_ch = op.limit_chatter_freq_hz if math.isfinite(op.limit_chatter_freq_hz) else op.chatter_freq_hz
+    return OperatingPoint(
+        material, variant, pose, as_verdict(op.verdict), op.depth_m, op.depth_limit_m, op.depth_limit_error_m,
+        op.margin, op.margin_error, op.spectral_radius, str(op.bifurcation), op.chatter_freq_hz,
+        str(op.limit_bifurcation), op.limit_chatter_freq_hz, tuple(h["m"] for h in op.history),
+        _dominant_mode(lin, case, f_ch), op)
+
+
+def compute_operating_points(settings, lins, cs, poses, progress: Progress = _quiet) -> tuple:
+    """Each cut against the lobes, every variant, at the settings' poses (SDM, m and 2m)."""
+    from robolobes.lobes.sdm import SemiDiscretization
+    method = SemiDiscretization(m=settings.sdm_m)
+    jobs = [(mat, v, p) for mat in cs for v in VARIANTS for p in settings.lobe_poses]
+    out = []
+    for k, (mat, variant, pose) in enumerate(jobs):
+        out.append(_operating_point(lins, cs[mat], mat, variant, pose, poses[pose], method))
+        progress((k + 1) / len(jobs))
+    return tuple(out)
+
+
+def compute_diagrams(settings, lins, cs, poses, progress: Progress = _quiet) -> tuple:
+    """Lobe diagrams (SDM, ``settings.n_rpm`` speeds, up to 10 mm) of the settings' variants."""
+    from robolobes.lobes.sdm import SemiDiscretization
+    from robolobes.lobes.solver import solve
+    method = SemiDiscretization(m=settings.sdm_m)
+    jobs = [(mat, v, p) for mat in cs for v in settings.lobe_variants for p in settings.lobe_poses]
+    out = []
+    for k, (mat, variant, pose) in enumerate(jobs):
+        _, st = lins.structure(cs[mat], variant, pose, poses[pose])
+        rpm = np.linspace(*LOBE_RANGES_RPM[mat], settings.n_rpm)
+        res = solve(_lobe_problem(st, cs[mat]), method, rpm, depth_max_m=0.01)
+        out.append(LobeDiagram(mat, variant, pose, np.asarray(res.spindle_rpm), np.asarray(res.depth_limit_m),
+                               np.asarray(res.chatter_freq_hz), tuple(np.asarray(res.bifurcation).tolist()),
+                               float(res.stats["wall_s"]), f"lobes_{mat}_{variant}_{pose}.png", res))
+        progress((k + 1) / len(jobs))
+    return tuple(out)
+
+
+def compute_absolute_limits(lins, cs, poses) -> tuple:
+    """Smallest ZOA limit over 300-30000 rpm (400 speeds, geometric), basic model, start pose."""
+    from robolobes.lobes.solver import solve
+    from robolobes.lobes.zoa import ZeroOrder
+    out = []
+    for mat, case in cs.items():
+        _, st = lins.structure(case, "basic", "start", poses["start"])
+        z = solve(_lobe_problem(st, case), ZeroOrder(), np.geomspace(300, 30000, 400), depth_max_m=1.0)
+        j = int(np.nanargmin(z.depth_limit_m))
+        out.append(AbsoluteLimit(mat, float(z.depth_limit_m[j]), float(z.spindle_rpm[j])))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------------------------------ damping
+def bracket_search(check: Callable[[float], DampingProbe], scales, tol: float, method: str,
+                   variant: str) -> DampingSearch:
+    """Bracket the smallest stabilizing scale: ``check(scale)`` is tried on ``scales`` in increasing
+    order until one is stable, then [last not stable, first stable] is bisected until narrower than
+    ``tol``. Assumes one crossing (more damping, more stable); "undetermined" counts as not stable.
+    """
+    probes: dict[float, DampingProbe] = {}
+    lo = hi = None
+    for sc in sorted(scales):
+        probes[sc] = check(sc)
+        if probes[sc].verdict.stable is True:
+            hi = sc
+            break
+        lo = sc
+    while hi is not None and lo is not None and hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        probes[mid] = check(mid)
+        lo, hi = (lo, mid) if probes[mid].verdict.stable is True else (mid, hi)
+    return DampingSearch(method, variant, tuple(probes[k] for k in sorted(probes)), lo, hi, tol)
+
+
+def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic") -> DampingSearch:
+    """Damping bracket by the lobes: stable when the SDM limit at the cut speed exceeds the cut
+    depth beyond its discretization error bound (Tab. 7 pose)."""
+    from robolobes.lobes.sdm import SemiDiscretization
+    from robolobes.lobes.solver import stability
+    method = SemiDiscretization(m=settings.sdm_m)
+
+    def check(scale):
+        lin, st = lins.structure(steel, variant, "start", theta_start, damping_scale=scale)
+        op = stability(_lobe_problem(st, steel), method)
+        return DampingProbe(scale, as_verdict(op.verdict), {
+            "depth_limit_m": op.depth_limit_m, "depth_limit_error_m": op.depth_limit_error_m, "margin": op.margin,
+            "spectral_radius": op.spectral_radius, "bifurcation": str(op.limit_bifurcation),
+            "chatter_freq_hz": op.limit_chatter_freq_hz, "slowest_decay_per_s": _slowest_decay(lin)})
+
+    return bracket_search(check, settings.damping_scales, settings.damping_tol, "lobes", variant)
+
+
+def _slowest_decay(lin) -> float:
+    """Smallest modal decay rate ``zeta w_n`` of a linearization, 1/s."""
+    return float(np.min(-np.asarray(lin.modes().poles).real))
+
+
+def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Progress = _quiet,
+                           cache: dict | None = None, lins: Linearizations | None = None) -> DampingSearch:
+    """Damping bracket by the time-domain verdict of the steel pass (always the linearized fast
+    path: a bisection takes about nine passes)."""
+    fast = replace(settings, td_linearized=True)
+    n = [0]
+
+    def check(scale):
+        run = simulate_run(steel, "steel", variant, fast, settings.steel_t_end_s, scale, cache=cache, lins=lins)
+        n[0] += 1
+        progress(min(1.0, n[0] / 9))
+        s = run.summary
+        return DampingProbe(scale, run.verdict, {k: s.get(k) for k in
+                                                  ("chatter_freq_hz", "stability", "note", "verdict_basis")})
+
+    return bracket_search(check, settings.damping_scales, settings.td_damping_tol, "time domain", variant)
+
+
+# ------------------------------------------------------------------------------------------ time domain
+_TD_KEYS = ("stable", "verdict", "verdict_reason", "chatter_freq_hz", "nonsynchronous_peak_hz", "stability",
+            "verdict_basis", "force_stats", "force_stats_paper_axes", "force_stats_window_s", "roughness_um",
+            "tcp_deviation_y_um", "wall_y_um", "steady_window_s", "note")
+
+
+def simulate_run(case, material, variant, settings, t_end, damping_scale=1.0, stats_window=None,
+                 progress=None, cache: dict | None = None, lins: Linearizations | None = None) -> TimeDomainRun:
+    """One pass of ``case`` (``settings.td_linearized``: the linearized fast path). ``cache``: runs
+    already simulated, by (material, variant, damping scale, path, duration, window); a run asked
+    for twice (steel at x1 and at the stabilizing scale, by the damping search and the time-domain
+    section) is simulated once."""
+    key = (material, variant, float(damping_scale), settings.td_linearized, t_end, stats_window)
+    if cache is not None and key in cache:
+        return cache[key]
+    run = _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
+                        Linearizations() if lins is None else lins)
+    if cache is not None:
+        cache[key] = run
+    return run
+
+
+def _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
+                  lins: Linearizations) -> TimeDomainRun:
+    from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
+    robot = lins.robot(case.robot, variant, damping_scale)
+    pb = SimulationProblem(robot, case, t_end_s=t_end, stats_window_s=stats_window)
+    r = simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(), progress=progress)
+    s = r.summary.to_json()
+    summary = {k: s[k] for k in _TD_KEYS if s.get(k) is not None}
+    verdict = as_verdict(s.get("verdict", s.get("stable")), s.get("verdict_reason") or s.get("note") or "")
+    return TimeDomainRun(material, variant, float(damping_scale), verdict, s.get("chatter_freq_hz"),
+                         float(r.t_s[-1]), float(s.get("wall_s") or r.stats.get("wall_time_s", 0.0)),
+                         int(r.stats["steps"]), summary, r)
+
+
+def compute_time_domain(settings, cs, paper, damping_scale_extra: float | None = None,
+                        progress: Progress = _quiet, cache: dict | None = None,
+                        lins: Linearizations | None = None) -> tuple:
+    """Aluminium and steel passes, four variants, nominal damping (aluminium's force statistics
+    over the Tab. 10 window); then steel (basic) at ``damping_scale_extra`` if given."""
+    win = tuple(paper["aluminium"]["tab10"]["window_s"])
+    jobs = [("aluminium", v) for v in VARIANTS] + [("steel", v) for v in VARIANTS]
+    out = []
+    for i, (mat, variant) in enumerate(jobs):
+        al = mat == "aluminium"
+        out.append(simulate_run(cs[mat], mat, variant, settings, settings.al_t_end_s if al else settings.steel_t_end_s,
+                                1.0, win if al else None, progress=lambda f: progress((i + f) / len(jobs)), cache=cache,
+                                lins=lins))
+    if damping_scale_extra is not None:
+        out.append(simulate_run(cs["steel"], "steel", "basic", settings, settings.steel_t_end_s, damping_scale_extra,
+                                cache=cache, lins=lins))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------------------------------ paper tables
+TAB10_COLUMNS = ("fx_min", "fy_min", "fx_max", "fy_max", "fx_mean", "fy_mean", "fx_rms", "fy_rms")
+
+
+def tab10_rows(paper: dict, runs) -> tuple:
+    """The paper's Tab. 10 rows, then ours (aluminium, each variant, same window and axes), N."""
+    rows = [Tab10Row(f"paper {name}", dict(zip(TAB10_COLUMNS, vals)))
+            for name, vals in paper["aluminium"]["tab10"].items() if name != "window_s"]
+    for r in runs:
+        fs = r.summary.get("force_stats_paper_axes")
+        if r.material == "aluminium" and r.damping_scale == 1.0 and fs:
+            rows.append(Tab10Row(f"robolobes {r.variant}", {f"f{ax}_{k}": fs[ax][k] for ax in ("x", "y")
+                                                            for k in ("min", "max", "mean", "rms")}))
+    return tuple(rows)
+
+
+def roughness_rows(paper: dict, runs) -> tuple:
+    """Tab. 11/12 (simulation and measured ranges) beside ours (basic and backlash), um."""
+    rows = []
+    for mat in ("aluminium", "steel"):
+        ref = paper[mat]["roughness_um"]
+        for name in ("simulation", "experimental"):
+            r = ref[name]
+            rows.append(RoughnessRow(f"paper {mat} {name}", *(tuple(r[k]) if isinstance(r[k], list) else r[k]
+                                                              for k in ("Ra", "Rq", "Rt"))))
+        for variant in ("basic", "backlash"):
+            run = next((x for x in runs if (x.material, x.variant, x.damping_scale) == (mat, variant, 1.0)), None)
+            ru = (run.summary.get("roughness_um") or {}) if run else {}
+            rows.append(RoughnessRow(f"robolobes {mat} {variant}", ru.get("Ra"), ru.get("Rq"), ru.get("Rt")))
+    return tuple(rows)
+
+
+# ------------------------------------------------------------------------------------------ explanation
+def material_facts(case, modes, op: OperatingPoint, absolute: AbsoluteLimit, run: TimeDomainRun) -> MaterialFacts:
+    """The numbers of the explanation for one material (basic model, start pose)."""
+    f_tp = case.cut.spindle_rpm / 60 * case.tool.teeth
+    f6 = next(m for m in modes if (m.variant, m.pose) == ("basic", "start")).freq_hz
+    f18 = next(m for m in modes if (m.variant, m.pose) == ("orthogonal", "start")).freq_hz
+    return MaterialFacts(
+        spindle_rpm=case.cut.spindle_rpm, tooth_passing_hz=f_tp, lowest_mode_hz=float(f6[0]), n_modes_basic=len(f6),
+        modes_below_tooth_passing_basic=int(np.sum(f6 < f_tp)),
+        modes_below_tooth_passing_orthogonal=int(np.sum(f18 < f_tp)),
+        ktc_pa=case.law.ktc_pa, krc_pa=case.law.krc_pa, depth_m=case.cut.ap_m, lobes_verdict=op.verdict,
+        local_limit_m=op.depth_limit_m, local_margin=op.margin, bifurcation=op.limit_bifurcation,
+        chatter_freq_hz_lobes=op.limit_chatter_freq_hz, dominant_mode=op.dominant_mode,
+        absolute_limit_zoa_m=absolute.depth_m, time_domain_verdict_basic=run.verdict,
+        chatter_freq_hz_time_domain=run.chatter_freq_hz)
+
+
+NOTES = ("The Tab. 7 pose has A3 = -212.14 deg = +147.86 deg, 2.86 deg past the +145 deg datasheet limit: "
+         "accepted with a warning.",
+         "Forces in the paper's axes: Fx along the feed (force on the tool), Fy normal pointing into the material "
+         "(see timedomain.workpiece_force).")
+
+
+# ------------------------------------------------------------------------------------------ driver
+def compute_study(settings: StudySettings, progress: Progress = _quiet,
+                  lins: Linearizations | None = None) -> StudyResult:
+    """Run every computation of the study and return its typed result (nothing is written).
+
+    ``progress(fraction)`` is called as the work advances; ``lins`` (default: a new shared cache)
+    is where robots and linearizations are kept; with ``lins.share`` False, simulated runs are not
+    shared either (the behaviour before sharing, for ``bench/bench_study.py``).
+    """
+    t0 = time.perf_counter()
+    lins = Linearizations() if lins is None else lins
+    runs_cache: dict | None = {} if lins.share else None
+    cs, pas, paper = load_inputs()
+    poses = study_poses(pas)
+    modes = compute_modes(lins, cs["aluminium"], poses, _sub(progress, 0.0, 0.05))
+    ops = compute_operating_points(settings, lins, cs, poses, _sub(progress, 0.05, 0.2))
+    diagrams = compute_diagrams(settings, lins, cs, poses, _sub(progress, 0.2, 0.38))
+    absolute = compute_absolute_limits(lins, cs, poses)
+    d_lobes = damping_by_lobes(settings, lins, cs["steel"], poses["start"])
+    d_td = damping_by_time_domain(settings, cs["steel"], progress=_sub(progress, 0.42, 0.6), cache=runs_cache,
+                                  lins=lins)
+    runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache, lins)
+    facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
+                                                      == (mat, "basic", "start")),
+                                 next(a for a in absolute if a.material == mat),
+                                 next(r for r in runs if (r.material, r.variant, r.damping_scale)
+                                      == (mat, "basic", 1.0)))
+             for mat in cs}
+    return StudyResult(
+        settings=settings, provenance=provenance(study_inputs(settings, cs, paper)),
+        cases={k: c.name for k, c in cs.items()}, notes=NOTES, modes=modes, operating_points=ops,
+        diagrams=diagrams, absolute_limits=absolute, td_linearized=settings.td_linearized, time_domain=runs,
+        damping_lobes=d_lobes, damping_time_domain=d_td,
+        paper_damping_scale=float(paper["steel"]["stabilizing_damping_scale"]),
+        tab10=tab10_rows(paper, runs), roughness=roughness_rows(paper, runs), facts=facts,
+        wall_s=time.perf_counter() - t0, generated=time.strftime("%Y-%m-%d %H:%M"),
+        linearize_calls=lins.linearize_calls)

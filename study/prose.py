@@ -1,0 +1,125 @@
+"""Sentences that state a comparison, computed from the numbers they state.
+
+Every function takes plain numbers (SI unless the name says otherwise) and returns a sentence
+whose comparative words ("within", "above", "about as much", "all", "overlap", ...) follow from
+those numbers by a rule stated in the function's docstring. The report and the README block use
+these functions only, so no fixed wording can contradict the numbers beside it.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["position_in_range", "range_comparison", "times", "ratio_comparison", "modes_below",
+           "limit_against_cut", "bracket_text", "brackets_relation", "damping_comparison",
+           "relative_agreement", "limit_scaling"]
+
+#: Two ratios are "about" equal when they differ by less than this factor (15 %): wider than the
+#: discretization errors of the limits (< 1 %), narrower than the effects the study explains.
+ABOUT = 1.15
+
+
+def _num(v: float, digits: int) -> str:
+    return f"{v:.{digits}f}"
+
+
+def position_in_range(value: float, lo: float, hi: float) -> str:
+    """"below", "within" or "above" the closed interval [lo, hi]."""
+    if value < lo:
+        return "below"
+    return "above" if value > hi else "within"
+
+
+def range_comparison(label: str, value: float, lo: float, hi: float, unit: str, digits: int = 1,
+                     what: str = "the paper's measured") -> str:
+    """E.g. ``"Rt 15.4 um, above the paper's measured 10-15 um"``; ``value`` compared unrounded."""
+    return (f"{label} {_num(value, digits)} {unit}, {position_in_range(value, lo, hi)} {what} "
+            f"{lo:g}-{hi:g} {unit}")
+
+
+def times(a: float, b: float, digits: int = 1) -> str:
+    """``a / b`` as "N times" (both > 0)."""
+    return f"{a / b:.{digits}f} times"
+
+
+def ratio_comparison(ratio: float, reference: float) -> str:
+    """How ``ratio`` compares with ``reference``: "about as much as" within a factor ``ABOUT``,
+    else "more than" or "less than"."""
+    if max(ratio, reference) / min(ratio, reference) < ABOUT:
+        return "about as much as"
+    return "more than" if ratio > reference else "less than"
+
+
+def modes_below(n_below: int, n_modes: int, model: str) -> str:
+    """E.g. "all 6 modes of the 6-DOF model lie below it", "2 of the 6 modes ...", "none of the 6 ..."."""
+    if n_below == n_modes:
+        head = f"all {n_modes} modes"
+    elif n_below == 0:
+        head = f"none of the {n_modes} modes"
+    else:
+        head = f"{n_below} of the {n_modes} modes"
+    return f"{head} of the {model} {'lies' if n_below == 1 else 'lie'} below it"
+
+
+def limit_against_cut(limit_m: float, depth_m: float) -> str:
+    """E.g. "5.09 mm, 3.2 times the 1.6 mm cut (deeper than the cut)"; inf: no limit found."""
+    if limit_m is None or not math.isfinite(limit_m):
+        return f"no limit below the search bound (the cut is {depth_m * 1e3:.1f} mm)"
+    side = "deeper than" if limit_m > depth_m else "shallower than" if limit_m < depth_m else "equal to"
+    return f"{limit_m * 1e3:.2f} mm, {limit_m / depth_m:.2f} times the {depth_m * 1e3:.1f} mm cut ({side} the cut)"
+
+
+def bracket_text(lo: float | None, hi: float | None) -> str:
+    """"[x12.19, x12.34]"; an open side is written as "not reached"."""
+    def one(v):
+        return "none" if v is None else f"x{v:.4g}"
+    if hi is None:
+        return f"above x{lo:.4g} (no stable scale tried)" if lo is not None else "not searched"
+    return f"[{one(lo)}, {one(hi)}]"
+
+
+def brackets_relation(a: tuple, b: tuple) -> str:
+    """"overlap", "are disjoint" or "cannot be compared" for two [unstable, stable] brackets."""
+    (alo, ahi), (blo, bhi) = a, b
+    if ahi is None or bhi is None:
+        return "cannot be compared"
+    alo = -math.inf if alo is None else alo
+    blo = -math.inf if blo is None else blo
+    return "overlap" if max(alo, blo) < min(ahi, bhi) else "are disjoint"
+
+
+def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float) -> str:
+    """The stabilizing damping of both methods as brackets, whether they overlap, and whether the
+    paper's scale is enough by each (enough: at or above the bracket's stable side; not enough: at
+    or below its unstable side; else inside the bracket)."""
+    def verdict_on_paper(br):
+        lo, hi = br
+        if hi is not None and paper_scale >= hi:
+            return "enough"
+        if lo is not None and paper_scale <= lo:
+            return "not enough"
+        return "inside the bracket"
+    pl, pt = verdict_on_paper(lobes), verdict_on_paper(time_domain)
+    both = (f"The paper's x{paper_scale:g} is not enough by either method" if pl == pt == "not enough"
+            else f"The paper's x{paper_scale:g} is {pl} by both methods" if pl == pt
+            else f"The paper's x{paper_scale:g} is {pl} by the lobes and {pt} by the time domain")
+    return (f"The smallest joint-damping scale that stabilizes steel lies in {bracket_text(*lobes)} by the lobes "
+            f"and in {bracket_text(*time_domain)} by the time domain ([largest unstable, smallest stable] "
+            f"tried); the brackets {brackets_relation(lobes, time_domain)}. {both}.")
+
+
+def relative_agreement(label: str, ours: float, reference: float, unit: str, digits: int = 1,
+                       ref_label: str = "the reference") -> str:
+    """E.g. "51.7 Hz, 0.2 % from the lobes' 51.6 Hz" (relative difference, unrounded)."""
+    d = abs(ours - reference) / abs(reference) * 100
+    return f"{label} {_num(ours, digits)} {unit}, {d:.1f} % from {ref_label} {_num(reference, digits)} {unit}"
+
+
+def limit_scaling(ktc_ratio: float, absolute_ratio: float, local_ratio: float) -> str:
+    """Steel's larger force coefficient against how much smaller its limits are."""
+    ca, cl = ratio_comparison(absolute_ratio, ktc_ratio), ratio_comparison(local_ratio, ktc_ratio)
+    why = ("" if ca == cl == "about as much as" else
+           " (the limits also depend on Krc/Ktc, the immersion and the mode directions, not on Ktc alone)")
+    return (f"Steel takes {ktc_ratio:.2f} times the tangential force per unit chip (Ktc). Its absolute "
+            f"(ZOA) limit is {absolute_ratio:.1f} times smaller than aluminium's, {ca} the Ktc ratio, and its "
+            f"limit at its own cut speed {local_ratio:.1f} times smaller, {cl} the Ktc ratio{why}.")

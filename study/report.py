@@ -1,0 +1,149 @@
+"""``report.md`` of the study, rendered from a :class:`StudyResult` (numbers from :func:`to_json`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from robolobes.linearize.model import VARIANTS
+
+from . import prose
+from .findings import findings, summary_table
+from .output import to_json
+from .result import StudyResult
+from .settings import MATERIALS, POSES
+
+__all__ = ["render_report"]
+
+
+def _fmt(v, nd: int = 2) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (float, np.floating)):
+        return f"{v:.{nd}f}" if math.isfinite(v) else ("inf" if v > 0 else "-")
+    return str(v)
+
+
+def _mm(v) -> str:
+    """m -> mm; None or inf: no limit found up to the search bound."""
+    return "none below the bound" if v is None or not math.isfinite(v) else _fmt(v * 1e3)
+
+
+def _header(res: StudyResult) -> list[str]:
+    p = res.provenance
+    return ["# robolobes study: stable aluminium, unstable steel on the Staubli TX200\n",
+            f"{'Quick' if res.settings.quick else 'Full'} study, computed by robolobes {p['robolobes_version']} in "
+            f"{res.wall_s:.0f} s ({res.generated}; inputs sha256 {p['inputs_sha256'][:16]}...). Every number below "
+            "is in `results.json`; every number labelled \"paper\" is the paper's, every other one was computed "
+            "here.\n", "![main figure](study.png)\n"]
+
+
+def _explanation(data: dict) -> list[str]:
+    return ["## What the study finds\n", summary_table(data), ""] + [f"* {s}" for s in findings(data)] + [""]
+
+
+def _modes_table(res: StudyResult) -> list[str]:
+    n = len(res.mode_set("basic", "start").freq_hz)
+    out = ["## Modes at the start, middle and end of the pass\n",
+           f"The first {n} natural frequencies (Hz) and the smallest eigenvalue of the symmetric part of the "
+           "static TCP stiffness (N/um).\n",
+           "| variant | pose | " + " | ".join(f"f{i + 1}" for i in range(n)) + " | min TCP stiffness |",
+           "|---|---|" + "---|" * (n + 1)]
+    for v in VARIANTS:
+        for pose in POSES:
+            m = res.mode_set(v, pose)
+            K = np.asarray(m.summary["tcp_static_stiffness_n_per_m"])
+            kmin = np.linalg.eigvalsh(0.5 * (K + K.T))[0] / 1e6
+            out.append(f"| {v} | {pose} | " + " | ".join(f"{x:.1f}" for x in m.freq_hz[:n]) + f" | {kmin:.3f} |")
+    return out + ["\n![FRFs](frf.png)\n"]
+
+
+def _operating_points_table(res: StudyResult) -> list[str]:
+    out = ["## Operating points against the lobes\n",
+           "| material | variant | pose | verdict | limit (mm) | margin | bifurcation | chatter (Hz) |",
+           "|---|---|---|---|---|---|---|---|"]
+    for mat in MATERIALS:
+        for o in (o for o in res.operating_points if o.material == mat):
+            out.append(f"| {mat} | {o.variant} | {o.pose} | {o.verdict.status} | {_mm(o.depth_limit_m)} | "
+                       f"{_fmt(o.margin)} | {o.limit_bifurcation} | {_fmt(o.limit_chatter_freq_hz, 1)} |")
+    undetermined = [o for o in res.operating_points if o.verdict.status == "undetermined"]
+    for o in undetermined:
+        out.append(f"\n{o.material} [{o.variant}], {o.pose}: undetermined, {o.verdict.reason}.")
+    out += [f"\n![{d.figure}]({d.figure})" for d in res.diagrams]
+    return out
+
+
+def _time_domain_table(res: StudyResult) -> list[str]:
+    out = ["\n## Time domain\n",
+           f"Path: {'linearized fast path' if res.td_linearized else 'full nonlinear model'}.\n",
+           "| run | damping | verdict | chatter (Hz) | Fy min (N) | Fy rms (N) | Ra / Rt (um) | simulated (s) "
+           "| wall (s) |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for r in res.time_domain:
+        fs = (r.summary.get("force_stats_paper_axes") or {}).get("y", {})
+        ru = r.summary.get("roughness_um") or {}
+        out.append(f"| {r.key} | x{r.damping_scale:g} | {r.verdict.status} | {_fmt(r.chatter_freq_hz, 1)} | "
+                   f"{_fmt(fs.get('min'), 1)} | {_fmt(fs.get('rms'), 1)} | "
+                   f"{_fmt(ru.get('Ra'))} / {_fmt(ru.get('Rt'))} | "
+                   f"{r.t_end_s:.2f} | {r.wall_s:.1f} |")
+    for r in res.time_domain:
+        if r.verdict.status == "undetermined":
+            out.append(f"\n{r.key} (x{r.damping_scale:g}): undetermined, {r.verdict.reason}")
+    return out + ["\n![time domain](time_domain.png)\n"]
+
+
+def _damping_section(res: StudyResult) -> list[str]:
+    dl, dt = res.damping_lobes, res.damping_time_domain
+    out = ["## Steel: how much joint damping stabilizes it\n",
+           prose.damping_comparison(dl.bracket, dt.bracket, res.paper_damping_scale)
+           + f" Resolution: {dl.resolution:g} (lobes), {dt.resolution:g} (time domain). Both at the Tab. 7 pose "
+           f"with the {dl.variant} model: the time domain runs the linearized path, frozen at that pose.\n",
+           "| scale | lobes verdict | limit (mm) | time-domain verdict | chatter (Hz) |", "|---|---|---|---|---|"]
+    lp = {p.scale: p for p in dl.probes}
+    tp = {p.scale: p for p in dt.probes}
+    for sc in sorted(set(lp) | set(tp)):
+        a, b = lp.get(sc), tp.get(sc)
+        out.append(f"| {sc:g} | {a.verdict.status if a else ''} | {_mm(a.info['depth_limit_m']) if a else ''} | "
+                   f"{b.verdict.status if b else ''} | {_fmt(b.info.get('chatter_freq_hz'), 1) if b else ''} |")
+    return out
+
+
+def _tab10_section(res: StudyResult) -> list[str]:
+    out = ["\n## Tab. 10: aluminium forces over the paper's window (paper axes, N)\n",
+           "| row | Fx min | Fx max | Fx mean | Fx rms | Fy min | Fy max | Fy mean | Fy rms |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for row in res.tab10:
+        out.append(f"| {row.name} | " + " | ".join(_fmt(row.values[f'f{ax}_{k}']) for ax in ('x', 'y')
+                                                   for k in ('min', 'max', 'mean', 'rms')) + " |")
+    return out
+
+
+def _roughness_cell(v) -> str:
+    return f"{v[0]:g}-{v[1]:g}" if isinstance(v, (tuple, list)) else _fmt(v)
+
+
+def _roughness_section(res: StudyResult) -> list[str]:
+    out = ["\n## Roughness of the lateral wall (um)\n", "| | Ra | Rq | Rt |", "|---|---|---|---|"]
+    out += [f"| {r.name} | {_roughness_cell(r.Ra)} | {_roughness_cell(r.Rq)} | {_roughness_cell(r.Rt)} |"
+            for r in res.roughness]
+    return out + ["\nOurs: ISO 4287 on the middle slice, Gaussian mean line with lambda_c = 0.8 mm (ISO 4288), over "
+                  "the wall the tool has fully passed. The paper does not state its filter.\n",
+                  "![wall aluminium](wall_aluminium.png)\n![wall steel](wall_steel.png)\n"]
+
+
+def _notes(res: StudyResult) -> list[str]:
+    return ["## Notes\n"] + [f"* {n}" for n in res.notes] + [
+        f"* Provenance: robolobes {res.provenance['robolobes_version']}, inputs sha256 "
+        f"{res.provenance['inputs_sha256']}.", ""]
+
+
+def render_report(res: StudyResult) -> str:
+    """The markdown report of a study result."""
+    data = to_json(res)
+    parts = (_header(res) + _explanation(data) + _modes_table(res) + _operating_points_table(res)
+             + _time_domain_table(res) + _damping_section(res) + _tab10_section(res) + _roughness_section(res)
+             + _notes(res))
+    return "\n".join(parts) + "\n"

@@ -1,0 +1,86 @@
+"""``robolobes map``: outputs, JSON contract, resume, and bad input (exit 2, nothing written)."""
+
+import json
+
+import pytest
+
+from robolobes.main import main
+
+SMALL = ["map", "--case", "tx200-steel", "--over", "placement", "--n", "2", "--y-range-mm", "0,0",
+         "--x-range-mm", "0,100", "--n-rpm", "3", "--scheduler", "serial", "--quiet"]
+
+
+def test_map_cli_outputs_and_resume(tmp_path, capsys):
+    out = tmp_path / "m"
+    assert main(SMALL + ["--out", str(out), "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    for k in ("n_poses", "n_speeds", "n_unreachable", "min_depth_limit_m", "worst_pose_q_deg", "best_pose_q_deg",
+              "computed_poses", "wall_s", "inputs_sha256"):
+        assert k in js, k
+    assert js["n_poses"] == 2 and js["n_speeds"] == 3 and js["computed_poses"] == 2
+    assert len(js["worst_pose_q_deg"]) == 6
+    for f in ("map.zarr", "map.json", "map_heatmap.png", "map_margin.png", "map_robot.png"):
+        assert (out / f).exists(), f
+    # the same command again: the store is complete, nothing is recomputed
+    assert main(SMALL + ["--out", str(out), "--json"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["computed_poses"] == 0 and again["min_depth_limit_m"] == js["min_depth_limit_m"]
+
+
+@pytest.mark.parametrize("bad, words", [
+    (["--n", "0"], "--n must be"),
+    (["--n-rpm", "100000"], "--n-rpm must be"),
+    (["--x-range-mm", "5,1"], "--x-range-mm"),
+    (["--yaw-range-deg", "a,b"], "--yaw-range-deg"),
+    (["--scheduler", "udp://x"], "--scheduler"),
+    (["--rpm-min", "-3"], "--rpm-min"),
+    (["--model", "nothing.toml"], "nothing.toml"),
+    (["--tool-modes", "nothing.toml"], "nothing.toml"),
+])
+def test_map_cli_bad_input_exit_2_nothing_written(tmp_path, capsys, bad, words):
+    out = tmp_path / "m"
+    args = [a for a in SMALL]
+    for i in range(0, len(bad), 2):  # replace an option already in SMALL, or append it
+        if bad[i] in args:
+            args[args.index(bad[i]) + 1] = bad[i + 1]
+        else:
+            args += bad[i:i + 2]
+    assert main(args + ["--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+    assert not out.exists()
+
+
+def test_map_cli_refuses_a_users_directory(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me")
+    assert main(SMALL + ["--out", str(out)]) == 2
+    assert "did not write" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "keep me" and len(list(out.iterdir())) == 1
+
+
+def test_optimize_cli_json_contract(tmp_path, capsys):
+    out = tmp_path / "o"
+    args = ["optimize", "--case", "tx200-steel", "--over", "tool-rotation", "--n-starts", "1", "--max-local-evals",
+            "0", "--n-s", "2", "--quiet", "--json", "--out", str(out)]
+    assert main(args) == 0
+    js = json.loads(capsys.readouterr().out)
+    for k in ("baseline_min_depth_m", "optimized_min_depth_m", "gain", "placement_offset_m", "yaw_deg",
+              "tool_rotation_deg", "worst_pose_q_deg", "inputs_sha256"):
+        assert k in js, k
+    assert js["gain"] >= 1.0 and len(js["placement_offset_m"]) == 3
+    assert (out / "optimize.json").exists() and (out / "optimize.png").exists()
+
+
+@pytest.mark.parametrize("bad, words", [
+    (["--over", "everything"], "--over"),
+    (["--n-s", "1"], "--n-s"),
+    (["--x-range-mm", "10,20"], "must contain 0"),
+])
+def test_optimize_cli_bad_input(tmp_path, capsys, bad, words):
+    out = tmp_path / "o"
+    assert main(["optimize", "--case", "tx200-steel", "--quiet", "--out", str(out)] + bad) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+    assert not out.exists()

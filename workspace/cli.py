@@ -1,0 +1,427 @@
+"""``robolobes map``: lobes across the workspace (poses, placements, tool rotation, tilt).
+
+Writes ``DIR/map.zarr`` (xarray/zarr, resumable: run the same command again after an interruption),
+``DIR/map.json`` (summary) and the figures ``map_heatmap.png``, ``map_margin.png``,
+``map_robot.png``. Placement offsets move the pass start from the case's (Tab. 7 for the built-in
+cases); yaw turns the part (and the feed) about the base z axis.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from robolobes.core.errors import BadInput
+
+__all__ = ["register", "register_optimize", "run_map", "run_optimize", "parse_range"]
+
+MAX_N = 20_000
+MAX_N_RPM = 1_000
+
+
+def parse_range(name: str, text: str | None, scale: float, default):
+    """``"A,B"`` -> ``(A * scale, B * scale)`` with ``A <= B`` finite; None -> ``default``."""
+    if text is None:
+        return default
+    try:
+        a, b = (float(t) for t in text.split(","))
+    except ValueError:
+        raise BadInput(f"{name} must be two comma-separated numbers A,B, got {text!r}") from None
+    if not (math.isfinite(a) and math.isfinite(b) and a <= b):
+        raise BadInput(f"{name} must be finite with A <= B, got {text!r}")
+    return a * scale, b * scale
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    from robolobes.cases import DEFAULT_CASE
+    from robolobes.linearize.model import VARIANTS
+
+    p.add_argument("--case", default=DEFAULT_CASE, help=f"built-in case or case TOML (default {DEFAULT_CASE})")
+    p.add_argument("--variant", default="basic", choices=VARIANTS, help="model variant (default basic)")
+    p.add_argument("--model", default=None, metavar="FILE",
+                   help="identified model TOML (robolobes identify's case TOML with [[elements]]); replaces --case")
+    p.add_argument("--tool-modes", default=None, metavar="FILE",
+                   help="[[modes]] TOML of tool-tip modes (as lobes --modal), in series with the robot")
+    p.add_argument("--at-rpm", type=float, default=None, help="operating speed, rpm (default: the case's)")
+    p.add_argument("--scheduler", default="local", metavar="ADDR",
+                   help="local (default: 2 processes), serial, or a Dask scheduler tcp://HOST:PORT")
+    p.add_argument("--workers", type=int, default=2, help="processes of the local pool (default 2)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    """Add ``map`` and ``optimize`` (both commands live here; ``_COMMANDS`` names this module twice)."""
+    if "optimize" not in subparsers.choices:
+        register_optimize(subparsers)
+    p = subparsers.add_parser("map", help="lobe maps across the workspace", description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(p)
+    p.add_argument("--over", required=True, choices=("pass", "placement", "tool-rotation", "lead-tilt"))
+    p.add_argument("--n", type=int, default=25, help=f"poses (about; placement grids share it), 1..{MAX_N}")
+    p.add_argument("--x-range-mm", default=None, metavar="A,B", help="pass start offset x, mm (default -200,200)")
+    p.add_argument("--y-range-mm", default=None, metavar="A,B", help="pass start offset y, mm (default -200,200)")
+    p.add_argument("--z-range-mm", default=None, metavar="A,B", help="pass start offset z, mm (default 0,0)")
+    p.add_argument("--yaw-range-deg", default=None, metavar="A,B", help="part yaw about base z, deg (default 0,0)")
+    p.add_argument("--rotation-range-deg", default=None, metavar="A,B",
+                   help="tool rotation about its axis, deg (default -180,180)")
+    p.add_argument("--tilt-range-deg", default=None, metavar="A,B",
+                   help="tool tilt about the feed, deg (default -20,20); lead (towards the feed) is not "
+                        "modelled: the 2.5-D cut needs the feed perpendicular to the tool axis")
+    p.add_argument("--rpm-min", type=float, default=2000.0)
+    p.add_argument("--rpm-max", type=float, default=25000.0)
+    p.add_argument("--n-rpm", type=int, default=100, help=f"speeds, 1..{MAX_N_RPM} (default 100)")
+    p.add_argument("--out", default="robolobes-map", metavar="DIR", help="output directory (default robolobes-map)")
+    p.set_defaults(run=run_map)
+    return p
+
+
+def _check_scheduler(s: str) -> str:
+    if s in ("local", "serial"):
+        return s
+    if s.startswith("tcp://") and ":" in s[6:] and s.rsplit(":", 1)[1].isdigit():
+        return s
+    raise BadInput(f"--scheduler must be local, serial or tcp://HOST:PORT, got {s!r}")
+
+
+def _tool_modes(path: str | None) -> tuple:
+    if path is None:
+        return ()
+    from robolobes.lobes.cli import read_modal_toml
+
+    return read_modal_toml(path).modes
+
+
+def problem_from_args(args):
+    """MapProblem and MapMethod from the command line, every input checked before any work."""
+    from robolobes.cases import load_case
+
+    from .problem import MAX_SPEEDS, MapMethod, MapProblem
+
+    if isinstance(args.n, bool) or not 1 <= args.n <= MAX_N:
+        raise BadInput(f"--n must be from 1 to {MAX_N}, got {args.n}")
+    if not 1 <= args.n_rpm <= min(MAX_N_RPM, MAX_SPEEDS):
+        raise BadInput(f"--n-rpm must be from 1 to {MAX_N_RPM}, got {args.n_rpm}")
+    for name in ("rpm_min", "rpm_max"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and 0 < v <= 100_000):
+            raise BadInput(f"--{name.replace('_', '-')} must be a speed in (0, 100000] rpm, got {v}")
+    if args.rpm_max < args.rpm_min:
+        raise BadInput(f"--rpm-max ({args.rpm_max}) must be >= --rpm-min ({args.rpm_min})")
+    if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and 0 < args.at_rpm <= 100_000):
+        raise BadInput(f"--at-rpm must be a speed in (0, 100000] rpm, got {args.at_rpm}")
+    if not 1 <= args.workers <= 64:
+        raise BadInput(f"--workers must be from 1 to 64, got {args.workers}")
+    _check_scheduler(args.scheduler)
+    ranges = dict(x_range_m=parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.2, 0.2)),
+                  y_range_m=parse_range("--y-range-mm", args.y_range_mm, 1e-3, (-0.2, 0.2)),
+                  z_range_m=parse_range("--z-range-mm", args.z_range_mm, 1e-3, (0.0, 0.0)),
+                  yaw_range_rad=parse_range("--yaw-range-deg", args.yaw_range_deg, math.pi / 180, (0.0, 0.0)),
+                  rotation_range_rad=parse_range("--rotation-range-deg", args.rotation_range_deg, math.pi / 180,
+                                                 (-math.pi, math.pi)),
+                  tilt_range_rad=parse_range("--tilt-range-deg", args.tilt_range_deg, math.pi / 180,
+                                             (-math.radians(20), math.radians(20))))
+    if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
+        raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
+    case = load_case(args.model if args.model is not None else args.case)
+    modes = _tool_modes(args.tool_modes)
+    speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
+    problem = MapProblem.make(case, args.variant, args.over, n=args.n, speeds_rpm=speeds, op_rpm=args.at_rpm,
+                              tool_modes=modes, model_file=args.model, **ranges)
+    return problem, MapMethod()
+
+
+def _out_dir(args, problem, method):
+    """The output directory protocol (core.outdir), checked before any work; resumable."""
+    from robolobes.core.outdir import OutputDir
+
+    inputs = {"command": "map", "problem": problem.describe(), "method": method.describe(),
+              "robot": repr(problem.case.robot)}
+    return OutputDir(args.out, "map", inputs, resume=True)
+
+
+def _progress(quiet: bool):
+    if quiet:
+        return None, lambda: None
+    from tqdm import tqdm
+
+    bar = {"t": None}
+
+    def cb(done, total):
+        if bar["t"] is None:
+            bar["t"] = tqdm(total=total, initial=done, unit="pose", desc="map", file=sys.stderr,
+                            mininterval=1.0, dynamic_ncols=True)
+        else:
+            bar["t"].update(done - bar["t"].n)
+
+    return cb, lambda: bar["t"] is not None and bar["t"].close()
+
+
+def run_map(args: argparse.Namespace) -> int:
+    from robolobes.core.io import write_json
+
+    from .plot import plot_map
+    from .solver import solve_map
+
+    t0 = time.perf_counter()
+    problem, method = problem_from_args(args)
+    out = _out_dir(args, problem, method)
+    cb, close = _progress(args.quiet)
+    with out:
+        try:
+            result = solve_map(problem, method, path=out.path / "map.zarr", scheduler=args.scheduler,
+                               workers=args.workers, progress=cb)
+        finally:
+            close()
+        figures = plot_map(result, out.path)
+        summary = result.summary()
+        summary.update(wall_s=time.perf_counter() - t0, case=problem.case.name, variant=problem.variant,
+                       over=problem.over, store="map.zarr", figures=figures, method=method.describe(),
+                       **out.provenance)
+        write_json(out.path / "map.json", summary)
+    if args.json:
+        from robolobes.core.io import to_jsonable
+
+        print(json.dumps(to_jsonable(summary), indent=1))
+    else:
+        print(f"map over {problem.over}: {summary['n_poses']} poses x {summary['n_speeds']} speeds, "
+              f"{summary['n_unreachable']} unreachable, {summary['computed_poses']} computed, "
+              f"{summary['wall_s']:.1f} s -> {out.target}")
+        if summary["min_depth_limit_m"] is not None:
+            print(f"lowest limit {summary['min_depth_limit_m'] * 1e3:.4g} mm at pose {summary['worst_pose']}; "
+                  f"at {problem.op_rpm:.0f} rpm the limit ranges {summary['op_min_depth_limit_m'] * 1e3:.4g} to "
+                  f"{summary['op_max_depth_limit_m'] * 1e3:.4g} mm (cut {problem.case.cut.ap_m * 1e3:g} mm)")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ optimize
+def register_optimize(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "optimize", help="placement and tool rotation that maximize the minimum stable depth over the pass",
+        description="Choose the part's placement (x, y, z offset of the pass start, yaw) and the tool's rotation "
+                    "about its axis to maximize the smallest critical depth over the pass at the chosen speed "
+                    "(multistart + Nelder-Mead on the SDM limit; the optimum is checked by SDM on the full model "
+                    "and, with --time-domain, by the linearized time domain). Writes DIR/optimize.json and "
+                    "DIR/optimize.png.")
+    _common(p)
+    p.add_argument("--over", default="placement,tool-rotation",
+                   help="comma list of placement, tool-rotation (default both)")
+    p.add_argument("--x-range-mm", default=None, metavar="A,B", help="pass start offset x, mm (default -100,100)")
+    p.add_argument("--y-range-mm", default=None, metavar="A,B", help="pass start offset y, mm (default -100,100)")
+    p.add_argument("--z-range-mm", default=None, metavar="A,B", help="pass start offset z, mm (default 0,0: fixed)")
+    p.add_argument("--yaw-range-deg", default=None, metavar="A,B", help="part yaw, deg (default -30,30)")
+    p.add_argument("--rotation-range-deg", default=None, metavar="A,B", help="tool rotation, deg (default -180,180)")
+    p.add_argument("--n-s", type=int, default=5, help="poses along the pass (default 5)")
+    p.add_argument("--n-starts", type=int, default=12, help="multistart sample size (default 12)")
+    p.add_argument("--max-local-evals", type=int, default=40, help="Nelder-Mead evaluations per local run (default 40)")
+    p.add_argument("--strict", action="store_true", help="joint ranges without the 5 deg tolerance")
+    p.add_argument("--time-domain", action="store_true", help="verify baseline and optimum in the time domain")
+    p.add_argument("--td-end-s", type=float, default=4.0, help="simulated time of each verification run, s "
+                   "(default 4, capped at the pass duration)")
+    p.add_argument("--out", default="robolobes-optimize", metavar="DIR", help="output directory")
+    p.set_defaults(run=run_optimize)
+    return p
+
+
+def optimize_problem_from_args(args):
+    from robolobes.cases import load_case
+
+    from .optimize import OptimizeProblem
+    from .problem import MapProblem
+
+    over = [s.strip() for s in args.over.split(",") if s.strip()]
+    bad = [s for s in over if s not in ("placement", "tool-rotation")]
+    if bad or not over:
+        raise BadInput(f"--over must be a comma list of placement, tool-rotation, got {args.over!r}")
+    if not 2 <= args.n_s <= 50:
+        raise BadInput(f"--n-s must be from 2 to 50, got {args.n_s}")
+    if not 1 <= args.n_starts <= 500:
+        raise BadInput(f"--n-starts must be from 1 to 500, got {args.n_starts}")
+    if not 0 <= args.max_local_evals <= 2000:
+        raise BadInput(f"--max-local-evals must be from 0 to 2000, got {args.max_local_evals}")
+    if not (math.isfinite(args.td_end_s) and 0 < args.td_end_s <= 60):
+        raise BadInput(f"--td-end-s must be in (0, 60] s, got {args.td_end_s}")
+    if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and 0 < args.at_rpm <= 100_000):
+        raise BadInput(f"--at-rpm must be a speed in (0, 100000] rpm, got {args.at_rpm}")
+    _check_scheduler(args.scheduler)
+    rng = {"x_offset_m": parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.1, 0.1)),
+           "y_offset_m": parse_range("--y-range-mm", args.y_range_mm, 1e-3, (-0.1, 0.1)),
+           "z_offset_m": parse_range("--z-range-mm", args.z_range_mm, 1e-3, (0.0, 0.0)),
+           "yaw_rad": parse_range("--yaw-range-deg", args.yaw_range_deg, math.pi / 180,
+                                  (-math.radians(30), math.radians(30))),
+           "tool_rotation_rad": parse_range("--rotation-range-deg", args.rotation_range_deg, math.pi / 180,
+                                            (-math.pi, math.pi))}
+    names = []
+    if "placement" in over:
+        names += [k for k in ("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad") if rng[k][1] > rng[k][0]]
+    if "tool-rotation" in over and rng["tool_rotation_rad"][1] > rng["tool_rotation_rad"][0]:
+        names.append("tool_rotation_rad")
+    if not names:
+        raise BadInput("every range of --over is empty (A = B): nothing to optimize")
+    for k in names:
+        if not rng[k][0] <= 0.0 <= rng[k][1]:
+            raise BadInput(f"the range of {k} must contain 0 (the paper's placement is the baseline), got {rng[k]}")
+    case = load_case(args.model if args.model is not None else args.case)
+    mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
+                         op_rpm=args.at_rpm, tool_modes=_tool_modes(args.tool_modes), model_file=args.model)
+    return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict)
+
+
+def _td_depth(res) -> float:
+    """The depth of the time-domain check, m: between the baseline's and the optimum's minimum
+    limits (their geometric mean, at most 1.5 times the baseline's; an optimum with no limit below
+    ``depth_max_m`` counts as that), where the lobes predict "unstable" for the baseline and
+    "stable" for the optimum -- a check that can fail either way. Without a gain: the case's depth."""
+    b, o = res.baseline.min_depth_m, min(res.best.min_depth_m, res.problem.depth_max_m)
+    if res.baseline.feasible and math.isfinite(b) and res.best.feasible and o > b * 1.02:
+        return b * min(math.sqrt(o / b), 1.5)
+    return res.problem.map_problem.case.cut.ap_m
+
+
+def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
+    """Linearized time-domain run of the pass at a candidate (its start pose and feed), at
+    ``depth_m`` and the chosen speed: the verdict and chatter frequency."""
+    import warnings
+    from dataclasses import replace
+
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+
+    from .compute import build_robot
+
+    mp = opt.map_problem
+    case = mp.case
+    case = replace(case, path=replace(case.path, start_q_rad=np.asarray(ev.theta[0])),
+                   cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=mp.op_rpm,
+                               ap_m=depth_m))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        prob = SimulationProblem(build_robot(mp), case, t_end_s=None)
+        t_end = min(t_end_s, prob.pass_duration_s)
+        run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
+    s = run.summary
+    return {"stable": s.stable, "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
+            "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
+
+
+def optimum_case_toml(case_ref: str, res) -> str:
+    """The case TOML of the optimum: the case's own file with the optimum's feed direction and
+    start pose, so that ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit
+    in the optimum's cut frame (a yawed part feeds along another base direction)."""
+    from pathlib import Path
+
+    from robolobes.cases.loader import _resolve
+    from robolobes.identify.model_toml import dumps
+
+    src, data = _resolve(case_ref, "cut")
+    robot = data.get("robot")
+    if isinstance(robot, str) and robot.endswith(".toml") and not Path(robot).is_absolute():
+        data["robot"] = str((src.parent / robot).resolve())
+    data["name"] = f"{data.get('name', src.stem)}-optimum"
+    data.setdefault("cut", {})["feed_direction"] = [float(v) for v in res.best.feed]
+    data.setdefault("pass", {})["start_pose"] = [float(v) for v in np.degrees(res.best.theta[0])]
+    return f"# {data['name']}: case {case_ref} with the placement found by robolobes optimize\n" + dumps(data)
+
+
+def _plot_optimum(res, path) -> None:
+    from robolobes.core.io import pyplot, save_figure
+    from robolobes.linearize.kinematics import fk_frames
+
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    ax = axes[0]
+    for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        ax.plot(ev.s_m * 1e3, np.minimum(ev.depth_m, res.problem.depth_max_m) * 1e3, "o-", color=c, label=lab)
+    ax.axhline(res.problem.map_problem.case.cut.ap_m * 1e3, color="k", ls="--", label="cut depth")
+    ax.set_xlabel("travel along the pass, mm")
+    ax.set_ylabel(f"critical depth at {res.problem.map_problem.op_rpm:.0f} rpm, mm")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8)
+    ax.set_title(f"gain {res.gain:.3g}")
+    ax = axes[1]
+    spec = res.problem.map_problem.case.robot
+    for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        pts, _ = fk_frames(spec, ev.theta[ev.worst])
+        pts = np.vstack([[0.0, 0.0, 0.0], pts]) * 1e3
+        ax.plot(pts[:, 0], pts[:, 2], "o-", color=c, lw=3, label=f"{lab}, worst pass pose")
+    ax.set_xlabel("x, mm")
+    ax.set_ylabel("z, mm")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
+
+
+def run_optimize(args: argparse.Namespace) -> int:
+    from robolobes.core.io import to_jsonable, write_json
+    from robolobes.core.outdir import OutputDir
+
+    from .optimize import optimize_placement
+    from .problem import MapMethod
+
+    t0 = time.perf_counter()
+    opt = optimize_problem_from_args(args)
+    method = MapMethod()
+    inputs = {"command": "optimize", "problem": opt.map_problem.describe(), "variables": list(opt.variables),
+              "bounds": {k: list(v) for k, v in opt.bounds.items()}, "n_s": opt.n_s, "strict": opt.strict,
+              "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
+              "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
+    out = OutputDir(args.out, "optimize", inputs)
+    cb, close = _progress(args.quiet)
+    try:
+        res = optimize_placement(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
+                                 progress=cb)
+    finally:
+        close()
+    vals = dict.fromkeys(("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad"), 0.0)
+    vals.update(zip(opt.variables, res.best.x.tolist()))
+    js = {"case": opt.map_problem.case.name, "variant": opt.map_problem.variant, "rpm": opt.map_problem.op_rpm,
+          "variables": list(opt.variables), "baseline_min_depth_m": res.baseline.min_depth_m,
+          "optimized_min_depth_m": res.best.min_depth_m, "gain": res.gain,
+          "depth_max_m": opt.depth_max_m,
+          "gain_at_least": (opt.depth_max_m / res.baseline.min_depth_m
+                            if math.isinf(res.best.min_depth_m) and res.best.feasible and res.baseline.min_depth_m > 0
+                            else None),
+          "placement_offset_m": [vals["x_offset_m"], vals["y_offset_m"], vals["z_offset_m"]],
+          "yaw_deg": math.degrees(vals["yaw_rad"]), "tool_rotation_deg": math.degrees(vals["tool_rotation_rad"]),
+          "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
+          "baseline_worst_pose_q_deg": (np.degrees(res.baseline.theta[res.baseline.worst]).tolist()
+                                        if res.baseline.feasible else None),
+          "baseline_feasible": res.baseline.feasible, "baseline_reason": res.baseline.reason,
+          "depth_along_pass_m": {"s_m": res.best.s_m, "baseline": res.baseline.depth_m, "optimum": res.best.depth_m},
+          "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],
+          "check": "minimum depths recomputed by SDM (m = 40) on the full, untruncated structure"}
+    if args.time_domain:
+        d = _td_depth(res)
+        js["time_domain"] = {
+            "depth_m": d, "lobes_predict": {"baseline": "stable" if d < res.baseline.min_depth_m else "unstable",
+                                            "optimum": "stable" if d < res.best.min_depth_m else "unstable"},
+            "baseline": _time_domain(opt, res.baseline, args.td_end_s, d) if res.baseline.feasible else None,
+            "optimum": _time_domain(opt, res.best, args.td_end_s, d) if res.best.feasible else None}
+    js["wall_s"] = time.perf_counter() - t0
+    with out:
+        js.update(out.provenance)
+        if res.best.feasible:
+            from robolobes.core.io import write_text
+
+            write_text(out.path / "optimum-case.toml", optimum_case_toml(args.model or args.case, res))
+            js["lobes_check"] = ("robolobes lobes --case DIR/optimum-case.toml --variant " + opt.map_problem.variant
+                                 + " --q-deg=" + ",".join(f"{v:.6f}" for v in js["worst_pose_q_deg"])
+                                 + f" --rpm-min {opt.map_problem.op_rpm:g} --rpm-max {opt.map_problem.op_rpm:g}"
+                                 + " --n-rpm 1 --depth-max-mm 50 --json")
+        write_json(out.path / "optimize.json", js)
+        _plot_optimum(res, out.path / "optimize.png")
+    if args.json:
+        print(json.dumps(to_jsonable(js), indent=1))
+    else:
+        print(f"{js['case']} at {js['rpm']:.0f} rpm: minimum critical depth over the pass "
+              f"{js['baseline_min_depth_m'] * 1e3:.4g} mm (paper's placement) -> {js['optimized_min_depth_m'] * 1e3:.4g} mm "
+              f"(gain {js['gain']:.3g}) with offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, "
+              f"yaw {js['yaw_deg']:.1f} deg, tool rotation {js['tool_rotation_deg']:.1f} deg -> {out.target}")
+    return 0

@@ -1,0 +1,141 @@
+"""The work of one chunk of poses: linearize, reduce, lobes, deflection. Pure and deterministic.
+
+A chunk's numbers depend only on the problem, the method and the chunk's own poses (never on
+which chunks ran before in the same process, nor on the worker), so a resumed map and a map run
+on a cluster are bitwise equal to an uninterrupted local run. BLAS runs single-threaded inside
+(:func:`threadpoolctl.threadpool_limits`): the matrices are small and two processes on two cores
+each spinning BLAS threads run several times slower.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import pickle
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robolobes.lobes import (LobeProblem, ModalStructure, PhysicalStructure, ReducedStructure, SemiDiscretization,
+                             StateSpace, TruncationReport, solve)
+
+from .forces import mean_force_cut_frame, static_deflection
+from .problem import MapMethod, MapProblem
+
+__all__ = ["build_robot", "pose_structure", "compute_chunk", "BIFURCATIONS", "ChunkResult"]
+
+#: bifurcation codes stored in a map (int8), by name
+BIFURCATIONS = ("none", "hopf", "flip", "fold")
+
+_ROBOTS: dict = {}
+
+
+def build_robot(problem: MapProblem):
+    """The flexible robot of the problem (cached per process): the variant plus the case's
+    ``[[elements]]`` (an identified model TOML is a case TOML with its elements, loaded as the case).
+    The one place a map builds a robot."""
+    key = hashlib.sha256(pickle.dumps((problem.case.robot, problem.variant, problem.model_file))).hexdigest()
+    robot = _ROBOTS.get(key)
+    if robot is None:
+        from robolobes.linearize import build_model
+
+        robot = _ROBOTS[key] = build_model(problem.case.robot, problem.variant)
+    return robot
+
+
+def _series(robot_ss: StateSpace, tool_modes: tuple) -> StateSpace:
+    """Tool-tip modes in series with the robot: the same force, displacements added
+    (``H = H_robot + H_tool``): block-diagonal ``A``, stacked ``B``, side-by-side ``S``."""
+    if not tool_modes:
+        return robot_ss
+    from scipy.linalg import block_diag
+
+    t = ModalStructure(tuple(tool_modes)).state_space()
+    return StateSpace(block_diag(robot_ss.A, t.A), np.vstack([robot_ss.B, t.B]), np.hstack([robot_ss.S, t.S]))
+
+
+def pose_structure(problem: MapProblem, method: MapMethod, lin, feed: np.ndarray):
+    """The tool-tip structure at one pose (cut frame of ``feed``): the robot, truncated to
+    ``method.reduce_max_freq_hz`` (with its error report), plus the tool modes in series.
+
+    Returns ``(structure, report)``; ``report`` is None without truncation.
+    """
+    phys = PhysicalStructure.from_linear(lin, feed)
+    if method.reduce_max_freq_hz is None:
+        if not problem.tool_modes:
+            return phys, None
+        ss = phys.state_space()
+        return ReducedStructure(_series(ss, problem.tool_modes), TruncationReport((), (), 0.0, 0.0, (0.0, 0.0))), None
+    red = phys.truncated(max_freq_hz=method.reduce_max_freq_hz, band_hz=tuple(method.error_band_hz))
+    if problem.tool_modes:
+        red = ReducedStructure(_series(red.ss, problem.tool_modes), red.report)
+    return red, red.report
+
+
+@dataclass(frozen=True)
+class ChunkResult:
+    """Arrays of one chunk of ``P`` poses (NaN where a pose is unreachable).
+
+    ``depth_limit_m, chatter_freq_hz`` (P, S); ``bifurcation`` (P, S) int8 codes of
+    :data:`BIFURCATIONS`; ``op_depth_limit_m, op_chatter_freq_hz`` (P,) at the operating speed;
+    ``op_bifurcation`` (P,) int8; ``deflection_m`` (P, 3) cut frame; ``static_error, frf_error``
+    (P,) of the truncation; ``n_kept_modes`` (P,) int16.
+    """
+
+    start: int
+    depth_limit_m: np.ndarray
+    chatter_freq_hz: np.ndarray
+    bifurcation: np.ndarray
+    op_depth_limit_m: np.ndarray
+    op_chatter_freq_hz: np.ndarray
+    op_bifurcation: np.ndarray
+    deflection_m: np.ndarray
+    static_error: np.ndarray
+    frf_error: np.ndarray
+    n_kept_modes: np.ndarray
+
+
+def _bif_codes(b: np.ndarray) -> np.ndarray:
+    return np.array([BIFURCATIONS.index(str(x)) for x in b], dtype=np.int8)
+
+
+def compute_chunk(problem: MapProblem, method: MapMethod, start: int, theta: np.ndarray,
+                  feed: np.ndarray, reachable: np.ndarray) -> ChunkResult:
+    """Solve the poses ``start .. start + P - 1``: ``theta`` (P, 6) rad, ``feed`` (P, 3) unit (base
+    frame), ``reachable`` (P,) bool."""
+    from threadpoolctl import threadpool_limits
+
+    from robolobes.linearize import linearize
+
+    with threadpool_limits(1):
+        P, S = len(theta), len(problem.speeds_rpm)
+        out = dict(depth_limit_m=np.full((P, S), np.nan), chatter_freq_hz=np.full((P, S), np.nan),
+                   bifurcation=np.full((P, S), -1, np.int8), op_depth_limit_m=np.full(P, np.nan),
+                   op_chatter_freq_hz=np.full(P, np.nan), op_bifurcation=np.full(P, -1, np.int8),
+                   deflection_m=np.full((P, 3), np.nan), static_error=np.full(P, np.nan),
+                   frf_error=np.full(P, np.nan), n_kept_modes=np.full(P, -1, np.int16))
+        case = problem.case
+        robot = build_robot(problem)
+        speeds = np.append(problem.speeds_rpm, problem.op_rpm)
+        sdm = SemiDiscretization(m=method.m)
+        f_mean = mean_force_cut_frame(case.tool, case.cut, case.law)
+        for i in range(P):
+            if not reachable[i]:
+                continue
+            lin = linearize(robot, theta[i])
+            structure, report = pose_structure(problem, method, lin, feed[i])
+            cut = replace(case.cut, feed_direction=tuple(feed[i]), spindle_rpm=problem.op_rpm)
+            res = solve(LobeProblem(structure, case.tool, cut, case.law), sdm, speeds,
+                        depth_max_m=method.depth_max_m, rtol=method.rtol, chunk=len(speeds))
+            out["depth_limit_m"][i] = res.depth_limit_m[:S]
+            out["chatter_freq_hz"][i] = res.chatter_freq_hz[:S]
+            out["bifurcation"][i] = _bif_codes(res.bifurcation[:S])
+            out["op_depth_limit_m"][i] = res.depth_limit_m[S]
+            out["op_chatter_freq_hz"][i] = res.chatter_freq_hz[S]
+            out["op_bifurcation"][i] = _bif_codes(res.bifurcation[S:])[0]
+            out["deflection_m"][i] = static_deflection(lin.compliance("cut", feed[i]), f_mean)
+            if report is not None:
+                out["static_error"][i] = report.static_compliance_rel_error
+                out["frf_error"][i] = report.frf_rel_error
+                out["n_kept_modes"][i] = len(report.kept_freq_hz)
+        return ChunkResult(start=int(start), **out)

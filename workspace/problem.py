@@ -1,0 +1,227 @@
+"""The map problem (what to sweep) and the map method (how precisely), in the lobes' shape.
+
+    problem = MapProblem.placement(case, "orthogonal", x_range_m=(-0.2, 0.2), y_range_m=(-0.2, 0.2), n=1000)
+    result = solve_map(problem, MapMethod())            # robolobes.workspace.solve_map
+
+A map's poses are the Cartesian product of its ``axes`` (each a name and a 1-D array of values,
+SI units), flattened in C order into the ``pose`` dimension. Axis names: ``x_offset_m``,
+``y_offset_m``, ``z_offset_m`` (the pass start moved from the case's, base frame), ``yaw_rad``
+(the part turned about base z), ``tool_rotation_rad`` (the tool turned about its own axis),
+``tilt_rad`` (the tool axis tilted about the feed), ``s_m`` (travel along the pass).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from robolobes.cases.spec import MillingCase
+from robolobes.core.errors import BadInput
+from robolobes.lobes import Mode
+
+__all__ = ["MapProblem", "MapMethod", "AXES", "OVER", "MAX_POSES", "MAX_SPEEDS"]
+
+Over = Literal["pass", "placement", "tool-rotation", "lead-tilt"]
+OVER = ("pass", "placement", "tool-rotation", "lead-tilt")
+AXES = ("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad", "tilt_rad", "s_m")
+#: bounds on the inputs that set memory and run time (a 1000 x 100 map takes ~10 min here)
+MAX_POSES = 100_000
+MAX_SPEEDS = 2_000
+
+
+def _grid_counts(n: int, k: int) -> list[int]:
+    """Points per axis so that k varying axes hold about n poses in all (each >= 2)."""
+    per = max(2, int(round(n ** (1.0 / k))))
+    return [per] * k
+
+
+@dataclass(frozen=True, eq=False)
+class MapProblem:
+    """What a lobe map sweeps.
+
+    Attributes
+    ----------
+    case : MillingCase
+        Robot, tool, material, cut and pass (the cut's speed and depth are the operating point).
+    variant : str
+        Robot model variant (``basic``, ``gravity``, ``orthogonal``, ``backlash``).
+    over : {"pass", "placement", "tool-rotation", "lead-tilt"}
+    axes : tuple of (name, array)
+        The swept axes (see module docstring), SI units; fixed values are 1-point axes.
+    speeds_rpm : array (S,), rpm
+        Spindle speeds of the lobes at every pose.
+    op_rpm : float
+        Operating speed, rpm: the depth limit there is mapped too (``op_depth_limit_m``).
+    tool_modes : tuple of lobes.Mode
+        Tool-tip modes (cut frame, e.g. a measured tool-holder mode), in series with the robot at
+        every pose.
+    model_file : str or None
+        An identified model TOML (identification issue), added to the robot at every pose.
+    """
+
+    case: MillingCase
+    variant: str
+    over: Over
+    axes: tuple
+    speeds_rpm: np.ndarray
+    op_rpm: float
+    tool_modes: tuple = ()
+    model_file: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.over not in OVER:
+            raise BadInput(f"over must be one of {', '.join(OVER)}, got {self.over!r}")
+        axes = []
+        for name, vals in self.axes:
+            if name not in AXES:
+                raise BadInput(f"unknown map axis {name!r}; valid: {', '.join(AXES)}")
+            v = np.array(vals, dtype=float).reshape(-1)
+            if v.size == 0 or not np.all(np.isfinite(v)):
+                raise BadInput(f"map axis {name} must hold finite values, got {vals!r}")
+            v.setflags(write=False)
+            axes.append((name, v))
+        object.__setattr__(self, "axes", tuple(axes))
+        n = self.n_poses
+        if not 1 <= n <= MAX_POSES:
+            raise BadInput(f"a map has {n} poses; valid: 1 to {MAX_POSES}")
+        s = np.array(self.speeds_rpm, dtype=float).reshape(-1)
+        if not 1 <= s.size <= MAX_SPEEDS or not np.all(np.isfinite(s) & (s > 0)):
+            raise BadInput(f"speeds_rpm must hold 1 to {MAX_SPEEDS} finite speeds > 0 rpm, got {s.size} values")
+        s.setflags(write=False)
+        object.__setattr__(self, "speeds_rpm", s)
+        if not (math.isfinite(self.op_rpm) and self.op_rpm > 0):
+            raise BadInput(f"op_rpm must be a speed > 0 rpm, got {self.op_rpm}")
+        for i, m in enumerate(self.tool_modes):
+            if not isinstance(m, Mode):
+                raise BadInput(f"tool_modes[{i}] must be a lobes.Mode, got {type(m).__name__}")
+        object.__setattr__(self, "tool_modes", tuple(self.tool_modes))
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def make(cls, case: MillingCase, variant: str, over: Over, *, n: int = 25,
+             x_range_m=(-0.2, 0.2), y_range_m=(-0.2, 0.2), z_range_m=(0.0, 0.0), yaw_range_rad=(0.0, 0.0),
+             rotation_range_rad=(-math.pi, math.pi), tilt_range_rad=(-math.radians(20), math.radians(20)),
+             speeds_rpm=None, op_rpm: float | None = None, tool_modes=(), model_file=None) -> "MapProblem":
+        """A map over ``over`` with about ``n`` poses.
+
+        ``placement``: a grid of the pass start offset (x, y, z, m) and yaw (rad) over the ranges,
+        about ``n`` points in all shared among the ranges of non-zero width. ``pass``: ``n``
+        points from the start to the end of the case's pass. ``tool-rotation``: ``n`` angles about
+        the tool axis over ``rotation_range_rad`` (end excluded when it spans 2 pi).
+        ``lead-tilt``: ``n`` tilt angles about the feed over ``tilt_range_rad``.
+        Speeds: default 100 from 2000 to 25 000 rpm; ``op_rpm`` default the case's spindle speed.
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_POSES:
+            raise BadInput(f"n (number of poses) must be an integer from 1 to {MAX_POSES}, got {n!r}")
+        if over == "placement":
+            ranges = [("x_offset_m", x_range_m), ("y_offset_m", y_range_m), ("z_offset_m", z_range_m),
+                      ("yaw_rad", yaw_range_rad)]
+            for name, (a, b) in ranges:
+                if not (math.isfinite(a) and math.isfinite(b) and a <= b):
+                    raise BadInput(f"{name} range must be finite with A <= B, got {a}, {b}")
+            varying = [r for r in ranges if r[1][1] > r[1][0]]
+            counts = _grid_counts(int(n), len(varying)) if varying else []
+            cnt = dict(zip([r[0] for r in varying], counts))
+            axes = tuple((name, np.linspace(a, b, cnt[name]) if name in cnt else np.array([a]))
+                         for name, (a, b) in ranges)
+        elif over == "pass":
+            import warnings
+
+            from robolobes.linearize.path import Pass
+
+            with warnings.catch_warnings():  # the poses' limits are reported per pose (reason)
+                warnings.simplefilter("ignore")
+                travel = Pass.from_case(case).travel_m if n > 1 else 0.0
+            axes = (("s_m", np.linspace(0.0, travel, int(n))),)
+        elif over == "tool-rotation":
+            a, b = rotation_range_rad
+            full = abs((b - a) - 2 * math.pi) < 1e-9
+            axes = (("tool_rotation_rad", np.linspace(a, b, int(n), endpoint=not full)),)
+        elif over == "lead-tilt":
+            a, b = tilt_range_rad
+            axes = (("tilt_rad", np.linspace(a, b, int(n))),)
+        else:
+            raise BadInput(f"over must be one of {', '.join(OVER)}, got {over!r}")
+        speeds = np.linspace(2000.0, 25000.0, 100) if speeds_rpm is None else speeds_rpm
+        return cls(case=case, variant=variant, over=over, axes=axes, speeds_rpm=speeds,
+                   op_rpm=float(case.cut.spindle_rpm if op_rpm is None else op_rpm),
+                   tool_modes=tuple(tool_modes), model_file=model_file)
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(v) for _, v in self.axes)
+
+    @property
+    def n_poses(self) -> int:
+        return int(np.prod(self.shape)) if self.axes else 1
+
+    def pose_values(self) -> dict[str, np.ndarray]:
+        """Each axis' value at every pose, ``{name: (P,)}`` (flattened Cartesian product, C order);
+        axes not swept are 0."""
+        out = {k: np.zeros(self.n_poses) for k in AXES}
+        if self.axes:
+            mesh = np.meshgrid(*[v for _, v in self.axes], indexing="ij")
+            for (name, _), g in zip(self.axes, mesh):
+                out[name] = g.reshape(-1)
+        return out
+
+    def describe(self) -> dict:
+        """JSON-able description of the inputs (hashed into the store's provenance)."""
+        c = self.case
+        return {"case": c.name, "robot": c.robot.name, "tool": repr(c.tool), "cut": repr(c.cut), "law": repr(c.law),
+                "start_q_rad": np.asarray(c.path.start_q_rad).tolist(), "variant": self.variant, "over": self.over,
+                "axes": {k: v.tolist() for k, v in self.axes}, "speeds_rpm": self.speeds_rpm.tolist(),
+                "op_rpm": self.op_rpm, "tool_modes": [repr(m) for m in self.tool_modes],
+                "model_file": self.model_file}
+
+
+@dataclass(frozen=True)
+class MapMethod:
+    """How each pose is solved: today's ``robolobes lobes`` fidelity by default.
+
+    Attributes
+    ----------
+    m : int
+        SDM steps per principal period (40).
+    depth_max_m : float
+        Largest depth searched, m (0.01).
+    rtol : float
+        Relative bracket width of each critical depth (1e-3).
+    reduce_max_freq_hz : float or None
+        Modal truncation of the robot at each pose: keep the modes up to this natural frequency
+        (Hz); None keeps all. Its error against the full model is measured at every pose (static
+        compliance and FRF error in the band, :class:`lobes.TruncationReport`) and stored.
+    error_band_hz : (float, float)
+        Band of the truncation's FRF error, Hz.
+    chunk_poses : int
+        Poses per chunk (unit of work, of storage and of resume).
+    """
+
+    m: int = 40
+    depth_max_m: float = 0.01
+    rtol: float = 1e-3
+    reduce_max_freq_hz: float | None = 300.0
+    error_band_hz: tuple = (0.0, 1000.0)
+    chunk_poses: int = 10
+
+    def __post_init__(self) -> None:
+        if isinstance(self.m, bool) or not isinstance(self.m, int) or self.m < 2:
+            raise BadInput(f"m must be an integer >= 2, got {self.m!r}")
+        if not (math.isfinite(self.depth_max_m) and 0 < self.depth_max_m <= 0.1):
+            raise BadInput(f"depth_max_m must be in (0, 0.1] m, got {self.depth_max_m}")
+        if not 0 < self.rtol < 0.5:
+            raise BadInput(f"rtol must be in (0, 0.5), got {self.rtol}")
+        if self.reduce_max_freq_hz is not None and not (math.isfinite(self.reduce_max_freq_hz)
+                                                        and self.reduce_max_freq_hz > 0):
+            raise BadInput(f"reduce_max_freq_hz must be a frequency > 0 Hz or None, got {self.reduce_max_freq_hz}")
+        if isinstance(self.chunk_poses, bool) or not isinstance(self.chunk_poses, int) or not 1 <= self.chunk_poses <= 1000:
+            raise BadInput(f"chunk_poses must be an integer from 1 to 1000, got {self.chunk_poses!r}")
+
+    def describe(self) -> dict:
+        return {"m": self.m, "depth_max_m": self.depth_max_m, "rtol": self.rtol,
+                "reduce_max_freq_hz": self.reduce_max_freq_hz, "error_band_hz": list(self.error_band_hz),
+                "chunk_poses": self.chunk_poses}

@@ -1,0 +1,143 @@
+"""The map's zarr store: created whole first, then filled chunk by chunk, with an explicit ``done``.
+
+Layout (xarray ``Dataset``, dims ``pose``, ``rpm``, ``axis`` = x_c, y_c, z_c, ``joint``):
+
+* inputs, written at creation: ``theta_rad`` (pose, joint), ``tcp_position_m`` (pose, 3 as
+  ``axis`` in base x, y, z), ``feed_direction`` (pose, axis; base frame), ``reason`` (int8, see
+  ``attrs['reasons']``), ``reachable``, ``strict_ok`` (inside the datasheet ranges without the 5 deg
+  tolerance), ``sin_margin`` and ``shoulder_m`` (distance to singularities), the swept axes as
+  coordinates along ``pose``;
+* results, region-written per chunk: ``depth_limit_m`` and ``chatter_freq_hz`` (pose, rpm),
+  ``bifurcation`` (int8 codes, ``attrs['flag_meanings']``), ``op_depth_limit_m``,
+  ``op_chatter_freq_hz``, ``op_bifurcation`` at the operating speed, ``deflection_m`` (pose, axis;
+  cut frame), ``truncation_static_error``, ``truncation_frf_error``, ``n_kept_modes``;
+* ``done`` (pose, bool): True once the pose's chunk is written. zarr leaves all-NaN chunks
+  unwritten, so NaN results (an unreachable chunk) cannot tell "computed" from "not yet": ``done``
+  does.
+
+``depth_limit_m`` is ``inf`` where the cut is stable up to the depth searched, NaN where the pose is
+unreachable. The store's attributes record the provenance (``inputs_sha256`` of the problem and
+method): a store is only resumed by the same inputs.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from robolobes.core.errors import BadInput
+from robolobes.core.io import provenance
+
+from .compute import BIFURCATIONS, ChunkResult
+from .poses import REASONS
+
+__all__ = ["create_store", "open_for_resume", "write_chunk", "RESULT_VARS"]
+
+RESULT_VARS = {
+    # name: (dims, dtype, fill, units, description)
+    "depth_limit_m": (("pose", "rpm"), "f8", np.nan, "m", "critical axial depth (inf: stable up to depth_max_m)"),
+    "chatter_freq_hz": (("pose", "rpm"), "f8", np.nan, "Hz", "chatter frequency at the limit"),
+    "bifurcation": (("pose", "rpm"), "i1", -1, "1", "bifurcation code at the limit"),
+    "op_depth_limit_m": (("pose",), "f8", np.nan, "m", "critical depth at the operating speed"),
+    "op_chatter_freq_hz": (("pose",), "f8", np.nan, "Hz", "chatter frequency at the operating speed"),
+    "op_bifurcation": (("pose",), "i1", -1, "1", "bifurcation code at the operating speed"),
+    "deflection_m": (("pose", "axis"), "f8", np.nan, "m", "static TCP deflection under the mean cutting force, cut frame"),
+    "truncation_static_error": (("pose",), "f8", np.nan, "1", "modal truncation: relative static compliance error"),
+    "truncation_frf_error": (("pose",), "f8", np.nan, "1", "modal truncation: relative FRF error in the band"),
+    "n_kept_modes": (("pose",), "i2", -1, "1", "modes kept by the truncation"),
+}
+_FIELD = {"truncation_static_error": "static_error", "truncation_frf_error": "frf_error"}
+
+
+def _xr():
+    import xarray as xr
+
+    return xr
+
+
+def _inputs_hash(problem, method) -> dict:
+    return provenance({"problem": problem.describe(), "method": method.describe(), "layout": 1})
+
+
+def create_store(path: Path, problem, method, poses: dict) -> None:
+    """Write the whole store: inputs filled, results at their fill values, ``done`` False.
+
+    Written into ``path.parent/.path.partial`` and renamed onto ``path`` only when complete, so a
+    store either exists whole or not at all. ``poses``: arrays from :func:`solver.pose_table`.
+    """
+    xr = _xr()
+    P, S = problem.n_poses, len(problem.speeds_rpm)
+    # dims "axis" (x, y, z of the variable's frame) and "joint" (A1..A6) carry no coordinate: zarr v3
+    # has no specified string type; their names are in the attributes
+    coords = {"pose": np.arange(P), "rpm": ("rpm", problem.speeds_rpm, {"units": "rpm"})}
+    for name, vals in problem.pose_values().items():
+        if name in dict(problem.axes):
+            unit = name.rsplit("_", 1)[-1]
+            coords[name] = ("pose", vals, {"units": unit})
+    data = {
+        "theta_rad": (("pose", "joint"), poses["theta"], {"units": "rad"}),
+        "tcp_position_m": (("pose", "axis"), poses["p"], {"units": "m", "frame": "base"}),
+        "feed_direction": (("pose", "axis"), poses["feed"], {"units": "1", "frame": "base"}),
+        "reason": ("pose", poses["reason"].astype("i1"), {"flag_values": list(REASONS), "flag_meanings": list(REASONS.values())}),
+        "reachable": ("pose", poses["reason"] <= 1),
+        "strict_ok": ("pose", poses["reason"] == 0),
+        "sin_margin": ("pose", poses["sin_margin"], {"units": "1", "description": "min(|sin psi_elbow|, |sin q5|)"}),
+        "shoulder_m": ("pose", poses["shoulder_m"], {"units": "m"}),
+        "done": ("pose", np.zeros(P, bool)),
+    }
+    for name, (dims, dt, fill, unit, desc) in RESULT_VARS.items():
+        shape = tuple({"pose": P, "rpm": S, "axis": 3}[d] for d in dims)
+        attrs = {"units": unit, "description": desc}
+        if name in ("bifurcation", "op_bifurcation"):
+            attrs.update(flag_values=list(range(-1, len(BIFURCATIONS))), flag_meanings=["not computed"] + list(BIFURCATIONS))
+        if name == "deflection_m":
+            attrs["frame"] = "cut (x_c feed, y_c normal, z_c into the spindle)"
+        data[name] = (dims, np.full(shape, fill, dtype=dt), attrs)
+    prov = _inputs_hash(problem, method)
+    attrs = {"robolobes_map": 1, "inputs": json.dumps({"problem": problem.describe(), "method": method.describe()}),
+             "op_rpm": problem.op_rpm, "axis_names": ["x", "y", "z"],
+             "joint_names": [j.name for j in problem.case.robot.joints], "over": problem.over, "variant": problem.variant, **prov}
+    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    cp = method.chunk_poses
+    enc = {v: {"chunks": tuple(cp if d == "pose" else ds[v].sizes[d] for d in ds[v].dims)} for v in ds.data_vars}
+    tmp = path.parent / f".{path.name}.partial"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    try:
+        ds.to_zarr(tmp, mode="w", encoding=enc, consolidated=False)
+        tmp.rename(path)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def open_for_resume(path: Path, problem, method):
+    """Open an existing store made by the same inputs; ``BadInput`` if it is not a map store or
+    its recorded inputs differ. Returns the ``done`` array (P,) bool."""
+    xr = _xr()
+    try:
+        ds = xr.open_zarr(path, consolidated=False)
+    except Exception as e:  # not a zarr store at all
+        raise BadInput(f"{path} exists and is not a robolobes map store ({type(e).__name__}); choose another --out") from None
+    if ds.attrs.get("robolobes_map") != 1:
+        raise BadInput(f"{path} exists and is not a robolobes map store; choose another --out")
+    want = _inputs_hash(problem, method)["inputs_sha256"]
+    if ds.attrs.get("inputs_sha256") != want:
+        raise BadInput(f"{path} holds a map of other inputs (inputs_sha256 {ds.attrs.get('inputs_sha256', '?')[:12]}, "
+                       f"these inputs {want[:12]}); use another --out or the same options to resume")
+    return np.asarray(ds["done"].values, dtype=bool)
+
+
+def write_chunk(path: Path, res: ChunkResult, n: int) -> None:
+    """Region-write one finished chunk of ``n`` poses (results and ``done``)."""
+    xr = _xr()
+    data = {}
+    for name, (dims, dt, _, _, _) in RESULT_VARS.items():
+        data[name] = (dims, np.asarray(getattr(res, _FIELD.get(name, name))).astype(dt))
+    region = {"pose": slice(res.start, res.start + n)}
+    xr.Dataset(data).to_zarr(path, region=region, consolidated=False)
+    # ``done`` last, in its own write: a kill between the two leaves the chunk "not done"
+    xr.Dataset({"done": ("pose", np.ones(n, bool))}).to_zarr(path, region=region, consolidated=False)
