@@ -87,6 +87,10 @@ class SemiDiscretization:
         "free-exact" scheme and verify each bracket with the SDM (rescan with the SDM where the
         check fails). The limits are the SDM's; only the bracketing is accelerated. None (default):
         only for structures with at least 12 states, where the SDM's per-step exponentials dominate.
+    prescan_m : int or None
+        Steps per principal period of that prescan (None: ``m``). A coarser prescan is cheaper
+        (smaller monodromy); its brackets are still verified by the SDM at ``m``, so the limits
+        stay the SDM's wherever the verification passes (a failed bracket is rescanned by the SDM).
     """
 
     m: int = 40
@@ -98,10 +102,13 @@ class SemiDiscretization:
     scheme: Scheme = "sdm"
     richardson: bool = False
     prescan: bool | None = None
+    prescan_m: int | None = None
 
     def __post_init__(self) -> None:
         integer("SemiDiscretization m (steps per principal period)", self.m, minimum=2, error=LobeError)
         integer("SemiDiscretization quadrature (points per step)", self.quadrature, minimum=1, error=LobeError)
+        if self.prescan_m is not None:
+            integer("SemiDiscretization prescan_m (prescan steps per period)", self.prescan_m, minimum=2, error=LobeError)
         if self.axial_slices is not None:
             integer("SemiDiscretization axial_slices", self.axial_slices, minimum=1, error=LobeError)
         a = self.angle_tol_rad

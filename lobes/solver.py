@@ -299,7 +299,8 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     pre = None
     use_pre = engine.method.prescan if engine.method.prescan is not None else engine.ns >= 12
     if engine.method.scheme == "sdm" and use_pre:
-        pre = SDMEngine(engine.problem, replace(engine.method, scheme="free-exact"), depth_max)
+        pre = SDMEngine(engine.problem, replace(engine.method, scheme="free-exact",
+                                                m=engine.method.prescan_m or engine.method.m), depth_max)
     for c0 in range(0, S, chunk):
         r = rpm[c0:c0 + chunk]
         T = engine.period_s(r)

@@ -253,13 +253,15 @@ def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Pr
         progress(min(1.0, n[0] / 9))
         s = run.summary
         return DampingProbe(scale, run.verdict, {k: s.get(k) for k in
-                                                  ("chatter_freq_hz", "stability", "note", "verdict_basis")})
+                                                  ("chatter_freq_hz", "growth_rate_per_s", "growth_rate_se_per_s",
+                                                   "growth_rate_ci_per_s", "verdict_basis")})
 
     return bracket_search(check, settings.damping_scales, settings.td_damping_tol, "time domain", variant)
 
 
 # ------------------------------------------------------------------------------------------ time domain
-_TD_KEYS = ("stable", "verdict", "verdict_reason", "chatter_freq_hz", "nonsynchronous_peak_hz", "stability",
+_TD_KEYS = ("stable", "verdict", "verdict_reason", "growth_rate_per_s", "growth_rate_se_per_s",
+            "growth_rate_ci_per_s", "regenerative_ratio", "chatter_freq_hz", "nonsynchronous_peak_hz", "stability",
             "verdict_basis", "force_stats", "force_stats_paper_axes", "force_stats_window_s", "roughness_um",
             "tcp_deviation_y_um", "wall_y_um", "steady_window_s", "note")
 
@@ -299,7 +301,7 @@ def compute_time_domain(settings, cs, paper, damping_scale_extra: float | None =
                         lins: Linearizations | None = None) -> tuple:
     """Aluminium and steel passes, four variants, nominal damping (aluminium's force statistics
     over the Tab. 10 window); then steel (basic) at ``damping_scale_extra`` if given."""
-    win = tuple(paper["aluminium"]["tab10"]["window_s"])
+    win = tuple(measured_tab10().window_s)  # the window of the measured Tab. 10 row
     jobs = [("aluminium", v) for v in VARIANTS] + [("steel", v) for v in VARIANTS]
     out = []
     for i, (mat, variant) in enumerate(jobs):
@@ -317,10 +319,25 @@ def compute_time_domain(settings, cs, paper, damping_scale_extra: float | None =
 TAB10_COLUMNS = ("fx_min", "fy_min", "fx_max", "fy_max", "fx_mean", "fy_mean", "fx_rms", "fy_rms")
 
 
+def measured_tab10():
+    """The paper's measured Tab. 10 row as shipped in ``force_stats.toml`` (identify's format):
+    ``ForceStatistics`` with ``stats[axis][min|max|mean|rms]`` in N, paper axes, and ``window_s``."""
+    from robolobes.identify.force_data import read_force_stats
+    from robolobes.identify.force_facts import TAB10_FILE
+    m = read_force_stats(TAB10_FILE)
+    if m.axes != "paper":
+        raise ValueError(f"{TAB10_FILE}: the study compares forces in the paper's axes, got axes = {m.axes!r}")
+    return m
+
+
 def tab10_rows(paper: dict, runs) -> tuple:
-    """The paper's Tab. 10 rows, then ours (aluminium, each variant, same window and axes), N."""
-    rows = [Tab10Row(f"paper {name}", dict(zip(TAB10_COLUMNS, vals)))
-            for name, vals in paper["aluminium"]["tab10"].items() if name != "window_s"]
+    """Tab. 10: the measured row (``force_stats.toml``), the paper's model rows, then ours
+    (aluminium, each variant, same window and axes), N."""
+    m = measured_tab10()
+    rows = [Tab10Row("paper experimental", {f"f{ax}_{k}": m.stats[ax][k] for ax in ("x", "y")
+                                            for k in ("min", "max", "mean", "rms")})]
+    rows += [Tab10Row(f"paper {name}", dict(zip(TAB10_COLUMNS, vals)))
+             for name, vals in paper["aluminium"]["tab10"].items() if name not in ("window_s", "experimental")]
     for r in runs:
         fs = r.summary.get("force_stats_paper_axes")
         if r.material == "aluminium" and r.damping_scale == 1.0 and fs:

@@ -95,19 +95,27 @@ def _time_domain_table(res: StudyResult) -> list[str]:
     return out + ["\n![time domain](time_domain.png)\n"]
 
 
+def _rate(info: dict) -> str:
+    """``+0.68 ± 0.01``: a growth rate and twice its standard error, 1/s ("-" when not fitted)."""
+    r, se = info.get("growth_rate_per_s"), info.get("growth_rate_se_per_s")
+    return "-" if r is None or se is None else f"{r:+.3f} ± {2 * se:.3f}"
+
+
 def _damping_section(res: StudyResult) -> list[str]:
     dl, dt = res.damping_lobes, res.damping_time_domain
     out = ["## Steel: how much joint damping stabilizes it\n",
            prose.damping_comparison(dl.bracket, dt.bracket, res.paper_damping_scale)
            + f" Resolution: {dl.resolution:g} (lobes), {dt.resolution:g} (time domain). Both at the Tab. 7 pose "
            f"with the {dl.variant} model: the time domain runs the linearized path, frozen at that pose.\n",
-           "| scale | lobes verdict | limit (mm) | time-domain verdict | chatter (Hz) |", "|---|---|---|---|---|"]
+           "| scale | lobes verdict | limit (mm) | time-domain verdict | growth rate ± 2 SE (1/s) | chatter (Hz) |",
+           "|---|---|---|---|---|---|"]
     lp = {p.scale: p for p in dl.probes}
     tp = {p.scale: p for p in dt.probes}
     for sc in sorted(set(lp) | set(tp)):
         a, b = lp.get(sc), tp.get(sc)
         out.append(f"| {sc:g} | {a.verdict.status if a else ''} | {_mm(a.info['depth_limit_m']) if a else ''} | "
-                   f"{b.verdict.status if b else ''} | {_fmt(b.info.get('chatter_freq_hz'), 1) if b else ''} |")
+                   f"{b.verdict.status if b else ''} | {_rate(b.info) if b else ''} | "
+                   f"{_fmt(b.info.get('chatter_freq_hz'), 1) if b else ''} |")
     return out
 
 

@@ -127,6 +127,23 @@ def test_study_refuses_a_users_directory_and_file_before_work(capsys, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["existing.txt", "mydata"]
 
 
+@pytest.mark.parametrize("argv", [
+    ["study", "--quick", "--out"],
+    ["simulate", "--linearized", "--duration", "0.05", "--out"],
+    ["map", "--over", "pass", "--n", "3", "--out"],
+    ["optimize", "--out"],
+])
+def test_every_directory_command_refuses_a_users_directory(capsys, tmp_path, argv):
+    # one protocol for every command, including those added later (core.outdir.OutputDir)
+    d = tmp_path / "mine"
+    d.mkdir()
+    (d / "notes.txt").write_text("mine")
+    rc, out, err = run(capsys, *argv, d, "--quiet")
+    assert rc == 2 and one_line(err) and "robolobes did not write" in err, err
+    assert [p.name for p in d.iterdir()] == ["notes.txt"] and (d / "notes.txt").read_text() == "mine"
+    assert [p.name for p in tmp_path.iterdir()] == ["mine"]
+
+
 def test_frf_rerun_replaces_its_own_file_and_records_provenance(capsys, tmp_path):
     out = tmp_path / "tcp.csv"
     argv = ["frf", "--n", "20", "--fmax-hz", "50", "--out", out]

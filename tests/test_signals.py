@@ -166,5 +166,5 @@ def test_roughness_bad_input():
         roughness(x, np.zeros_like(x), form="gaussian")
     with pytest.raises(SignalError, match="form must be 'line' or 'gaussian'"):
         roughness(x, np.zeros_like(x), form="spline")
-    with pytest.raises(SignalError, match="cutoff_m must be finite and > 0"):
+    with pytest.raises(SignalError, match="cutoff_m must be > 0, got -1.0"):
         roughness(_profile(), np.zeros_like(_profile()), form="gaussian", cutoff_m=-1.0)

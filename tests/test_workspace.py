@@ -113,7 +113,7 @@ def _small(case, n=4, speeds=(2500.0, 3100.0, 4000.0, 6000.0), **kw):
     return MapProblem.make(case, "basic", "placement", n=n, speeds_rpm=np.array(speeds), **kw)
 
 
-FAST = MapMethod(m=20, reduce_max_freq_hz=None, chunk_poses=1)
+FAST = MapMethod(m=20, reduce_max_freq_hz=None, prescan_m=None, chunk_poses=1)
 
 
 def _arrays(ds):
@@ -163,9 +163,8 @@ def test_reduced_map_within_one_percent_of_full_model(alu):
         p = LobeProblem(PhysicalStructure.from_linear(lin, ds["feed_direction"].values[i]), alu.tool, alu.cut, alu.law)
         ref = solve(p, SemiDiscretization(m=40), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
         got = ds["depth_limit_m"].values[i]
-        assert np.array_equal(np.isfinite(got), np.isfinite(ref))
-        f = np.isfinite(ref)
-        np.testing.assert_allclose(got[f], ref[f], rtol=0.01)
+        # capped at the searched 10 mm (inf: no limit below it)
+        np.testing.assert_allclose(np.minimum(got, 0.01), np.minimum(ref, 0.01), rtol=0.01)
         assert ds["truncation_frf_error"].values[i] < 0.01
 
 
@@ -207,7 +206,7 @@ def test_store_of_other_inputs_is_refused(steel, tmp_path):
         solve_map(_small(steel, n=2), FAST, path=tmp_path / "mine", scheduler="serial")
 
 
-def test_local_cluster_bitwise_equal(steel):
+def test_local_cluster_and_process_pool_bitwise_equal(steel):
     distributed = pytest.importorskip("distributed")
     pr = _small(steel)
     serial = _arrays(solve_map(pr, FAST, scheduler="serial").dataset)
@@ -215,9 +214,12 @@ def test_local_cluster_bitwise_equal(steel):
         warnings.simplefilter("ignore")
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                                       host="127.0.0.1") as cluster:
-            with distributed.Client(cluster) as client:
-                res = solve_map(pr, FAST, scheduler=client)
+            # the address, as --scheduler tcp://HOST:PORT gives it
+            assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+            res = solve_map(pr, FAST, scheduler=cluster.scheduler_address)
     _assert_bitwise(_arrays(res.dataset), serial)
+    # and the default local pool of two processes
+    _assert_bitwise(_arrays(solve_map(pr, FAST, scheduler="local", workers=2).dataset), serial)
 
 
 def test_bad_map_inputs(steel):
@@ -238,24 +240,22 @@ def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     table = pose_table(pr)
     ok = np.flatnonzero(table["reason"] <= 1)
     pick = np.sort(rng.choice(ok, size=20, replace=False))
-    sub = MapProblem(case=alu, variant="orthogonal", over="placement",
-                     axes=(("x_offset_m", pr.pose_values()["x_offset_m"][pick]),), speeds_rpm=pr.speeds_rpm,
-                     op_rpm=pr.op_rpm)
     robot = linearize.build_model(alu.robot, "orthogonal")
     from robolobes.workspace import compute_chunk
 
     got = compute_chunk(pr, MapMethod(), 0, table["theta"][pick], table["feed"][pick], np.ones(20, bool))
-    worst = 0.0
+    # a limit is searched up to 10 mm; inf means "none below 10 mm", so both are compared capped at
+    # 10 mm (a limit at 9.98 mm in one and "none below 10 mm" in the other agree to 0.2 %)
+    worst, n_cmp = 0.0, 0
     for k, i in enumerate(pick):
         lin = linearize.linearize(robot, table["theta"][i])
         p = LobeProblem(PhysicalStructure.from_linear(lin, table["feed"][i]), alu.tool, alu.cut, alu.law)
         ref = solve(p, SemiDiscretization(m=40), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
-        assert np.array_equal(np.isfinite(got.depth_limit_m[k]), np.isfinite(ref))
-        f = np.isfinite(ref)
-        worst = max(worst, float(np.max(np.abs(got.depth_limit_m[k][f] / ref[f] - 1), initial=0.0)))
-    print(f"20 random poses: largest relative difference of the depth limit {worst:.3e}")
+        a, b = np.minimum(got.depth_limit_m[k], 0.01), np.minimum(ref, 0.01)
+        worst = max(worst, float(np.max(np.abs(a / b - 1))))
+        n_cmp += len(b)
+    print(f"20 random poses, {n_cmp} limits: largest relative difference (capped at 10 mm) {worst:.3e}")
     assert worst < 0.01
-    del sub
 
 
 def test_tool_modes_add_in_series(alu):
@@ -291,6 +291,7 @@ def test_optimizer_optimum_confirmed_by_lobes_solve(steel):
     res = optimize_placement(opt, n_starts=3, n_local=1, max_local_evals=4)
     assert res.baseline.feasible and res.best.feasible
     assert res.best.min_depth_m >= res.baseline.min_depth_m
+    assert not res.baseline.strict_ok   # Tab. 7: A3 2.86 deg past +145 deg, accepted within 5 deg
     # README: steel, basic, Tab. 7: 0.643 mm at 3100 rpm (stability(), Richardson); m = 40 here
     np.testing.assert_allclose(res.baseline.depth_m[0], 0.643e-3, rtol=0.01)
     robot = linearize.build_model(steel.robot, "basic")
@@ -298,3 +299,17 @@ def test_optimizer_optimum_confirmed_by_lobes_solve(steel):
     p = LobeProblem(PhysicalStructure.from_linear(lin, res.best.feed), steel.tool, steel.cut, steel.law)
     ref = solve(p, SemiDiscretization(m=40), [3100.0], depth_max_m=opt.depth_max_m, rtol=1e-3).depth_limit_m[0]
     np.testing.assert_allclose(res.best.min_depth_m, ref, rtol=1e-12)
+
+
+def test_coarse_prescan_keeps_the_sdm_limits(steel):
+    # SemiDiscretization(prescan_m=12): the free-exact prescan only brackets; the SDM at m = 40
+    # verifies and refines, so the limits equal those with the default prescan to the root
+    # bracket (rtol 1e-3 of solve; observed 6e-14 at the bench poses).
+    robot = linearize.build_model(steel.robot, "basic")
+    lin = linearize.linearize(robot, steel.path.start_q_rad)
+    p = LobeProblem(PhysicalStructure.from_linear(lin, steel.cut.feed_direction), steel.tool, steel.cut, steel.law)
+    speeds = np.linspace(2000, 8000, 7)
+    a = solve(p, SemiDiscretization(m=40), speeds).depth_limit_m
+    b = solve(p, SemiDiscretization(m=40, prescan_m=12), speeds).depth_limit_m
+    assert np.array_equal(np.isfinite(a), np.isfinite(b))
+    np.testing.assert_allclose(b[np.isfinite(a)], a[np.isfinite(a)], rtol=1e-3)

@@ -71,6 +71,7 @@ import inspect
 import math
 import os
 from dataclasses import dataclass
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -419,9 +420,8 @@ class LinearRun:
     stats: dict
 
 
-def _f64(name, x, shape=None):
-    """``x`` as a C-contiguous finite float64 array of ``shape`` (FastPathError otherwise)."""
-    return finite_array(name, x, shape, error=FastPathError, contiguous=True)
+#: ``x`` as a C-contiguous finite float64 array of ``shape`` (FastPathError otherwise)
+_f64 = partial(finite_array, error=FastPathError, contiguous=True)
 
 
 def _is_int(x, lo: int, hi: int | None = None) -> bool:

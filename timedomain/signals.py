@@ -32,9 +32,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 from typing import Literal
 
 import numpy as np
+
+from robolobes.core.validate import finite, readonly
 
 __all__ = [
     "SignalError",
@@ -61,20 +64,8 @@ class SignalError(ValueError):
     """Signals that cannot be processed as asked (bad shapes, non-uniform sampling, short window)."""
 
 
-def _ro(a) -> np.ndarray:
-    a = np.array(a, dtype=float, copy=True)
-    a.setflags(write=False)
-    return a
-
-
-def _positive(name: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SignalError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise SignalError(f"{name} must be finite and > 0, got {v}")
-    return v
+#: core.validate.finite raising SignalError: a finite number > 0
+_positive = partial(finite, positive=True, error=SignalError)
 
 
 def _series(t_s, x, name: str = "signal") -> tuple[np.ndarray, np.ndarray, bool]:
@@ -161,8 +152,8 @@ def force_stats(t_s, f_n, t_start_s: float | None = None, t_end_s: float | None 
         raise SignalError(f"window [{lo}, {hi}] s holds fewer than 2 samples")
     w = f[sel]
     return ForceStats(
-        t_start_s=lo, t_end_s=hi, min_n=_ro(w.min(0)), max_n=_ro(w.max(0)), mean_n=_ro(w.mean(0)),
-        rms_n=_ro(np.sqrt((w**2).mean(0))), std_n=_ro(w.std(0)), n_samples=int(sel.sum()),
+        t_start_s=lo, t_end_s=hi, min_n=readonly(w.min(0)), max_n=readonly(w.max(0)), mean_n=readonly(w.mean(0)),
+        rms_n=readonly(np.sqrt((w**2).mean(0))), std_n=readonly(w.std(0)), n_samples=int(sel.sum()),
     )
 
 
@@ -203,7 +194,7 @@ def once_per_revolution(
     n = int(math.floor((hi - lo) / period + 1e-9)) + 1
     tk = lo + period * np.arange(n)
     xk = _spline(t, xx)(tk)
-    return _ro(tk), _ro(xk[:, 0] if one_d else xk)
+    return readonly(tk), readonly(xk[:, 0] if one_d else xk)
 
 
 def synchronous_average(
@@ -226,7 +217,7 @@ def synchronous_average(
         raise SignalError(f"bins must be >= 4, got {bins}")
     tt = lo + period * (np.arange(n_rev)[:, None] + np.arange(bins)[None, :] / bins)
     avg = _spline(t, xx)(tt.ravel()).reshape(n_rev, bins, -1).mean(0)
-    return _ro(avg[:, 0] if one_d else avg)
+    return readonly(avg[:, 0] if one_d else avg)
 
 
 # --------------------------------------------------------------------------------------------
@@ -405,7 +396,7 @@ def gaussian_mean_line(x_m, z_m, cutoff_m: float) -> np.ndarray:
 
     num = fftconvolve(z[:, 0], k, mode="same")
     den = fftconvolve(np.ones(z.shape[0]), k, mode="same")
-    return _ro(num / den)
+    return readonly(num / den)
 
 
 def roughness(x_m, z_m, *, form: FormRemoval = "line", cutoff_m: float | None = None) -> Roughness:
@@ -457,5 +448,5 @@ def roughness(x_m, z_m, *, form: FormRemoval = "line", cutoff_m: float | None = 
     r = ze - a @ coef
     return Roughness(
         ra_m=float(np.abs(r).mean()), rq_m=float(np.sqrt((r**2).mean())), rt_m=float(r.max() - r.min()),
-        evaluation_length_m=float(xe[-1] - xe[0]), form=form, cutoff_m=cutoff, x_m=_ro(xe), profile_m=_ro(r),
+        evaluation_length_m=float(xe[-1] - xe[0]), form=form, cutoff_m=cutoff, x_m=readonly(xe), profile_m=readonly(r),
     )

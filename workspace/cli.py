@@ -146,21 +146,13 @@ def _out_dir(args, problem, method):
     return OutputDir(args.out, "map", inputs, resume=True)
 
 
-def _progress(quiet: bool):
-    if quiet:
-        return None, lambda: None
-    from tqdm import tqdm
+def _progress(quiet: bool, label: str = "map"):
+    """``(callback(done, total), close)`` on the shared progress display (``core.io.Progress``:
+    tqdm on a terminal, a few lines in a log file, nothing with ``--quiet``)."""
+    from robolobes.core.io import Progress
 
-    bar = {"t": None}
-
-    def cb(done, total):
-        if bar["t"] is None:
-            bar["t"] = tqdm(total=total, initial=done, unit="pose", desc="map", file=sys.stderr,
-                            mininterval=1.0, dynamic_ncols=True)
-        else:
-            bar["t"].update(done - bar["t"].n)
-
-    return cb, lambda: bar["t"] is not None and bar["t"].close()
+    bar = Progress(label, enabled=not quiet)
+    return (lambda done, total: bar(done / total if total else 1.0, f"{done}/{total}")), bar.close
 
 
 def run_map(args: argparse.Namespace) -> int:
@@ -305,7 +297,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
         t_end = min(t_end_s, prob.pass_duration_s)
         run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
     s = run.summary
-    return {"stable": s.stable, "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
+    return {**s.verdict.to_json(), "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
             "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
 
 
@@ -373,7 +365,7 @@ def run_optimize(args: argparse.Namespace) -> int:
               "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
               "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
     out = OutputDir(args.out, "optimize", inputs)
-    cb, close = _progress(args.quiet)
+    cb, close = _progress(args.quiet, "optimize")
     try:
         res = optimize_placement(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
                                  progress=cb)
@@ -393,6 +385,7 @@ def run_optimize(args: argparse.Namespace) -> int:
           "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
           "baseline_worst_pose_q_deg": (np.degrees(res.baseline.theta[res.baseline.worst]).tolist()
                                         if res.baseline.feasible else None),
+          "optimum_strict_ok": res.best.strict_ok, "baseline_strict_ok": res.baseline.strict_ok,
           "baseline_feasible": res.baseline.feasible, "baseline_reason": res.baseline.reason,
           "depth_along_pass_m": {"s_m": res.best.s_m, "baseline": res.baseline.depth_m, "optimum": res.best.depth_m},
           "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],

@@ -117,7 +117,7 @@ def compute_chunk(problem: MapProblem, method: MapMethod, start: int, theta: np.
         case = problem.case
         robot = build_robot(problem)
         speeds = np.append(problem.speeds_rpm, problem.op_rpm)
-        sdm = SemiDiscretization(m=method.m)
+        sdm = SemiDiscretization(m=method.m, prescan_m=method.prescan_m)
         f_mean = mean_force_cut_frame(case.tool, case.cut, case.law)
         for i in range(P):
             if not reachable[i]:

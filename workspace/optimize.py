@@ -95,6 +95,7 @@ class PassEvaluation:
     theta: np.ndarray
     feed: np.ndarray
     s_m: np.ndarray
+    strict_ok: bool = False
 
     @property
     def min_depth_m(self) -> float:
@@ -120,6 +121,7 @@ def _pass_poses(opt: OptimizeProblem, values: dict, s: np.ndarray):
     q0, p0, R0 = start_pose(case)
     thetas, q_ref = [], q0
     feed = None
+    strict = True
     for k, sk in enumerate(s):
         tgt = target(case, p0, R0, offset_m=(values["x_offset_m"], values["y_offset_m"], values["z_offset_m"]),
                      yaw_rad=values["yaw_rad"], tool_rotation_rad=values["tool_rotation_rad"], s_m=sk)
@@ -134,8 +136,9 @@ def _pass_poses(opt: OptimizeProblem, values: dict, s: np.ndarray):
         if k and np.max(np.abs(sol.theta - q_ref)) > 0.5:
             return None, feed, f"pass pose {k}: the IK branch is not continuous"
         thetas.append(sol.theta)
+        strict &= sol.reason == 0
         q_ref = sol.theta
-    return np.array(thetas), feed, ""
+    return np.array(thetas), feed, "" if strict else "tolerance"
 
 
 def _depth_at(opt: OptimizeProblem, method: MapMethod, theta, feed, full: bool) -> float:
@@ -165,11 +168,12 @@ def evaluate_pass(opt: OptimizeProblem, x, method: MapMethod | None = None, *, f
     values.update(zip(opt.variables, x.tolist()))
     s = np.linspace(0.0, _travel(opt.map_problem.case), opt.n_s)
     thetas, feed, why = _pass_poses(opt, values, s)
+    strict_ok = why == ""
     if thetas is None:
         return PassEvaluation(x, False, why, np.full(len(s), np.nan), np.full((len(s), 6), np.nan), feed, s)
     with threadpool_limits(1):
         depth = np.array([_depth_at(opt, method, th, feed, full) for th in thetas])
-    return PassEvaluation(x, True, "", depth, thetas, feed, s)
+    return PassEvaluation(x, True, "", depth, thetas, feed, s, strict_ok)
 
 
 @dataclass(frozen=True, eq=False)

@@ -197,6 +197,11 @@ class MapMethod:
         compliance and FRF error in the band, :class:`lobes.TruncationReport`) and stored.
     error_band_hz : (float, float)
         Band of the truncation's FRF error, Hz.
+    prescan_m : int or None
+        Steps per period of the cheap free-exact depth prescan that brackets each limit before the
+        SDM at ``m`` verifies the bracket and refines it (``SemiDiscretization.prescan_m``; None:
+        ``m``). The limits stay the SDM's: at three bench poses, 101 speeds, they equal those of
+        the default prescan to 6e-14.
     chunk_poses : int
         Poses per chunk (unit of work, of storage and of resume).
     """
@@ -206,6 +211,7 @@ class MapMethod:
     rtol: float = 1e-3
     reduce_max_freq_hz: float | None = 300.0
     error_band_hz: tuple = (0.0, 1000.0)
+    prescan_m: int | None = 12
     chunk_poses: int = 10
 
     def __post_init__(self) -> None:
@@ -218,10 +224,14 @@ class MapMethod:
         if self.reduce_max_freq_hz is not None and not (math.isfinite(self.reduce_max_freq_hz)
                                                         and self.reduce_max_freq_hz > 0):
             raise BadInput(f"reduce_max_freq_hz must be a frequency > 0 Hz or None, got {self.reduce_max_freq_hz}")
+        if self.prescan_m is not None and (isinstance(self.prescan_m, bool) or not isinstance(self.prescan_m, int)
+                                           or self.prescan_m < 2):
+            raise BadInput(f"prescan_m must be an integer >= 2 or None, got {self.prescan_m!r}")
         if isinstance(self.chunk_poses, bool) or not isinstance(self.chunk_poses, int) or not 1 <= self.chunk_poses <= 1000:
             raise BadInput(f"chunk_poses must be an integer from 1 to 1000, got {self.chunk_poses!r}")
 
     def describe(self) -> dict:
         return {"m": self.m, "depth_max_m": self.depth_max_m, "rtol": self.rtol,
                 "reduce_max_freq_hz": self.reduce_max_freq_hz, "error_band_hz": list(self.error_band_hz),
+                "prescan_m": self.prescan_m,
                 "chunk_poses": self.chunk_poses}
