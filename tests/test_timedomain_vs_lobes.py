@@ -193,7 +193,8 @@ def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
     # the lobes agree: x10 unstable, x15 stable
     for scale, expect in ((10.0, "unstable"), (15.0, "stable")):
         st = _structure(STEEL, damping_scale=scale)
-        assert stability(LobeProblem(st, STEEL.tool, STEEL.cut, STEEL.law), SemiDiscretization(m=40)).verdict.status == expect
+        op = stability(LobeProblem(st, STEEL.tool, STEEL.cut, STEEL.law), SemiDiscretization(m=40))
+        assert op.verdict.status == expect
 
 
 # ---- aluminium near its own limit: the high-speed regime, numbers against the SDM's Floquet rate

@@ -16,8 +16,8 @@ from numpy.testing import assert_allclose
 
 from robolobes.cases.milling import Cut, Tool
 from robolobes.core.errors import BadInput
-from robolobes.timedomain.verdict import (ChipScale, GrowthRule, beat_period_s, chip_scale, decide, floquet_rate_per_s, growth_rate,
-                                          regenerative_ratio)
+from robolobes.timedomain.verdict import (ChipScale, GrowthRule, beat_period_s, chip_scale, decide, floquet_rate_per_s,
+                                          growth_rate, regenerative_ratio)
 
 FS = 18700 / 60.0  # spindle frequency of the aluminium cut, Hz
 TP = 1 / FS  # principal period: one revolution (variable pitch), s
@@ -33,7 +33,8 @@ def _signal(rate, duration, f_hz, rng, *, noise=1e-3, a0=1e-6, dt=TP / 40):
     ph, ph2, ell = rng.uniform(0, 2 * np.pi), rng.uniform(0, 2 * np.pi), rng.uniform(0.1, 1.0)
     forced = 1e-5 * (np.sin(2 * np.pi * 2 * FS * t) + 0.3 * np.sin(2 * np.pi * FS * t + 1.0)) + 2e-5 * t + 1e-5 * t**2
     amp = a0 * np.exp(rate * (t - duration / 2))
-    x = np.stack([forced + amp * np.sin(2 * np.pi * f_hz * t + ph), 0.5 * forced + ell * amp * np.sin(2 * np.pi * f_hz * t + ph2)], 1)
+    x = np.stack([forced + amp * np.sin(2 * np.pi * f_hz * t + ph),
+                  0.5 * forced + ell * amp * np.sin(2 * np.pi * f_hz * t + ph2)], 1)
     return t, x + noise * a0 * math.exp(-abs(rate) * duration / 2) * rng.standard_normal(x.shape)
 
 

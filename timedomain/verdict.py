@@ -428,7 +428,8 @@ def decide(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float, t_end_
     if lo_ci > 0:
         return out("unstable", f"the non-synchronous motion grows: {rate}")
     need = g.duration_to_decide_s()
-    when = "no window decides a rate of zero" if not math.isfinite(need) else f"a window of about {need:.2g} s would decide"
+    when = ("no window decides a rate of zero" if not math.isfinite(need)
+            else f"a window of about {need:.2g} s would decide")
     return out("undetermined", f"the {rate} contains 0: {when}", need)
 
 

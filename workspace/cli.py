@@ -49,9 +49,6 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tool-modes", default=None, metavar="FILE",
                    help="[[modes]] TOML of tool-tip modes (as lobes --modal), in series with the robot")
     p.add_argument("--at-rpm", type=float, default=None, help="operating speed, rpm (default: the case's)")
-    p.add_argument("--scheduler", default="local", metavar="ADDR",
-                   help="local (default: 2 processes), serial, or a Dask scheduler tcp://HOST:PORT")
-    p.add_argument("--workers", type=int, default=2, help="processes of the local pool (default 2)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
@@ -64,6 +61,9 @@ def register(subparsers) -> argparse.ArgumentParser:
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     _common(p)
     p.add_argument("--over", required=True, choices=("pass", "placement", "tool-rotation", "lead-tilt"))
+    p.add_argument("--scheduler", default="local", metavar="ADDR",
+                   help="local (default: 2 processes), serial, or a Dask scheduler tcp://HOST:PORT")
+    p.add_argument("--workers", type=int, default=2, help="processes of the local pool (default 2)")
     p.add_argument("--n", type=int, default=25, help=f"poses (about; placement grids share it), 1..{MAX_N}")
     p.add_argument("--x-range-mm", default=None, metavar="A,B", help="pass start offset x, mm (default -200,200)")
     p.add_argument("--y-range-mm", default=None, metavar="A,B", help="pass start offset y, mm (default -200,200)")
@@ -241,7 +241,6 @@ def optimize_problem_from_args(args):
         raise BadInput(f"--td-end-s must be in (0, 60] s, got {args.td_end_s}")
     if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and 0 < args.at_rpm <= 100_000):
         raise BadInput(f"--at-rpm must be a speed in (0, 100000] rpm, got {args.at_rpm}")
-    _check_scheduler(args.scheduler)
     rng = {"x_offset_m": parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.1, 0.1)),
            "y_offset_m": parse_range("--y-range-mm", args.y_range_mm, 1e-3, (-0.1, 0.1)),
            "z_offset_m": parse_range("--z-range-mm", args.z_range_mm, 1e-3, (0.0, 0.0)),
