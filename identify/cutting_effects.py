@@ -10,13 +10,14 @@ runout              tool (tooth radii)     delta_m = r_1 - r_2 in m, [-3e-5, 3e-
 dynamometer         measurement chain      fn_hz [500, 8000], zeta [0.005, 0.3]; fn <= 6 kHz
 lowpass             measurement chain      cutoff_hz [300, 20000] (4th-order Butterworth); <= 5 kHz
 backlash            robot (motion axes)    backlash_rad [0, 3e-4]; see :class:`Backlash`
-joint_damping       robot (motion axes)    scale [0.2, 50] on every joint damper (stability data)
-process_damping     cutting law            C_pd in N/m^2 ... (stability data, see :func:`process_damping_c`)
+joint_damping       robot (motion axes)    scale [1, 50] on every joint damper (stability data)
+process_damping     tool tip (cut plane)   damper c [10, 1e6] N s/m (stability data, :func:`process_damping_c`)
 ==================  =====================  =========================================================
 
-The detection thresholds are for a cutting-force set of the TX200 aluminium pass (0.2 s of steady
-cut, 1-3 N noise): the smallest value whose change of the synchronous average exceeds 5 times the
-noise floor (computed with the model, not tuned on identification outcomes; see the README).
+The detection thresholds are for a cutting-force set of the TX200 aluminium pass (0.15 s of steady
+cut, 1-3 N noise), estimated from the physics, not tuned on identification outcomes: a few times
+the noise floor of the held-out average (~1 % of the force RMS). Example from the slow tests: a
+runout of 3.4 um changes the average by 3.8 times the noise floor, and was found.
 
 * **Edge coefficients** (Altintas, *Manufacturing Automation*, ch. 2): ``dFt = Ktc h db + Kte db``,
   ``dFr = Krc h db + Kre db``: a force independent of the chip while a tooth is engaged. Forces are
