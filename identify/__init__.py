@@ -4,6 +4,6 @@
 (tool-tip FRF sets; cutting forces in :mod:`identify.forces`) and the model, traces it to an effect
 the model lacks (:mod:`identify.effects`, the library: a tool-holder mode, joint or orthogonal
 stiffness and damping corrections, a payload mass error, cutting-law effects), adds it, refits,
-and reports the held-out error before and after (:mod:`identify.selection`). It also holds ``robolobes study``, the comparison of the model with the paper's
-measured facts.
+and reports the held-out error before and after (:mod:`identify.selection`). The study
+(``robolobes study``) lives in :mod:`robolobes.study`, above identify in the data flow.
 """
