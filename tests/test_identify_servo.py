@@ -116,3 +116,91 @@ def test_pid_with_filtered_derivative_converges_to_the_pd_element():
     e2 = np.abs(_pid_receptance(J, kp, ki / 2, kd, tf / 2, w) - el).max() / np.abs(el).max()
     assert_allclose(e1 / e2, 2.0, rtol=0.1)
     assert e1 < 0.05, e1
+
+
+# ------------------------------------------------------------------------------------------------
+# 2. identification through the command line
+
+CASE = load_case("tx200-aluminium")
+K_AXES = CASE.robot.joint_stiffness          # N m/rad, the joint table
+
+
+def _axis_modes():
+    """Per axis, at the first synthetic pose (the case's start pose): the undamped robot mode (Hz)
+    with the largest share of its strain energy in that axis's spring (f_r of the threshold), and the
+    axis's link-side inertia M[j, j] (kg m^2)."""
+    lin = linearize(build_model(CASE.robot, "basic"), CASE.path.start_q_rad)
+    w2, V = sla.eigh(lin.K, lin.M)
+    share = K_AXES[:, None] * V ** 2 / np.einsum("im,ij,jm->m", V, lin.K, V)[None, :]
+    return np.sqrt(w2[np.argmax(share, axis=1)]) / (2 * math.pi), np.diag(lin.M)[:len(K_AXES)]
+
+
+def _draw_servo(rng, f_r, inertia):
+    """A servo on a random axis, uniform (log for the scales) within the bounds above the threshold.
+
+    Static: kp / k in [0.5, 9] (the axis >= 10 % softer). Told apart from a joint correction: the
+    axis's dynamic stiffness changes by |delta| = (k / kp) x / (1 - x) >= 0.1 between 0 and its
+    dominant mode f_r (x = (f_r / f_m)^2), i.e. the rotor mode f_m below f_r / sqrt(x_t),
+    x_t = 0.1 s / (1 + 0.1 s); drawn from f_r up to that or to 280 Hz (inside the measured band).
+    Plausible drive: the reflected rotor inertia J = (k + kp) / (2 pi f_m)^2 at most the axis's
+    link-side inertia (drives are sized to about match their load), so f_m >= sqrt((k + kp) / M_jj) / 2 pi.
+    Axis and kp / k are redrawn when that leaves no f_m. Rotor damping ratio 0.02-0.3.
+    kd = 2 zeta sqrt((k + kp) J).
+    """
+    while True:
+        j = int(rng.integers(1, 7))
+        k, fr = K_AXES[j - 1], f_r[j - 1]
+        s = math.exp(rng.uniform(math.log(0.5), math.log(9.0)))
+        x_t = 0.1 * s / (1 + 0.1 * s)
+        lo = max(fr, math.sqrt((k + s * k) / inertia[j - 1]) / (2 * math.pi))
+        hi = min(fr / math.sqrt(x_t), 280.0)
+        if lo < hi:
+            break
+    fm = rng.uniform(lo, hi)
+    zeta = math.exp(rng.uniform(math.log(0.02), math.log(0.3)))
+    kp = s * k
+    J = (k + kp) / (2 * math.pi * fm) ** 2
+    return f"servo_a{j}", ServoDrive(j, J, kp, 2 * zeta * math.sqrt((k + kp) * J))
+
+
+def _truth_errors(t):
+    """Error of the generating model on the data (noise only) and the effect's own size, both / RMS |H_meas|."""
+    meas = np.concatenate([h.ravel() for h in t["H_meas"]])
+    true = np.concatenate([h.ravel() for h in t["H_true"]])
+    base = np.concatenate([h.ravel() for h in t["H_base"]])
+    den = np.sqrt(np.mean(np.abs(meas) ** 2))
+    return np.sqrt(np.mean(np.abs(true - meas) ** 2)) / den, np.sqrt(np.mean(np.abs(true - base) ** 2)) / den
+
+
+def _identify_servo_draw(tmp_path, capsys, seed):
+    """Write a 4-pose, 4-pair, 400-line UFF set with one undeclared servo, run the CLI, judge it.
+
+    Correct (the issue's three criteria): servo_aN of the drawn axis first, error_after <= 1.2x the
+    generating model's error on the same held-out lines, before/after >= 5 when the servo's own error
+    is above 5x the noise floor."""
+    rng = np.random.default_rng(seed)
+    name, el = _draw_servo(rng, *_axis_modes())
+    d = tmp_path / f"servo_{seed}"
+    t = synthetic_frf_set(d, CASE, elements=(el,), n_poses=4, f_hz=np.linspace(2, 300, 400),
+                          rel_noise=rng.uniform(0.01, 0.03), add_noise=rng.uniform(0.01, 0.03), seed=seed)
+    rc = main(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    res = json.loads(cap.out)
+    e_gen, e_own = _truth_errors(t)
+    ok = bool(res["effects"]) and res["effects"][0]["name"] == name and res["error_after"] <= 1.2 * e_gen
+    if ok and e_own > 5 * e_gen:
+        ok = res["error_before"] / res["error_after"] >= 5
+    return ok, (seed, name, el, [e["name"] for e in res["effects"]], res["error_before"], res["error_after"], e_gen)
+
+
+def test_servo_found_by_default(tmp_path, capsys):
+    # one draw, default candidates (servo_a1..a6 among them, no --effects)
+    ok, info = _identify_servo_draw(tmp_path, capsys, 1)
+    assert ok, info
+
+
+@pytest.mark.slow
+def test_servo_found_in_at_least_4_of_5_draws(tmp_path, capsys):
+    got = [_identify_servo_draw(tmp_path, capsys, s) for s in (11, 12, 13, 14, 15)]
+    assert sum(ok for ok, _ in got) >= 4, [info for _, info in got]
