@@ -169,6 +169,8 @@ def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
 def test_each_effect_found_in_at_least_4_of_5_draws(tmp_path, capsys, kind):
     seeds = [11, 12, 13, 14, 15]
     good = [_correct(*_identify_draw(tmp_path, capsys, kind, s)) for s in seeds]
+    with capsys.disabled():
+        print(f"\n{kind}: {sum(good)} of {len(good)} draws correct {good}")
     assert sum(good) >= 4, good
 
 
@@ -177,6 +179,8 @@ def test_orthogonal_correction_found_in_at_least_4_of_5_draws(tmp_path, capsys):
     seeds = [21, 22, 23, 24, 25]
     good = [_correct(*_identify_draw(tmp_path, capsys, "orthogonal_correction", s, variant="orthogonal"))
             for s in seeds]
+    with capsys.disabled():
+        print(f"\northogonal_correction: {sum(good)} of {len(good)} draws correct {good}")
     assert sum(good) >= 4, good
 
 
@@ -184,6 +188,8 @@ def test_orthogonal_correction_found_in_at_least_4_of_5_draws(tmp_path, capsys):
 def test_no_effect_in_at_least_19_of_20_seeds(tmp_path, capsys):
     seeds = list(range(100, 120))
     good = [_correct(*_identify_draw(tmp_path, capsys, None, s)) for s in seeds]
+    with capsys.disabled():
+        print(f"\nno effect: {sum(good)} of {len(good)} seeds give [] {good}")
     assert sum(good) >= 19, good
 
 
