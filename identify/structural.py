@@ -31,7 +31,7 @@ import numpy as np
 from .effects import Effect, ModelState, Parameter, register
 
 __all__ = ["PoseMatrices", "StructuralEffect", "TcpModeEffect", "JointCorrectionEffect",
-           "OrthogonalCorrectionEffect", "PayloadMassEffect", "pose_matrices"]
+           "OrthogonalCorrectionEffect", "PayloadMassEffect", "ServoEffect", "pose_matrices"]
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from numpy.testing import assert_allclose
 from robolobes.cases import load_case
 from robolobes.identify.effects import REGISTRY
 from robolobes.identify.selection import significance, z_threshold
-from robolobes.identify.synthetic import synthetic_frf_set
+from robolobes.identify.synthetic import synthetic_frf_set, truth_errors
 from robolobes.linearize import build_model, linearize
 from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive, TcpMode
 from robolobes.main import main
@@ -90,15 +90,6 @@ def _run_cli(args, capsys):
     return rc, cap.out, cap.err
 
 
-def _truth_errors(t):
-    """Error of the generating model on the data (noise only) and the effect's own size, both / RMS |H_meas|."""
-    meas = np.concatenate([h.ravel() for h in t["H_meas"]])
-    true = np.concatenate([h.ravel() for h in t["H_true"]])
-    base = np.concatenate([h.ravel() for h in t["H_base"]])
-    den = np.sqrt(np.mean(np.abs(meas) ** 2))
-    return np.sqrt(np.mean(np.abs(true - meas) ** 2)) / den, np.sqrt(np.mean(np.abs(true - base) ** 2)) / den
-
-
 def _draw(kind, rng):
     """An undeclared element, parameters uniform within bounds above the detection threshold."""
     if kind == "tcp_mode":
@@ -135,7 +126,7 @@ def _identify_draw(tmp_path, capsys, kind, seed, n_poses=4, n_lines=400, poles=F
 
 
 def _correct(name, res, t):
-    e_gen, e_own = _truth_errors(t)
+    e_gen, e_own = truth_errors(t)
     if name is None:
         return res["effects"] == []
     ok = bool(res["effects"]) and res["effects"][0]["name"] == name and res["error_after"] <= 1.2 * e_gen
@@ -147,7 +138,7 @@ def _correct(name, res, t):
 @pytest.mark.parametrize("kind,seed", [("tcp_mode", 1), ("joint_correction", 2), (None, 3)])
 def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
     name, res, t = _identify_draw(tmp_path, capsys, kind, seed)
-    assert _correct(name, res, t), (name, res["effects"], res["error_before"], res["error_after"], _truth_errors(t))
+    assert _correct(name, res, t), (name, res["effects"], res["error_before"], res["error_after"], truth_errors(t))
     if kind == "tcp_mode":
         # the Gauss-Newton standard deviations cover the truth: |fit - true| < 5 sigma (generous: the
         # noise estimate is conservative and sigma is inflated by the reduced chi-square)
@@ -244,7 +235,7 @@ def test_servo_named_with_effects_is_found(tmp_path, capsys):
                              "--effects", "servo_a2,joint_correction_a2,payload_mass"], capsys)
     assert rc == 0, err
     res = json.loads(out)
-    e_gen, _ = _truth_errors(t)
+    e_gen, _ = truth_errors(t)
     assert res["effects"][0]["name"] == "servo_a2" and res["error_after"] <= 1.2 * e_gen, res["effects"]
     assert set(res["steps"][0]["candidates"]) == {"servo_a2", "joint_correction_a2", "payload_mass"}
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--quiet", "--effects", "servo_a9"], capsys)
@@ -264,7 +255,7 @@ def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
     steps = res["steps"]
     assert [s["kept"] for s in steps] == ["tcp_mode", "joint_correction_a3", None]
     assert all(s["statistic"] > s["threshold"] for s in steps[:2]) and steps[2]["statistic"] <= steps[2]["threshold"]
-    e_gen, _ = _truth_errors(t)
+    e_gen, _ = truth_errors(t)
     assert res["error_after"] <= 1.2 * e_gen
     assert_allclose(res["effects"][1]["params"]["stiffness_scale"], 0.75, atol=5 * res["effects"][1]["uncertainty"]
                     ["stiffness_scale"])
@@ -290,5 +281,5 @@ def test_cut_frame_accelerance_set_with_cross_pairs(tmp_path, capsys):
                              "--case", str(case_file)], capsys)
     assert rc == 0, err
     res = json.loads(out)
-    e_gen, _ = _truth_errors(t)
+    e_gen, _ = truth_errors(t)
     assert [e["name"] for e in res["effects"]] == ["tcp_mode"] and res["error_after"] <= 1.2 * e_gen
