@@ -243,9 +243,12 @@ def test_servo_named_with_effects_is_found(tmp_path, capsys):
 
 
 def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
-    # a tool mode and a softer axis 3 together: the larger residual (the mode) first, then the axis;
-    # the third step keeps nothing; after both the error is the generating model's (within 1.2x)
-    els = (TcpMode(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 1.0))
+    # a tool mode and a softer, less damped axis 3 together: the larger residual (the mode) first,
+    # then the axis; the third step keeps nothing; after both the error is the generating model's
+    # (within 1.2x). The axis's damping is lowered too (x0.6): a softer axis with its damping
+    # unchanged is also a stiff, light servo (J, kd -> 0 gives the series stiffness k kp / (k + kp)),
+    # and either may then be reported (README, "Servo dynamics"); no servo lowers the damping.
+    els = (TcpMode(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 0.6))
     d = tmp_path / "set"
     t = synthetic_frf_set(d, CASE, elements=els, n_poses=4, f_hz=np.linspace(2, 300, 400), seed=31)
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles"], capsys)
@@ -253,6 +256,9 @@ def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
     res = json.loads(out)
     assert [e["name"] for e in res["effects"]] == ["tcp_mode", "joint_correction_a3"]
     steps = res["steps"]
+    with capsys.disabled():
+        print("\ntwo effects:", [(s["kept"], round(s["statistic"], 1), round(s["threshold"], 2), round(s["error_before"], 4),
+                                  round(s["error_after"], 4)) for s in steps], "generating", round(truth_errors(t)[0], 4))
     assert [s["kept"] for s in steps] == ["tcp_mode", "joint_correction_a3", None]
     assert all(s["statistic"] > s["threshold"] for s in steps[:2]) and steps[2]["statistic"] <= steps[2]["threshold"]
     e_gen, _ = truth_errors(t)
