@@ -276,9 +276,13 @@ class SDMEngine:
         """``expm(A L dt)`` (B, ns, ns), or its 2 x 2 blocks (B, ns/2, 2, 2), cached per speed."""
         if self.ss.block2:
             Ab = self.ss.blocks
-            compute = lambda d: (expm(Ab[None] * (d * L)[:, None, None, None]),)
+            nb = len(Ab)
+
+            def compute(d):
+                E = phi_exps((Ab[None] * (d * L)[:, None, None, None]).reshape(-1, 2, 2), np.zeros((1, 2, 0)))[0]
+                return (E.reshape(len(d), nb, 2, 2),)
         else:
-            compute = lambda d: (expm(self.A[None] * (d * L)[:, None, None]),)
+            compute = lambda d: (phi_exps(self.A[None] * (d * L)[:, None, None], np.zeros((1, self.ns, 0)))[0],)
         return self._cached(dt, L, compute)[0]
 
     # ----- reduced monodromy (fast path) --------------------------------------------------------
@@ -481,36 +485,50 @@ def phi_exps(M: np.ndarray, V: np.ndarray):
 
 def _phi_scaled(X: np.ndarray, V: np.ndarray, s: int):
     """:func:`phi_exps` of ``2^s X`` for ``||X||_1 <= 1``: Taylor of ``phi2`` then ``s`` doublings."""
-    n = X.shape[-1]
-    eye = np.eye(n)
-    X2 = X @ X
-    X3 = X2 @ X
-    X4 = X2 @ X2
-    c = [1.0 / math.factorial(i + 2) for i in range(_PHI_DEGREE + 1)]
-
+    P, n, _ = X.shape
     d = np.arange(n)
-
-    def block(j):  # sum_{i<4} c[4j+i] X^i
-        out = c[4 * j + 1] * X + c[4 * j + 2] * X2
-        out += c[4 * j + 3] * X3
-        out[:, d, d] += c[4 * j]
-        return out
-
-    P2 = c[16] * X4 + block(3)            # Horner in X^4 (Paterson-Stockmeyer)
-    P2 = X4 @ P2 + block(2)
-    P2 = X4 @ P2 + block(1)
-    P2 = X4 @ P2 + block(0)               # phi2(X)
-    E = X2 @ P2                           # exp(X) = I + X + X^2 phi2(X)
+    pw = np.empty((4, P, n, n))               # X, X^2, X^3, X^4
+    pw[0] = X
+    np.matmul(X, X, out=pw[1])
+    np.matmul(pw[1], X, out=pw[2])
+    np.matmul(pw[1], pw[1], out=pw[3])
+    # Paterson-Stockmeyer: phi2(X) = sum_j X^(4j) B_j, B_j = sum_{i<4} c_(4j+i) X^i (+ c_16 X^4 in B_3);
+    # the four B_j in one product with the coefficient matrix (elementwise sums cost as much as
+    # products for matrices this small)
+    Bj = (_PHI_COEF @ pw.reshape(4, -1)).reshape(4, P, n, n)
+    Bj[:, :, d, d] += _PHI_DIAG
+    P2 = Bj[3]
+    for j in (2, 1, 0):                         # Horner in X^4
+        P2 = pw[3] @ P2
+        P2 += Bj[j]
+    E = pw[1] @ P2                              # exp(X) = I + X + X^2 phi2(X)
     E += X
     E[:, d, d] += 1.0
-    h1 = P2 @ V                           # phi2(X) V
-    h0 = V + X @ h1                       # phi1(X) V
+    k = V.shape[-1]
+    h = np.empty((P, n, 2 * k))                 # [phi1(X) V, phi2(X) V]
+    h[..., k:] = P2 @ V
+    h[..., :k] = V + X @ h[..., k:]
     for _ in range(s):
-        Ep = E + eye
-        h1 = 0.25 * (h0 + Ep @ h1)
-        h0 = 0.5 * (Ep @ h0)
+        Eh = E @ h
+        Eh += h                                 # (exp(X) + I) [phi1 V, phi2 V]
+        Eh[..., k:] += h[..., :k]
+        Eh[..., k:] *= 0.25
+        Eh[..., :k] *= 0.5
+        h = Eh
         E = E @ E
-    return E, h0, h1
+    return E, h[..., :k], h[..., k:]
+
+
+def _phi_tables():
+    c = [1.0 / math.factorial(i + 2) for i in range(_PHI_DEGREE + 1)]
+    C = np.zeros((4, 4))
+    for j in range(4):
+        C[j, :3] = c[4 * j + 1:4 * j + 4]
+    C[3, 3] = c[16]
+    return C, np.array(c[0:16:4])[:, None, None]
+
+
+_PHI_COEF, _PHI_DIAG = _phi_tables()
 
 
 def chatter_branch(mu: np.ndarray, period_s: np.ndarray, omega_ref: np.ndarray) -> np.ndarray:
