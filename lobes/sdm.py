@@ -229,25 +229,6 @@ class SDMEngine:
         Phi, H0, H1 = phi_exps(Abar * dt[:, None, None], self.Bk[None] * dt[:, None, None])
         return Phi, H0 - H1, H1
 
-    def _blocks_of(self, P: np.ndarray) -> np.ndarray:
-        """(..., ns, ns) block-diagonal -> (..., ns/2, 2, 2)."""
-        nb = self.ns // 2
-        idx = np.arange(nb)
-        Pr = P.reshape(P.shape[:-2] + (nb, 2, nb, 2))
-        return np.moveaxis(Pr[..., idx, :, idx, :], 0, -3)
-
-    def _mul(self, P: np.ndarray, X: np.ndarray) -> np.ndarray:
-        """``P @ X`` for a dense (B, ns, ns) or block-diagonal (B, ns/2, 2, 2) propagator."""
-        if P.ndim == 3:
-            return P @ X
-        Bn, ns, N = X.shape
-        Xb = X.reshape(Bn, ns // 2, 2, N)
-        x0, x1 = Xb[:, :, 0], Xb[:, :, 1]
-        out = np.empty_like(Xb)
-        out[:, :, 0] = P[:, :, 0, 0, None] * x0 + P[:, :, 0, 1, None] * x1
-        out[:, :, 1] = P[:, :, 1, 0, None] * x0 + P[:, :, 1, 1, None] * x1
-        return out.reshape(Bn, ns, N)
-
     def _cached(self, dt: np.ndarray, key, compute):
         """Per-speed cache of depth-independent propagators: compute(dt_missing) -> tuple of arrays."""
         vals = [self._free_cache.get((float(d), key)) for d in dt]
@@ -262,25 +243,22 @@ class SDMEngine:
         return tuple(np.stack([v[i] for v in vals]) for i in range(len(vals[0])))
 
     def _free_step(self, dt: np.ndarray):
-        """``Phi, Gamma0, Gamma1`` of the free structure (W = 0) for each dt (B,), cached.
-        ``Phi`` is returned as 2 x 2 blocks when ``A`` is block-diagonal."""
-        def compute(d):
-            Phi, G0, G1 = self._step_exps(d, np.zeros((len(d), self.k, 2)))
-            if self.ss.block2:
-                Phi = self._blocks_of(Phi)
-            return Phi, G0, G1
-
-        return self._cached(dt, "step", compute)
+        """``Phi, Gamma0, Gamma1`` of the free structure (W = 0) for each dt (B,), cached."""
+        return self._cached(dt, "step", lambda d: self._step_exps(d, np.zeros((len(d), self.k, 2))))
 
     def _free_exp(self, dt: np.ndarray, L: int) -> np.ndarray:
-        """``expm(A L dt)`` (B, ns, ns), or its 2 x 2 blocks (B, ns/2, 2, 2), cached per speed."""
+        """``expm(A L dt)`` (B, ns, ns), cached per speed; from the 2 x 2 blocks of a block-diagonal
+        ``A``. Dense: one batched product applies it faster than the blocks elementwise."""
         if self.ss.block2:
             Ab = self.ss.blocks
             nb = len(Ab)
+            r = np.arange(self.ns).reshape(nb, 2)
 
             def compute(d):
-                E = phi_exps((Ab[None] * (d * L)[:, None, None, None]).reshape(-1, 2, 2), np.zeros((1, 2, 0)))[0]
-                return (E.reshape(len(d), nb, 2, 2),)
+                Eb = phi_exps((Ab[None] * (d * L)[:, None, None, None]).reshape(-1, 2, 2), np.zeros((1, 2, 0)))[0]
+                E = np.zeros((len(d), self.ns, self.ns))
+                E[:, r[:, :, None], r[:, None, :]] = Eb.reshape(len(d), nb, 2, 2)
+                return (E,)
         else:
             compute = lambda d: (phi_exps(self.A[None] * (d * L)[:, None, None], np.zeros((1, self.ns, 0)))[0],)
         return self._cached(dt, L, compute)[0]
@@ -327,7 +305,7 @@ class SDMEngine:
             if record:
                 recs.append(X)
             if c < 0:
-                X = self._mul(free[b - a], X)
+                X = free[b - a] @ X
                 continue
             acc0 = np.zeros((Bn, self.k, N))
             acc1 = np.zeros((Bn, self.k, N))
@@ -346,7 +324,7 @@ class SDMEngine:
             if exact_free:
                 Wc = wsum[:, c]  # (B, k, 2)
                 acc0 += Wc @ (self.S2[None] @ X)
-                rhs = self._mul(Phi1, X) + G01 @ acc0 + G11 @ acc1
+                rhs = Phi1 @ X + G01 @ acc0 + G11 @ acc1
                 G1W = G11 @ Wc  # (B, ns, 2)
                 Mi = np.linalg.inv(np.eye(2)[None] - self.S2[None] @ G1W)
                 X = rhs + G1W @ (Mi @ (self.S2[None] @ rhs))
