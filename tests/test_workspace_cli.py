@@ -84,3 +84,43 @@ def test_optimize_cli_bad_input(tmp_path, capsys, bad, words):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0]
     assert not out.exists()
+
+
+def test_optimize_cli_mrr_and_strict_keys(tmp_path, capsys):
+    # --objective mrr over 3 speeds, tiny budget. The printed removal rate is the printed depth
+    # times a_e f_z N n (case numbers, closed form) in cm^3/min: rtol 1e-9. The paper's placement is
+    # not strictly feasible: A3 2.86 deg past +145 deg (Tab. 7, NOTES.md).
+    from robolobes.cases import load_case
+
+    out = tmp_path / "o"
+    args = ["optimize", "--case", "tx200-steel", "--over", "tool-rotation", "--n-starts", "1", "--max-local-evals",
+            "0", "--n-s", "2", "--objective", "mrr", "--rpm-min", "2000", "--rpm-max", "3100", "--n-rpm", "3",
+            "--quiet", "--json", "--out", str(out)]
+    assert main(args) == 0
+    js = json.loads(capsys.readouterr().out)
+    for k in ("objective", "best_rpm", "baseline_mrr_cm3_per_min", "optimized_mrr_cm3_per_min", "mrr_gain",
+              "objective_note", "strict_optimum", "baseline_strict_violation"):
+        assert k in js, k
+    assert js["objective"] == "mrr" and js["best_rpm"] in (2000.0, 2550.0, 3100.0)
+    c = load_case("tx200-steel")
+    mrr = js["optimized_min_depth_m"] * c.cut.ae_m * c.cut.feed_per_tooth_m * c.tool.teeth * js["best_rpm"] / 60.0
+    assert js["optimized_mrr_cm3_per_min"] == pytest.approx(mrr * 1e6 * 60.0, rel=1e-9)
+    assert js["mrr_gain"] >= 1.0
+    assert js["baseline_strict_ok"] is False
+    assert js["baseline_strict_violation"].startswith("A3 2.86 deg past +145 deg")
+    assert js["strict_optimum"]["how"] in ("tolerant optimum", "strict run")
+    assert f"--rpm-min {js['best_rpm']:g}" in js["lobes_check"]
+
+
+@pytest.mark.parametrize("bad, words", [
+    (["--n-rpm", "5"], "--n-rpm is for --objective mrr"),
+    (["--objective", "mrr", "--at-rpm", "3000"], "--at-rpm is for --objective depth"),
+    (["--objective", "mrr", "--n-rpm", "0"], "--n-rpm must be from 1 to 200"),
+    (["--objective", "mrr", "--rpm-min", "4000", "--rpm-max", "3000"], "--rpm-max"),
+])
+def test_optimize_cli_bad_speed_options(tmp_path, capsys, bad, words):
+    out = tmp_path / "o"
+    assert main(["optimize", "--case", "tx200-steel", "--quiet", "--out", str(out)] + bad) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+    assert not out.exists()
