@@ -1,6 +1,7 @@
 """``robolobes map``: outputs, JSON contract, resume, and bad input (exit 2, nothing written)."""
 
 import json
+import math
 
 import pytest
 
@@ -123,4 +124,40 @@ def test_optimize_cli_bad_speed_options(tmp_path, capsys, bad, words):
     assert main(["optimize", "--case", "tx200-steel", "--quiet", "--out", str(out)] + bad) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0]
+    assert not out.exists()
+
+
+def test_map_lead_tilt_sweeps_tilt_with_lead_fixed_at_zero(tmp_path, capsys):
+    # Two tilts, -8 and +8 deg. At each pose the tool axis (TCP z from fk of the stored joints) keeps
+    # the start pose's component along the feed (no lead: 2.6e-6, Tab. 7's printed angles are
+    # 3.4e-5 rad off vertical) and makes the tilt angle with the start pose's axis: geometry, to
+    # the IK's accuracy (1e-9).
+    import numpy as np
+    import xarray as xr
+
+    from robolobes.cases import load_case
+    from robolobes.linearize import fk
+
+    out = tmp_path / "lt"
+    args = ["map", "--case", "tx200-steel", "--over", "lead-tilt", "--n", "2", "--tilt-range-deg=-8,8",
+            "--n-rpm", "2", "--scheduler", "serial", "--quiet", "--json", "--out", str(out)]
+    assert main(args) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["lead_deg"] == 0.0 and "perpendicular to the tool axis" in js["lead_note"]
+    ds = xr.open_zarr(out / "map.zarr", consolidated=False)
+    case = load_case("tx200-steel")
+    z0 = np.asarray(fk(case.robot, case.path.start_q_rad)[1])[:, 2]
+    for i, tilt in enumerate(np.radians([-8.0, 8.0])):
+        assert ds["reachable"].values[i]
+        z = np.asarray(fk(case.robot, ds["theta_rad"].values[i])[1])[:, 2]
+        feed = ds["feed_direction"].values[i]
+        assert abs(z @ feed - z0 @ feed) < 1e-9
+        assert math.isclose(math.acos(np.clip(z @ z0, -1, 1)), abs(tilt), abs_tol=1e-9)
+
+
+def test_map_lead_angle_refused_with_its_reason(tmp_path, capsys):
+    out = tmp_path / "ld"
+    assert main(SMALL + ["--over", "lead-tilt", "--lead-range-deg", "0,10", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--lead-range-deg 0,10 refused" in err[0] and "perpendicular" in err[0]
     assert not out.exists()

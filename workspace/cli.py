@@ -74,8 +74,10 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--rotation-range-deg", default=None, metavar="A,B",
                    help="tool rotation about its axis, deg (default -180,180)")
     p.add_argument("--tilt-range-deg", default=None, metavar="A,B",
-                   help="tool tilt about the feed, deg (default -20,20); lead (towards the feed) is not "
-                        "modelled: the 2.5-D cut needs the feed perpendicular to the tool axis")
+                   help="tool tilt about the feed (sideways), deg (default -20,20)")
+    p.add_argument("--lead-range-deg", default=None, metavar="A,B",
+                   help="tool lead towards the feed, deg: only 0,0 (the default) is accepted, because the 2.5-D "
+                        "cut model needs the feed perpendicular to the tool axis")
     p.add_argument("--rpm-min", type=float, default=2000.0)
     p.add_argument("--rpm-max", type=float, default=25000.0)
     p.add_argument("--n-rpm", type=int, default=100, help=f"speeds, 1..{MAX_N_RPM} (default 100)")
@@ -129,6 +131,11 @@ def problem_from_args(args):
                                                  (-math.pi, math.pi)),
                   tilt_range_rad=parse_range("--tilt-range-deg", args.tilt_range_deg, math.pi / 180,
                                              (-math.radians(20), math.radians(20))))
+    lead = parse_range("--lead-range-deg", args.lead_range_deg, 1.0, (0.0, 0.0))
+    if lead != (0.0, 0.0):
+        from .problem import LEAD_REASON
+
+        raise BadInput(f"--lead-range-deg {args.lead_range_deg} refused: {LEAD_REASON}")
     if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
         raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
     case = load_case(args.model if args.model is not None else args.case)
@@ -178,6 +185,11 @@ def run_map(args: argparse.Namespace) -> int:
         summary.update(wall_s=time.perf_counter() - t0, case=problem.case.name, variant=problem.variant,
                        over=problem.over, store="map.zarr", figures=figures, method=method.describe(),
                        **out.provenance)
+        if problem.over == "lead-tilt":
+            from .problem import LEAD_REASON
+
+            summary.update(lead_deg=0.0, lead_note=f"the sweep is over tilt (about the feed) only; lead is fixed at "
+                                                  f"0 deg: {LEAD_REASON}")
         write_json(out.path / "map.json", summary)
     if args.json:
         from robolobes.core.io import to_jsonable
