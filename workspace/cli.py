@@ -545,7 +545,14 @@ def run_optimize(args: argparse.Namespace) -> int:
 
 
 def _print_optimum(js: dict, target) -> None:
-    mm = lambda v: "none" if v is None else f"{v * 1e3:.4g} mm"  # noqa: E731
+    def mm(v):
+        if v is None or math.isinf(v):   # JSON writes inf as null: no limit below the depth searched
+            return f"no limit below {js['depth_max_m'] * 1e3:g} mm"
+        return f"{v * 1e3:.4g} mm"
+
+    g = js["gain"]
+    gain = f"{g:.3g}" if g is not None and math.isfinite(g) else (
+        f"at least {js['gain_at_least']:.3g}" if js["gain_at_least"] is not None else "none")
     where = (f"offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, yaw {js['yaw_deg']:.1f} deg, "
              f"tool rotation {js['tool_rotation_deg']:.1f} deg")
     if js["objective"] == "mrr":
@@ -555,7 +562,8 @@ def _print_optimum(js: dict, target) -> None:
     else:
         print(f"{js['case']} at {js['rpm']:.0f} rpm: minimum critical depth over the pass "
               f"{mm(js['baseline_min_depth_m'])} (paper's placement) -> {mm(js['optimized_min_depth_m'])} "
-              f"(gain {js['gain']:.3g}) with {where} -> {target}")
+              f"(gain {gain}) with {where} -> {target}")
     st = js["strict_optimum"]
-    print(f"strict joint ranges ({st['how']}): minimum depth {mm(st['min_depth_m'])}; baseline strict-feasible: "
+    found = mm(st["min_depth_m"]) if st["feasible"] else "none (no strictly feasible candidate found)"
+    print(f"strict joint ranges ({st['how']}): minimum depth {found}; baseline strict-feasible: "
           f"{js['baseline_strict_ok']} ({js['baseline_strict_violation'] or 'inside'})")
