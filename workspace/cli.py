@@ -439,6 +439,9 @@ def _objective_json(opt, res) -> dict:
     if opt.objective == "mrr":
         sp = opt.eval_speeds_rpm
         js["mrr_speeds_rpm"] = {"min": float(sp[0]), "max": float(sp[-1]), "n": len(sp)}
+        # per speed: the smallest limit over the pass poses (m; null: none below depth_max_m)
+        js["min_depth_by_speed_m"] = {"rpm": sp, **{k: (np.min(ev.depth_by_speed_m, axis=0) if ev.feasible else None)
+                                                     for k, ev in (("baseline", base), ("optimum", best))}}
         js["objective_note"] = ("MRR = a_p a_e v_f, v_f = f_z N n (the case's a_e and f_z). At a fixed speed it is "
                                 "proportional to the depth, so the speed is free too: the maximum over the speeds of "
                                 "(the smallest critical depth over the pass poses at that speed) x a_e f_z N n. "
