@@ -363,7 +363,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
 
 def optimum_case_toml(case_ref: str, res) -> str:
     """The case TOML of the optimum: the case's own file with the optimum's feed direction and
-    start pose, so that ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit
+    start pose (and, for the MRR objective, its speed at the case's feed per tooth), so that ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit
     in the optimum's cut frame (a yawed part feeds along another base direction)."""
     from pathlib import Path
 
@@ -375,7 +375,14 @@ def optimum_case_toml(case_ref: str, res) -> str:
     if isinstance(robot, str) and robot.endswith(".toml") and not Path(robot).is_absolute():
         data["robot"] = str((src.parent / robot).resolve())
     data["name"] = f"{data.get('name', src.stem)}-optimum"
-    data.setdefault("cut", {})["feed_direction"] = [float(v) for v in res.best.feed]
+    cut = data.setdefault("cut", {})
+    cut["feed_direction"] = [float(v) for v in res.best.feed]
+    rpm0 = float(cut.get("spindle_rpm", res.best.rpm))
+    if res.problem.objective == "mrr" and rpm0 != res.best.rpm:
+        # the optimum's speed, at the case's feed per tooth (the feed rate scales with the speed)
+        cut["spindle_rpm"] = float(res.best.rpm)
+        if "feed_mm_per_min" in cut:
+            cut["feed_mm_per_min"] = float(cut["feed_mm_per_min"]) * res.best.rpm / rpm0
     data.setdefault("pass", {})["start_pose"] = [float(v) for v in np.degrees(res.best.theta[0])]
     return f"# {data['name']}: case {case_ref} with the placement found by robolobes optimize\n" + dumps(data)
 
