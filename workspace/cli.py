@@ -363,8 +363,9 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
 
 def optimum_case_toml(case_ref: str, res) -> str:
     """The case TOML of the optimum: the case's own file with the optimum's feed direction and
-    start pose (and, for the MRR objective, its speed at the case's feed per tooth), so that ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit
-    in the optimum's cut frame (a yawed part feeds along another base direction)."""
+    start pose (and, for the MRR objective, its speed at the case's feed per tooth), so that
+    ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit in the optimum's cut
+    frame (a yawed part feeds along another base direction)."""
     from pathlib import Path
 
     from robolobes.cases.loader import _resolve
@@ -491,7 +492,8 @@ def _optimize_json(opt, res, strict) -> dict:
           **_placement_json(opt, best),
           "baseline_worst_pose_q_deg": np.degrees(base.theta[base.worst]).tolist() if base.feasible else None,
           "optimum_strict_ok": best.strict_ok, "baseline_strict_ok": base.strict_ok,
-          "baseline_strict_violation": strict_violation(opt.map_problem.case.robot, base.theta) if base.feasible else None,
+          "baseline_strict_violation": (strict_violation(opt.map_problem.case.robot, base.theta)
+                                        if base.feasible else None),
           "baseline_feasible": base.feasible, "baseline_reason": base.reason,
           "depth_along_pass_m": {"s_m": best.s_m, "baseline": base.depth_m, "optimum": best.depth_m},
           "strict_limits": opt.strict, "strict_optimum": _strict_json(opt, res, strict),
