@@ -134,3 +134,23 @@ def test_strict_run_when_the_tolerant_optimum_is_past_a_strict_range(steel, monk
     np.testing.assert_allclose(strict.best.min_depth_m, 0.96e-3, rtol=5e-3)
     assert strict.best.min_depth_m <= 0.96e-3
     np.testing.assert_allclose(res.best.min_depth_m, 1e-3, rtol=1e-3)
+
+
+def test_time_domain_check_point_lies_between_the_limits_at_the_optimums_speed(steel):
+    # Baseline limits 1 / 2 mm at 2000 / 3000 rpm, optimum best at 3000 rpm with 4 mm: the check
+    # runs at 3000 rpm at sqrt(2 x 4) = 2.83 mm (geometric mean, below 1.5 x 2 = 3 mm), between the
+    # baseline's 2 mm there and the optimum's 4 mm.
+    from robolobes.workspace.cli import _td_point
+
+    opt = _problem(steel, objective="mrr", speeds_rpm=(2000.0, 3000.0))
+    s, theta, feed, sp = np.zeros(2), np.zeros((2, 6)), np.array([1.0, 0, 0]), np.array([2000.0, 3000.0])
+    base = wo.PassEvaluation(np.zeros(1), True, "", np.full(2, 2e-3), theta, feed, s, speeds_rpm=sp,
+                             depth_by_speed_m=np.array([[1e-3, 2e-3], [1.5e-3, 2e-3]]), rpm=3000.0, mrr_m3_per_s=1.0)
+    best = wo.PassEvaluation(np.ones(1), True, "", np.full(2, 4e-3), theta, feed, s, speeds_rpm=sp,
+                             depth_by_speed_m=np.array([[3e-3, 4e-3], [3e-3, 4e-3]]), rpm=3000.0, mrr_m3_per_s=2.0)
+    rpm, d, b, o = _td_point(wo.Optimum(opt, base, best, ()))
+    assert (rpm, b, o) == (3000.0, 2e-3, 4e-3)
+    np.testing.assert_allclose(d, math.sqrt(8) * 1e-3, rtol=1e-12)
+    # no gain there: the case's own depth, and the limits still reported
+    rpm, d, b, o = _td_point(wo.Optimum(opt, base, base, ()))
+    assert d == steel.cut.ap_m and b == o == 2e-3
