@@ -155,6 +155,23 @@ def test_backlash_element_in_a_case_toml(tmp_path):
         GearBacklash(-1e-5)
 
 
+def test_spindle_estimate_takes_the_commanded_speed_within_half_a_step():
+    """The spindle estimate returns the commanded speed when it is within half a search step
+    ``0.1 / (k_max T)`` of it (k_max = 12, T = 0.15 s: 0.056 Hz), and the estimate otherwise. Signal:
+    a two-tooth pulse train at f_true plus 2 N noise."""
+    from robolobes.identify.force_signals import estimate_spindle_hz
+
+    nominal = 18700 / 60
+    t = np.arange(0, 0.15, 1 / 50e3)
+    rng = np.random.default_rng(5)
+    for f_true, expected, tol in ((nominal + 0.02, nominal, 0.0), (nominal * 1.002, nominal * 1.002, 1e-5 * nominal)):
+        ph = 2 * np.pi * f_true * t
+        x = np.column_stack([40 * np.maximum(np.sin(2 * ph), 0) + 10 * np.cos(ph),
+                             -60 * np.maximum(np.sin(2 * ph + 0.4), 0)]) + rng.normal(0, 2.0, (len(t), 2))
+        # tol: 1e-5 relative, the estimator's tested precision (tests/test_identify_forces_io.py)
+        assert abs(estimate_spindle_hz(t, x, nominal) - expected) <= tol, f_true
+
+
 def test_backlash_one_draw(base, tmp_path, capsys):
     (ok, s, info), = _draws([0], base, tmp_path, capsys)
     assert ok, (s, info)
