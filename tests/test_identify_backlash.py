@@ -138,6 +138,11 @@ def test_backlash_element_sets_the_dead_zone_of_any_variant():
     robot = build_model(spec, "basic", extra_elements=(GearBacklash(s),))
     assert robot.nv == basic.nv == 6 and robot.backlash_rad == s and basic.backlash_rad == 0.0
     assert build_model(spec, "backlash", extra_elements=(GearBacklash(2e-4),)).backlash_rad == 2e-4
+    # orthogonal + the element at the robot file's 7.3e-5 rad is the paper's backlash variant
+    ortho = build_model(spec, "orthogonal", extra_elements=(GearBacklash(7.3e-5),))
+    paper = build_model(spec, "backlash")
+    assert (ortho.nv, ortho.backlash_rad, [e.name for e in ortho.elements]) == \
+        (paper.nv, paper.backlash_rad, [e.name for e in paper.elements]) == (18, 7.3e-5, [e.name for e in paper.elements])
     theta = np.radians([-11.71, 20.78, -212.14, 82.76, 60.80, -166.96])
     q = rigid_q(robot, theta)
     delta = np.array([3e-4, -3e-4, 0.5e-4, -0.5e-4, 1e-4, 2e-4])   # axes 3, 4 inside the zone
