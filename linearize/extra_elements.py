@@ -33,6 +33,10 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     kp_n_m_per_rad = 2.0e7
     kd_n_m_s_per_rad = 2.0e3
 
+    [[elements]]
+    type = "backlash"              # dead zone (eq. 12) on every motion axis, any variant
+    half_width_rad = 7.3e-5
+
 :data:`ELEMENT_TYPES` maps each ``type`` to its class; :func:`element_from_spec` checks the keys
 strictly (unknown or missing keys, values out of range: :class:`BadInput` naming them).
 """
@@ -51,8 +55,8 @@ from robolobes.core.validate import finite
 
 from .model import Element, ModelBuilder, VirtualJoints
 
-__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "ELEMENT_TYPES",
-           "element_from_spec", "element_table"]
+__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
+           "ELEMENT_TYPES", "element_from_spec", "element_table"]
 
 
 def _unit(v, what: str) -> np.ndarray:
@@ -304,9 +308,38 @@ class ServoDrive(Element):
         return kq, kv
 
 
+@dataclass(frozen=True)
+class GearBacklash(Element):
+    """The backlash dead zone of eq. 12 on every motion axis, in any variant.
+
+    ``tau_i = -k_i dz(q_i - theta_i) - d_i qd_i``, ``dz`` zero inside ``+-half_width_rad``. The dead
+    zone belongs to the motion springs (the gearboxes), not to the orthogonal compliance, so the
+    element applies to the ``basic`` variant as well: :func:`linearize.model.build_model` gives the
+    variant's :class:`~robolobes.linearize.model.MotionSprings` this half-width (the last such
+    element wins, also over the ``backlash`` variant's) and keeps no separate element, so every
+    solver that knows the dead zone (the full nonlinear path, the fast path, the backlash
+    equilibrium) sees it. Linearizations take the gears as engaged (no change of K).
+
+    Parameters
+    ----------
+    half_width_rad : float >= 0     dead-zone half-width s, rad (the paper's 7.3e-5 = 15 arcsec)
+    """
+
+    half_width_rad: float
+    name: str = "backlash"
+
+    def __post_init__(self):
+        _positive("backlash half_width_rad", self.half_width_rad, zero_ok=True)
+
+    @property
+    def dead_zone_rad(self) -> float:
+        """The half-width :func:`linearize.model.build_model` gives the motion springs."""
+        return float(self.half_width_rad)
+
+
 ELEMENT_TYPES = {"tcp_mode": TcpMode, "joint_correction": JointCorrection,
                  "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
-                 "servo_drive": ServoDrive}
+                 "servo_drive": ServoDrive, "backlash": GearBacklash}
 
 
 def _keys(cls) -> list[str]:
