@@ -306,6 +306,23 @@ def _jd_evidence(fit: dict) -> dict:
                     f"which guessed joint damping is usually off")}
 
 
+def _model_toml(state, fit: EffectFit) -> str:
+    """The case TOML with the best effect: joint damping as a ``joint_correction`` damping scale on every
+    motion axis; process damping as the ``tip_damper`` of the case's own cut (it depends on depth and
+    speed, so the file holds the damper of that cut only)."""
+    from robolobes.cases.spec import ElementSpec
+
+    from .model_toml import model_toml
+
+    if fit.name == "joint_damping":
+        s = float(fit.params["scale"])
+        for j in range(1, state.case.robot.n_joints + 1):
+            state = state.with_element(ElementSpec(type="joint_correction", params={"joint": j, "damping_scale": s}))
+    else:
+        state = ProcessDamping().apply(state, fit.params)
+    return model_toml(state)
+
+
 def identify_stability(obs: StabilityObservations, state, *, progress=None) -> Identification:
     """Which candidate (joint-damping scale, process damping ``Ksp L^2``) reconciles the observations.
 
@@ -353,6 +370,7 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
     steps = (SelectionStep(candidates=cand_err, kept=fits[0].name if fits else None, error_before=err0,
                            error_after=err_after, statistic=float(wrong0 - (fits[0].evidence["wrong_after"] if fits
                                                                             else wrong0)), threshold=1.0),)
+    model = _model_toml(state, fits[0]) if fits else ""
     vb = [{"verdict": v.status, "stable": v.stable, "verdict_reason": v.reason,
            "critical_joint_damping_scale": thr["joint_damping"][i].value,
            "critical_ksp_l2_n_per_m": thr["process_damping"][i].value} for i, v in enumerate(before)]
@@ -360,6 +378,6 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
                           metric="fraction of the observations whose lobe verdict (SDM m = 40, bound |m 40 - m 20| on "
                                  "the critical value; undetermined = not stable) disagrees with the observed one "
                                  "(no held-out part: every observation is used)",
-                          noise_floor=0.0, steps=steps, model_toml="",
+                          noise_floor=0.0, steps=steps, model_toml=model,
                           extra={"observations": n, "verdicts_before": vb, "chatter_freq_hz": chatter_hz,
                                  "variant": state.variant})

@@ -169,6 +169,19 @@ def test_steel_stability_observation_joint_damping(tmp_path, capsys):
     assert [e["name"] for e in d["effects"]] == ["joint_damping"]
     jd = d["effects"][0]
     assert jd["params"]["scale"] >= crit and jd["evidence"]["credible"] is False
+    # the model output loads and its lobes (robust verdict: Richardson depth search, not the
+    # critical-value path) call the observed cut stable
+    from robolobes.cases import load_case
+    from robolobes.linearize import build_model, linearize
+    from robolobes.linearize.path import Pass
+    from robolobes.lobes import LobeProblem, PhysicalStructure, stability
+
+    (tmp_path / "model.toml").write_text(d["model"])
+    case = load_case(tmp_path / "model.toml")
+    robot = build_model(case.robot, "basic")
+    lin = linearize(robot, Pass.from_case(case).theta_at_s(0.0))
+    st = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
+    assert stability(LobeProblem(st, case.tool, case.cut, case.law)).verdict.status == "stable"
 
 
 def test_cli_window_outside_the_pass_exits_2(tmp_path, capsys):
