@@ -271,11 +271,14 @@ def _cases(obs: StabilityObservations, state) -> dict:
         raise BadInput(f"{obs.path}: {e}") from None
 
 
-def _pd_evidence(fit: dict, models, chatter_hz) -> dict:
-    """Credibility of a process damping ``Ksp L^2``: the flank contact it needs against the surface wavelength."""
+def _pd_evidence(fit: dict, models, chatter_hz=None) -> dict:
+    """Credibility of a process damping ``Ksp L^2``: the flank contact it needs against the surface
+    wavelength, at the lowest observed speed (where the damper is largest) and that observation's
+    chatter frequency (without the effect; ``chatter_hz`` overrides it, Hz)."""
     pdm = ProcessDamping()
     p = fit["value"]
-    om = min(models, key=lambda o: o.obs.rpm)  # the damper is largest at the lowest speed
+    om = min(models, key=lambda o: o.obs.rpm)
+    chatter_hz = chatter_hz if chatter_hz is not None else om.chatter_hz("joint_damping", 1.0)
     speed = pdm.speed_m_per_s(om.case.tool, om.problem.cut)
     flank = pdm.flank_m(p)
     lam = wavelength_m(speed, chatter_hz) if chatter_hz and math.isfinite(chatter_hz) else None
@@ -353,7 +356,7 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
         cand_err[c.name] = f["wrong"] / n
         if f["wrong"] >= wrong0:
             continue
-        ev = _jd_evidence(f) if c.name == "joint_damping" else _pd_evidence(f, models, chatter_hz)
+        ev = _jd_evidence(f) if c.name == "joint_damping" else _pd_evidence(f, models)
         lo, hi = f["interval"]
         ev.update(rule="smallest change from neutral inside the interval of values with the fewest disagreeing "
                        "observations (SDM m = 40 verdict, bound |m 40 - m 20|)",
