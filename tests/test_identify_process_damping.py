@@ -217,6 +217,42 @@ def test_detection_threshold_matches_the_sdm(setup):
         assert critical_value(om, CANDIDATES[1]) == pytest.approx(est, rel=0.25), rpm
 
 
+def test_damping_lines_reuse_one_linearization():
+    # joint damping: C(s) = C_a + s C_b from linearizations at scales 1 and 2 equals a fresh
+    # linearization at scale 3.7 (the joint dampers are linear in the scale); the damper line of a
+    # 1-DOF structure: equal total damping gives equal critical values, c0 s* = c0 + P* b D_yy / (2 V)
+    # (Brent to 0.2 % in log: 0.5 %)
+    from robolobes.cases.milling import Cut
+    from robolobes.identify.cutting_effects import _engaged_nn
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.force_data import StabilityObservation
+    from robolobes.identify.force_stability import CANDIDATES, ObservationModel, critical_value
+
+    case = load_case("tx200-steel")
+    obs = StabilityObservation("x", 3100.0, 1.0e-3, True, path_s_m=0.0)
+    om = ObservationModel.build(ModelState(case=case), case, obs)
+    lin = linearize(build_model(case.robot, "basic", damping_scale=3.7), Pass.from_case(case).theta_at_s(0.0))
+    ca, cb = om.lines["joint_damping"]
+    np.testing.assert_allclose(ca + 3.7 * cb, np.asarray(lin.C), rtol=1e-10, atol=1e-10 * np.abs(lin.C).max())
+
+    m, k, c0 = 2.0, 2.0e6, 60.0  # 159 Hz, zeta 0.015
+    st1 = PhysicalStructure(np.array([[m]]), np.array([[c0]]), np.array([[k]]), np.array([[0.0], [1.0]]))
+    cut = Cut(ae_m=4e-3, ap_m=1e-4, spindle_rpm=3000.0, mode="down")
+    b_lim = solve(LobeProblem(st1, case.tool, cut, case.law), SemiDiscretization(m=40), [3000.0]).depth_limit_m[0]
+    cut = replace(cut, ap_m=1.3 * b_lim)
+    prob = LobeProblem(st1, case.tool, cut, case.law)
+    dyy = _engaged_nn(case.tool, cut)[1, 1]
+    speed = math.pi * case.tool.diameter_m * 3000.0 / 60.0
+    line_pd = np.array([[cut.ap_m * dyy / (2 * speed)]])
+    one = ObservationModel(obs=StabilityObservation("x", 3000.0, cut.ap_m, True, path_s_m=0.0), case=case,
+                           problem=prob, lines={"joint_damping": (np.zeros((1, 1)), np.array([[c0]])),
+                                                "process_damping": (np.array([[c0]]), line_pd)})
+    s = critical_value(one, CANDIDATES[0])
+    p = critical_value(one, CANDIDATES[1])
+    assert 1.0 < s < 50.0
+    assert p == pytest.approx(2 * speed * c0 * (s - 1) / (cut.ap_m * dyy), rel=5e-3)
+
+
 # ---- seeded draws ----------------------------------------------------------------------------------
 def _draw(setup, tmp, seed, effect):
     path, case, st, lim = setup
