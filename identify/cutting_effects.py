@@ -34,8 +34,9 @@ runout of 3.4 um changes the average by 3.8 times the noise floor, and was found
 * **Backlash**: the paper's dead zone on the motion axes (variant ``backlash``, which includes the
   orthogonal compliance); observable in forces only (amplitude-dependent, linearization takes the
   gears as engaged).
-* **Joint damping** and **process damping**: observed by stability observations; see
-  :mod:`identify.forces` (``stability``).
+* **Joint damping** and **process damping**: observed by stability observations
+  (:mod:`identify.force_stability`); process damping is :class:`ProcessDamping` (parameter
+  ``Ksp L^2``, the ``tip_damper`` element per cut), joint damping a scale on every joint damper.
 
 Each effect says which measurement kinds observe it (``observed_by``) and which case-TOML keys it
 writes (``toml``); measurement-chain effects are not part of the cut model and are written as a
