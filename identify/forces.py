@@ -112,6 +112,14 @@ class ForceContext:
         return [self.filtered(a, h) for a in raw]
 
 
+def _on_bound(x: np.ndarray, effects, tol: float) -> bool:
+    """Whether a fitted value (``x`` scaled to [0, 1] per parameter) sits on a physical bound; periodic
+    parameters (angles) have no physical bound and are skipped."""
+    periodic = np.array([p.periodic for e in effects for p in e.parameters], bool)
+    edge = (x <= tol) | (x >= 1 - tol)
+    return bool(np.any(edge & ~periodic))
+
+
 @dataclass
 class _Fit:
     values: np.ndarray
@@ -156,7 +164,7 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     except np.linalg.LinAlgError:
         sig = np.full(len(v), np.inf)
     avgs = model(v)
-    on_bound = bool(np.any(x[:-1] <= 1e-6) or np.any(x[:-1] >= 1 - 1e-6))
+    on_bound = _on_bound(x[:-1], [effect], 1e-6)
     return _Fit(values=v, sigma=sig, shift=float(x[-1]), train=shift_average(avgs[0], x[-1]),
                 heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound)
 
@@ -299,7 +307,7 @@ def _fit_stats(ctx, combo, state, target):
         sig = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
     except np.linalg.LinAlgError:
         pass
-    on_bound = bool(np.any(best.x <= 1e-4) or np.any(best.x >= 1 - 1e-4))
+    on_bound = _on_bound(best.x, combo, 1e-4)
     return out, sig, 2 * best.cost, on_bound, model(best.x)
 
 
