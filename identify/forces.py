@@ -14,6 +14,10 @@
    significance rule is the framework's (gain of squared held-out residual against the noise of
    the held-out average, Bonferroni over the candidates, family-wise 1 %); the noise per bin and
    axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
+4. Diagnosis (:mod:`identify.signatures`): the named signatures of the starting model's held-out
+   residual (mean offset, once-per-revolution lines, ringing, roll-off), each against the noise of
+   the average, and the candidates ranked by the signatures they explain (``signatures``,
+   ``ranking``; each effect's ``evidence`` says why it ranks where it does).
 
 ``force_stats`` (8 published numbers)
 ------------------------------------
@@ -47,6 +51,7 @@ from .force_signals import (ERROR_METRIC, align_shift, apply_transfer, estimate_
 from .model_toml import model_toml
 from .result import EffectFit, Identification
 from .selection import Trial, forward_select
+from .signatures import annotate, force_signatures
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
            "identify_stability", "ForceContext", "check_window", "aicc"]
@@ -221,9 +226,11 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
              "not_applicable": {e.name: e.reason_not_applicable(state) for e in FORCE_EFFECTS
                                 if not e.applicable(state)},
              "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
-    return Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
-                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
-                          model_toml=model_toml(sel.state), extra=extra)
+    res = Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
+                         error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
+                         model_toml=model_toml(sel.state), extra=extra)
+    detected = force_signatures(ctx.heldout.mean, aligned[id(state)], ctx.heldout.noise, case.tool.teeth, alpha=alpha)
+    return annotate(res, detected, library)
 
 
 # ---------------------------------------------------------------------------------------------

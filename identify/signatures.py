@@ -56,8 +56,8 @@ from scipy.stats import chi2, norm
 
 from .effects import SIGNATURES
 
-__all__ = ["Signature", "force_signatures", "frf_signatures", "rank_candidates", "annotate", "ALPHA",
-           "FORCE_SIGNATURES", "FRF_SIGNATURES"]
+__all__ = ["Signature", "PoseResidual", "force_signatures", "frf_signatures", "frf_pose_residual", "rank_candidates", "annotate", "ALPHA",
+           "FORCE_SIGNATURES", "FRF_SIGNATURES", "diagnosis_markdown"]
 
 #: Family-wise rate of a false signature (per measurement).
 ALPHA = 0.01
@@ -172,6 +172,21 @@ class PoseResidual:
     model: np.ndarray
     sigma: np.ndarray
     modes: tuple
+
+
+def frf_pose_residual(pd, model_h: np.ndarray, modes) -> PoseResidual:
+    """A :class:`PoseResidual` from an FRF pipeline's pose (``identify.frf.PoseData``: flattened lines
+    ``H``, ``sigma``, ``pair``, ``index`` into ``omega``), the model on the same lines (N,) and the
+    model's modes ``(freq_hz array, zeta array)``. Pairs on other lines than the first pair's are left out."""
+    pairs = np.unique(pd.pair)
+    idx0 = pd.index[pd.pair == pairs[0]]
+    keep = [k for k in pairs if np.array_equal(pd.index[pd.pair == k], idx0)]
+    f = pd.omega[idx0] / (2 * math.pi)
+    rows = lambda x: np.array([x[pd.pair == k] for k in keep])  # noqa: E731
+    fr, zr = modes
+    in_band = tuple((float(a), float(b)) for a, b in zip(fr, zr) if f[0] < a < f[-1])
+    return PoseResidual(name=pd.name, f_hz=f, measured=rows(pd.H), model=rows(model_h), sigma=rows(pd.sigma),
+                        modes=in_band)
 
 
 def _band_chi2(pr: PoseResidual, mask: np.ndarray) -> tuple[float, int]:
@@ -326,3 +341,19 @@ def annotate(result, detected: dict, effects):
     extra = {**result.extra, "signatures": {k: s.to_json() for k, s in detected.items()},
              "signatures_detected": [k for k, s in detected.items() if s.present], "ranking": ranking}
     return replace(result, effects=fits, extra=extra)
+
+
+def diagnosis_markdown(extra: dict) -> list[str]:
+    """Markdown lines: the signature tests and the ranking of an annotated result's ``extra``."""
+    sigs = extra.get("signatures")
+    if not sigs:
+        return []
+    out = ["## Diagnosis: residual signatures (before)", "",
+           "| signature | present | statistic | threshold | rule |", "|---|---|---|---|---|"]
+    for k, s in sigs.items():
+        out.append(f"| {k} | {'yes' if s['present'] else 'no'} | {s['statistic']:.4g} | {s['threshold']:.4g} | "
+                   f"{s['rule']} |")
+    out += ["", "Candidates ranked by the detected signatures they explain, ties by the held-out error "
+                "they remove (the selection rule decides; the ranking orders and explains):", ""]
+    out += [f"{r['rank']}. **{r['name']}**: {r['why']}" for r in extra.get("ranking", [])]
+    return out + [""]
