@@ -210,7 +210,9 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
         return Trial(residual=fit.heldout[:, :2].ravel() - meas, measured=meas, sigma=sigma, state=new,
                      params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
                      evidence={"signature": [SIGNATURES[k] for k in eff.signatures], "on_bound": fit.on_bound,
-                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift})
+                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift,
+                               **({"identifiable": eff.identifiable(st.case.tool)} if hasattr(eff, "identifiable")
+                                  else {})})
 
     library = [e for e in (effects if effects is not None else effects_for("forces", state))
                if hasattr(e, "family") and e.applicable(state)]
