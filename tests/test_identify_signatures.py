@@ -116,6 +116,24 @@ def test_ranking_puts_the_effect_that_explains_the_signature_first():
     # the held-out errors favour edge coefficients: the signature still ranks runout first
     rows = rank_candidates(got, effects, {"edge_coefficients": 0.05, "runout": 0.08, "lowpass": 0.09}, 0.1)
     assert [r["name"] for r in rows] == ["runout", "edge_coefficients", "lowpass"]
-    assert rows[0]["explains"] == ["once_per_rev"] and "1 of 1 detected" in rows[0]["why"]
+    assert rows[0]["explains"] == ["once_per_rev"] and rows[0]["score"] == 1.0 and "(1 detected)" in rows[0]["why"]
     # a tie (no signature) is broken by the explained residual
     assert rows[1]["explained_error"] == pytest.approx(0.05)
+
+
+def test_ranking_shares_a_signature_among_the_effects_that_explain_it():
+    class E:
+        def __init__(self, name, sig):
+            self.name, self.signatures = name, sig
+
+    class S:
+        def __init__(self, present):
+            self.present = present
+
+    got = {"extra_peak": S(True), "peak_height": S(True), "pose_shift": S(True), "static_offset": S(False)}
+    joints = [E(f"joint_{j}", ("pose_shift", "peak_height", "static_offset")) for j in range(6)]
+    effects = joints + [E("tcp_mode", ("extra_peak",))]
+    rows = rank_candidates(got, effects, {}, 0.1)
+    # tcp_mode: extra_peak alone (1/1); each joint: pose_shift 1/6 + peak_height 1/6 = 1/3
+    assert rows[0]["name"] == "tcp_mode" and rows[0]["score"] == 1.0
+    assert rows[1]["score"] == pytest.approx(1 / 3)
