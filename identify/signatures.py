@@ -129,7 +129,7 @@ def force_signatures(measured: np.ndarray, model: np.ndarray, noise: np.ndarray,
     cm = np.fft.rfft(measured[:, ax], axis=0) / m
     cr = np.fft.rfft((measured - model)[:, ax], axis=0) / m
     cmod = np.fft.rfft(model[:, ax], axis=0) / m
-    s2 = np.sum(noise[:, ax] ** 2, axis=0) / m ** 2           # (a,) E|n_k|^2 per axis
+    s2 = np.maximum(np.sum(noise[:, ax] ** 2, axis=0) / m ** 2, 1e-300)   # (a,) E|n_k|^2 per axis
     s_det = alpha / len(FORCE_SIGNATURES)
     k = np.arange(cr.shape[0])
     out = {}
