@@ -211,15 +211,16 @@ def _band_chi2(pr: PoseResidual, mask: np.ndarray) -> tuple[float, int]:
     return t / NOISE_CAL, int(2 * r.size)
 
 
-def _peak_hz(f: np.ndarray, mag: np.ndarray) -> float:
+def _peak_hz(f: np.ndarray, mag: np.ndarray) -> float | None:
+    """Frequency of the largest ``mag`` inside the window (parabola in log magnitude), None when the
+    largest value is at the window's edge (no peak inside)."""
     i = int(np.argmax(mag))
-    if 0 < i < len(f) - 1:
-        y0, y1, y2 = np.log(mag[i - 1:i + 2])
-        den = y0 - 2 * y1 + y2
-        if den < 0:
-            off = float(np.clip(0.5 * (y0 - y2) / den, -1, 1))
-            return float(f[i] + off * (f[i + 1] - f[i - 1]) / 2)
-    return float(f[i])
+    if not 0 < i < len(f) - 1:
+        return None
+    y0, y1, y2 = np.log(mag[i - 1:i + 2])
+    den = y0 - 2 * y1 + y2
+    off = float(np.clip(0.5 * (y0 - y2) / den, -1, 1)) if den < 0 else 0.0
+    return float(f[i] + off * (f[i + 1] - f[i - 1]) / 2)
 
 
 def _without_offset(pr: PoseResidual, f_low: float | None) -> PoseResidual:
@@ -294,7 +295,7 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
             z = _chi2_z(*_band_chi2(pr, mask))
             fm = _peak_hz(pr.f_hz[mask], np.sum(np.abs(pr.measured[:, mask]), axis=0))
             fo = _peak_hz(pr.f_hz[mask], np.sum(np.abs(pr.model[:, mask]), axis=0))
-            s = fm / fo - 1
+            s = fm / fo - 1 if fm is not None and fo is not None else 0.0   # no peak inside: no shift seen
             if abs(s) > zeta / 2:
                 shifts.setdefault(j, []).append(s)
                 shift_z = max(shift_z, z)
