@@ -42,12 +42,13 @@ band sums divided by :data:`NOISE_CAL`, the calibration margin of the line-noise
       both ends of that window, i.e. a mode with zeta below ~5 %) farther than 10 % from every model
       mode, found within 5 % in *every* pose with a significant chi-square of its +-5 % band
       (Bonferroni over 40 bands); its frequency is reported.
-    * Near a model mode (within 15 %), the peak of the measured ``sum_pairs |H|`` against the model's
-      (parabolic refinement): a relative shift larger than a quarter of the mode's half-power
-      bandwidth (``|df / f| > zeta / 2``) *and* a significant residual in that band is a shift:
-      ``uniform_shift`` when it has the same sign in every pose and its spread over the poses is below
-      half its mean, else ``pose_shift``; a significant residual with no resolved shift is
-      ``peak_height``.
+    * Near a model mode (within 15 %, at most half the gap to the next mode), the peak of the measured ``sum_pairs |H|`` against the model's
+      (parabolic refinement; a maximum at the window's edge is no peak), per mode over the poses: a
+      mode with a significant band residual (largest z over the poses) whose peak moved by more
+      than a quarter of its half-power bandwidth (``|df / f| > zeta / 2``) in some pose, with a peak
+      found in at least 2 and half the poses, is shifted: ``uniform_shift`` when the shifts found
+      have one sign and a spread below half their mean, else ``pose_shift``; a significant mode
+      whose peak did not move is ``peak_height``.
 """
 
 from __future__ import annotations
@@ -282,10 +283,10 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
                                   "ends) farther than 10 % from every model mode, in every pose; statistic: the "
                                   "smallest over the poses of its +-5 % band's chi2 (as z)", {"peak_hz": best[1]})
 
-    # near the model modes: shift or height
-    shifts, height_z, shift_z = {}, -math.inf, -math.inf
+    # near the model modes: shift or height, per mode over the poses
     n_modes = max(len(pr.modes) for pr in poses) or 1
     zthr_m = float(norm.isf(s_det / (n_modes * len(poses))))
+    per_mode = {}                               # j -> list of (shift or None, band z, zeta)
     for pr in poses:
         for j, (f0, zeta) in enumerate(pr.modes):
             others = [abs(f / f0 - 1) for i, (f, _) in enumerate(pr.modes) if i != j]
@@ -295,30 +296,33 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
             z = _chi2_z(*_band_chi2(pr, mask))
             fm = _peak_hz(pr.f_hz[mask], np.sum(np.abs(pr.measured[:, mask]), axis=0))
             fo = _peak_hz(pr.f_hz[mask], np.sum(np.abs(pr.model[:, mask]), axis=0))
-            s = fm / fo - 1 if fm is not None and fo is not None else 0.0   # no peak inside: no shift seen
-            if abs(s) > zeta / 2:
-                shifts.setdefault(j, []).append(s)
-                shift_z = max(shift_z, z)
-            else:
-                height_z = max(height_z, z)
-    shifted = {j: v for j, v in shifts.items() if shift_z > zthr_m}
-
-    def is_uniform(v):
-        v = np.asarray(v)
-        return len(v) == len(poses) and (np.all(v > 0) or np.all(v < 0)) and np.std(v) < 0.5 * abs(np.mean(v))
-
-    kinds = {j: is_uniform(v) for j, v in shifted.items()}
-    detail = {"shift_per_mode": {f"mode_{j + 1}": [float(x) for x in v] for j, v in shifts.items()},
-              "uniform_modes": [f"mode_{j + 1}" for j, u in kinds.items() if u]}
+            per_mode.setdefault(j, []).append((fm / fo - 1 if fm is not None and fo is not None else None, z, zeta))
+    kinds, shift_z, height_z, found_all = {}, -math.inf, -math.inf, {}
+    for j, rows in per_mode.items():
+        zmax = max(z for _, z, _ in rows)
+        found = np.array([x for x, _, _ in rows if x is not None])
+        found_all[j] = found.tolist()
+        moved = found.size >= max(2, len(poses) / 2) and np.max(np.abs(found)) > max(zt for _, _, zt in rows) / 2
+        if zmax <= zthr_m:
+            continue
+        if moved:
+            shift_z = max(shift_z, zmax)
+            kinds[j] = bool((np.all(found > 0) or np.all(found < 0)) and np.std(found) < 0.5 * abs(np.mean(found)))
+        else:
+            height_z = max(height_z, zmax)
+    detail = {"shift_per_mode": {f"mode_{j + 1}": v for j, v in found_all.items()},
+              "uniform_modes": [f"mode_{j + 1}" for j, u in kinds.items() if u],
+              "pose_dependent_modes": [f"mode_{j + 1}" for j, u in kinds.items() if not u]}
     out["uniform_shift"] = Signature("uniform_shift", any(kinds.values()), shift_z, zthr_m,
-                                     "a mode's peak shifted by > zeta/2 with a significant band residual, with one "
-                                     "sign in every pose and a spread < half the mean", detail)
+                                     "a mode with a significant band residual whose peak moved by > zeta/2, with one "
+                                     "sign and a spread < half the mean over the poses where its peak was found "
+                                     "(at least 2 and half of them)", detail)
     out["pose_shift"] = Signature("pose_shift", not all(kinds.values()), shift_z, zthr_m,
-                                  "a mode's peak shifted by > zeta/2 with a significant band residual, not uniform "
-                                  "over the poses", detail)
+                                  "a mode with a significant band residual whose peak moved by > zeta/2, not "
+                                  "uniformly over the poses", detail)
     out["peak_height"] = Signature("peak_height", height_z > zthr_m, height_z, zthr_m,
-                                   "significant band residual within 15 % of a model mode whose peak did not move "
-                                   "by more than zeta/2")
+                                   "a mode with a significant band residual whose peak did not move by more than "
+                                   "zeta/2")
     return out
 
 
