@@ -42,7 +42,8 @@ band sums divided by :data:`NOISE_CAL`, the calibration margin of the line-noise
       both ends of that window, i.e. a mode with zeta below ~5 %) farther than 10 % from every model
       mode, found within 5 % in *every* pose with a significant chi-square of its +-5 % band
       (Bonferroni over 40 bands); its frequency is reported.
-    * Near a model mode (within 15 %, at most half the gap to the next mode), the peak of the measured ``sum_pairs |H|`` against the model's
+    * Near a model mode (within 15 %, at most half the gap to the next mode), the peak of the
+      measured ``sum_pairs |H|`` against the model's
       (parabolic refinement; a maximum at the window's edge is no peak), per mode over the poses: a
       mode with a significant band residual (largest z over the poses) whose peak moved by more
       than a quarter of its half-power bandwidth (``|df / f| > zeta / 2``) in some pose, with a peak
