@@ -194,6 +194,7 @@ def test_force_effects_write_a_case_toml_that_loads(tmp_path):
     p.write_text(model_toml(st))
     c = load_case(p)
     assert (c.law.kte_n_per_m, c.law.kre_n_per_m) == pytest.approx((12000.0, 8000.0))
-    # axis offset e = 5 um towards tooth 0 (phi = 0): r_j = e cos(theta_j), theta = (0, -pi)
-    assert c.tool.runout_m == pytest.approx((5e-6, -5e-6))
+    # axis offset e = 5 um towards tooth 0 (phi = 0): r_j = e cos(theta_j), theta = (0, -170 deg)
+    # (the aluminium tool's pitch is 170/190 deg)
+    assert c.tool.runout_m == pytest.approx((5e-6, 5e-6 * math.cos(math.radians(170.0))))
     assert "dynamometer" not in p.read_text().split("[tool]")[1]
