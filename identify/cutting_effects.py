@@ -152,7 +152,8 @@ class Runout(ForceEffect):
     ``r_j = e cos(theta_j - phi)``, any tooth count and pitch).
 
     The forces depend on ``(a, b) = (e cos phi, e sin phi)`` through ``r_j = a cos theta_j + b sin theta_j``;
-    the family interpolates runs on a grid in ``(a, b)`` (cubic; nearly linear while every tooth cuts).
+    the family interpolates runs on a 3 x 3 grid in ``(a, b)`` (biquadratic; nearly linear while every
+    tooth cuts).
     For an equal-pitch two-tooth tool ``sin theta_j = 0``: only ``a = e cos phi`` changes the forces
     (:meth:`identifiable`), the grid is one-dimensional and the phase is reported as 0 or pi.
 
@@ -175,8 +176,11 @@ class Runout(ForceEffect):
     signatures = ("once_per_rev",)
     doc = "tool axis offset e at angle phi: tooth-tip radii R + e cos(theta_j - phi)"
     toml = "[tool] runout_um"
-    #: Grid of (a, b) = e (cos phi, sin phi), m, for the family.
+    #: Grid of a = e cos phi, m, for the family of a tool where only a shows (cubic spline).
     GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
+    #: Grid of (a, b) = e (cos phi, sin phi), m, otherwise: 3 x 3 runs, biquadratic (the forces are
+    #: nearly linear in the tooth radii while every tooth cuts).
+    GRID_2D = (-3e-5, 0.0, 3e-5)
 
     @staticmethod
     def identifiable(tool) -> str:
@@ -198,17 +202,24 @@ class Runout(ForceEffect):
         return self.apply_values(state, (float(np.hypot(a, b)), float(np.arctan2(b, a))))
 
     def family(self, ctx, state):
-        from scipy.interpolate import CubicSpline, RegularGridInterpolator
+        from scipy.interpolate import CubicSpline
 
         g = np.array(self.GRID)
         if self.identifiable(state.case.tool) != "amplitude and phase":
             runs = [ctx.raw_averages(self._apply_ab(state, a, 0.0)) for a in g]
             splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
             return lambda v: [s(float(v[0]) * np.cos(float(v[1]))) for s in splines]
-        runs = [[ctx.raw_averages(self._apply_ab(state, a, b)) for b in g] for a in g]
-        interps = [RegularGridInterpolator((g, g), np.stack([np.stack([r[k] for r in row]) for row in runs]),
-                                           method="cubic") for k in range(len(runs[0][0]))]
-        return lambda v: [f(np.array([[v[0] * np.cos(v[1]), v[0] * np.sin(v[1])]]))[0] for f in interps]
+        g3 = np.array(self.GRID_2D)
+        runs = [[ctx.raw_averages(self._apply_ab(state, a, b)) for b in g3] for a in g3]
+        blocks = [np.stack([np.stack([row[j][k] for j in range(3)]) for row in runs]) for k in range(len(runs[0][0]))]
+
+        def lagrange(x):  # quadratic Lagrange weights on g3, shape (3,)
+            return np.array([np.prod([(x - g3[m]) / (g3[i] - g3[m]) for m in range(3) if m != i]) for i in range(3)])
+
+        def f(v):
+            wa, wb = lagrange(v[0] * np.cos(v[1])), lagrange(v[0] * np.sin(v[1]))
+            return [np.einsum("i,j,ij...->...", wa, wb, b) for b in blocks]
+        return f
 
     def as_dict(self, values):
         e, phi = float(values[0]), float(values[1])
