@@ -6,7 +6,7 @@ Each effect is a parametrized extension with physical bounds, added where the mo
 effect              enters as              parameters (SI), bounds, detection threshold
 ==================  =====================  =========================================================
 edge_coefficients   cutting law            Kte, Kre in N/m, [0, 1e5] (0-100 N/mm); 5e3 N/m (5 N/mm)
-runout              tool (tooth radii)     delta_m = r_1 - r_2 in m, [-3e-5, 3e-5]; 3e-6 m
+runout              tool (tooth radii)     amplitude_m e [0, 3e-5], phase_rad phi; 2 e cos phi >= 3e-6 m
 dynamometer         measurement chain      fn_hz [500, 8000], zeta [0.005, 0.3]; fn <= 6 kHz
 lowpass             measurement chain      cutoff_hz [300, 20000] (4th-order Butterworth); <= 5 kHz
 backlash            robot (motion axes)    half_width_rad [0, 3e-4]; 3e-5 rad (:class:`Backlash`)
@@ -23,10 +23,11 @@ runout of 3.4 um changes the average by 3.8 times the noise floor, and was found
   ``dFr = Krc h db + Kre db``: a force independent of the chip while a tooth is engaged. Forces are
   linear in (Kte, Kre) for a given motion, so the fit is a linear regression on two basis runs
   (Altintas' average-force method is the same regression on mean forces only).
-* **Runout**: tooth tips at radii ``R + r_j``; the chip of tooth j grows by ``r_j - r_(j-1)``
-  (:func:`cases.milling.regeneration`), giving once-per-revolution lines. For a two-tooth cutter
-  only the difference ``delta = r_1 - r_2`` changes the forces (a common offset moves the wall by
-  micrometres); the axis-offset amplitude and phase of a cutter with more teeth are not built.
+* **Runout**: an axis offset ``e`` at angle ``phi`` puts tooth tips at radii ``R + e cos(theta_j - phi)``
+  (:func:`cases.milling.eccentric_runout`); the chip of tooth j grows by ``r_j - r_(j-1)``
+  (:func:`cases.milling.regeneration`), giving once-per-revolution lines. For an equal-pitch
+  two-tooth cutter only ``e cos phi`` (half of ``r_1 - r_2``) changes the forces: the phase is then
+  not identifiable (see :class:`Runout`).
 * **Dynamometer**: one lightly damped mode per axis, ``H = 1 / (1 - (f/fn)^2 + 2 i zeta f/fn)``, unit
   static gain: it leaves the mean force and rings after each tooth entry.
 * **Low-pass**: the acquisition's anti-aliasing filter, 4th-order Butterworth at ``cutoff_hz``: it
@@ -156,40 +157,85 @@ class EdgeCoefficients(ForceEffect):
 
 
 class Runout(ForceEffect):
+    """Runout as an axis offset: amplitude ``e`` and phase ``phi`` (:func:`cases.milling.eccentric_runout`,
+    ``r_j = e cos(theta_j - phi)``, any tooth count and pitch).
+
+    The forces depend on ``(a, b) = (e cos phi, e sin phi)`` through ``r_j = a cos theta_j + b sin theta_j``;
+    the family interpolates runs on a 3 x 3 grid in ``(a, b)`` (biquadratic; nearly linear while every
+    tooth cuts).
+    For an equal-pitch two-tooth tool ``sin theta_j = 0``: only ``a = e cos phi`` changes the forces
+    (:meth:`identifiable`), the grid is one-dimensional and the phase is reported as 0 or pi.
+
+    The phase is relative to tooth 0 of the model, whose angle at the start of the measured block is
+    fixed by the force data's alignment (the fitted circular shift, ``phase_shift_rev``): the measured
+    spindle angle at t = 0 is unknown, so ``phi`` is only defined relative to the aligned model, and,
+    for an equal-pitch tool, only modulo the pitch (shifting the alignment by one tooth and ``phi`` by
+    one pitch gives the same forces).
+    """
+
     name = "runout"
     stage = "cutting_law"
-    parameters = (Parameter("delta_m", -3e-5, 3e-5, neutral=0.0, detect=3e-6,
-                            doc="radius of tooth 1 minus tooth 2 (two-tooth cutters)"),)
-    observed_by = {"forces": "once-per-revolution lines: |r1 - r2| >= 3 um (3 % of the 0.1 mm chip)",
+    parameters = (Parameter("amplitude_m", 0.0, 3e-5, neutral=0.0, detect=1.5e-6,
+                            doc="axis offset e: tooth j radius offset e cos(theta_j - phi)"),
+                  Parameter("phase_rad", -2 * np.pi, 2 * np.pi, periodic=True,
+                            doc="direction phi of the offset from tooth 0 of the aligned model"))
+    observed_by = {"forces": "once-per-revolution lines: |r1 - r2| = 2 e |cos phi| >= 3 um (3 % of the 0.1 mm "
+                             "chip) for two teeth",
                    "force_stats": "extremes of one tooth raised, of the other lowered"}
     signatures = ("once_per_rev",)
-    doc = "tooth-tip radii R + r_j: the chip of tooth j changes by r_j - r_(j-1)"
+    doc = "tool axis offset e at angle phi: tooth-tip radii R + e cos(theta_j - phi)"
     toml = "[tool] runout_um"
-    #: Runs of the family, m; forces between them by cubic interpolation (they are nearly linear in
-    #: delta while both teeth cut: the chip of each tooth changes by +-delta).
+    #: Grid of a = e cos phi, m, for the family of a tool where only a shows (cubic spline).
     GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
+    #: Grid of (a, b) = e (cos phi, sin phi), m, otherwise: 3 x 3 runs, biquadratic (the forces are
+    #: nearly linear in the tooth radii while every tooth cuts).
+    GRID_2D = (-3e-5, 0.0, 3e-5)
 
-    def reason_not_applicable(self, state):
-        if state.case.tool.teeth != 2:
-            return "runout is built for two-tooth cutters only (delta = r1 - r2)"
-        return None
+    @staticmethod
+    def identifiable(tool) -> str:
+        """``"amplitude and phase"``, or ``"e cos(phi) only"`` for an equal-pitch two-tooth tool."""
+        if tool.teeth == 2 and abs(tool.pitch_rad[0] - np.pi) < 1e-9:
+            return "e cos(phi) only"
+        return "amplitude and phase"
 
     def apply_values(self, state, values):
-        d = float(values[0])
+        from robolobes.cases.milling import eccentric_runout
+
+        e, phi = float(values[0]), float(values[1])
         tool = state.case.tool
-        r = np.asarray(tool.runout_m, float) + np.array([d / 2, -d / 2])
+        r = np.asarray(tool.runout_m, float) + eccentric_runout(tool, e, phi)
         case = replace(state.case, tool=replace(tool, runout_m=tuple(r.tolist())))
         return state.with_override("tool", "runout_um", [float(x) * 1e6 for x in r], case)
+
+    def _apply_ab(self, state, a, b):
+        return self.apply_values(state, (float(np.hypot(a, b)), float(np.arctan2(b, a))))
 
     def family(self, ctx, state):
         from scipy.interpolate import CubicSpline
 
-        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
-        splines = [CubicSpline(self.GRID, np.stack([r[b] for r in runs]), axis=0) for b in range(len(runs[0]))]
-        return lambda v: [s(float(v[0])) for s in splines]
+        g = np.array(self.GRID)
+        if self.identifiable(state.case.tool) != "amplitude and phase":
+            runs = [ctx.raw_averages(self._apply_ab(state, a, 0.0)) for a in g]
+            splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
+            return lambda v: [s(float(v[0]) * np.cos(float(v[1]))) for s in splines]
+        g3 = np.array(self.GRID_2D)
+        runs = [[ctx.raw_averages(self._apply_ab(state, a, b)) for b in g3] for a in g3]
+        blocks = [np.stack([np.stack([row[j][k] for j in range(3)]) for row in runs]) for k in range(len(runs[0][0]))]
+
+        def lagrange(x):  # quadratic Lagrange weights on g3, shape (3,)
+            return np.array([np.prod([(x - g3[m]) / (g3[i] - g3[m]) for m in range(3) if m != i]) for i in range(3)])
+
+        def f(v):
+            wa, wb = lagrange(v[0] * np.cos(v[1])), lagrange(v[0] * np.sin(v[1]))
+            return [np.einsum("i,j,ij...->...", wa, wb, b) for b in blocks]
+        return f
+
+    def as_dict(self, values):
+        e, phi = float(values[0]), float(values[1])
+        return {"amplitude_m": e, "phase_rad": float(np.angle(np.exp(1j * phi)))}
 
     def starts(self):
-        return [np.array([-1e-5]), np.array([1e-5])]
+        return [np.array([1e-5, 0.3]), np.array([1e-5, np.pi - 0.3])]
 
 
 def _dynamometer_h(fn_hz: float, zeta: float):

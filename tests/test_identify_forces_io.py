@@ -205,11 +205,13 @@ def test_force_effects_write_a_case_toml_that_loads(tmp_path):
     effects_for("forces")
     st = ModelState(case=load_case("tx200-aluminium"), variant="basic", case_ref="tx200-aluminium")
     st = REGISTRY["edge_coefficients"].apply(st, {"kte_n_per_m": 12000.0, "kre_n_per_m": 8000.0})
-    st = REGISTRY["runout"].apply(st, {"delta_m": 1e-5})
+    st = REGISTRY["runout"].apply(st, {"amplitude_m": 5e-6, "phase_rad": 0.0})
     st = REGISTRY["dynamometer"].apply(st, {"fn_hz": 2000.0, "zeta": 0.05})
     p = tmp_path / "model.toml"
     p.write_text(model_toml(st))
     c = load_case(p)
     assert (c.law.kte_n_per_m, c.law.kre_n_per_m) == pytest.approx((12000.0, 8000.0))
-    assert c.tool.runout_m == pytest.approx((5e-6, -5e-6))  # delta = r1 - r2 split +-delta/2
+    # axis offset e = 5 um towards tooth 0 (phi = 0): r_j = e cos(theta_j), theta = (0, -170 deg)
+    # (the aluminium tool's pitch is 170/190 deg)
+    assert c.tool.runout_m == pytest.approx((5e-6, 5e-6 * math.cos(math.radians(170.0))))
     assert "dynamometer" not in p.read_text().split("[tool]")[1]
