@@ -459,5 +459,10 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
             progress("modal fit (LSCF/LSFD)")
         got = compare_poles(poses, {"before": [], "after": list(sel.state)}, extra["diagnosis"]["extra_peak_hz"])
         extra["poles_before"], extra["poles_after"] = got["before"], got["after"]
-    return Identification(kind="frf", effects=sel.effects, error_before=sel.error_before, error_after=sel.error_after,
-                          metric=METRIC, noise_floor=noise, steps=sel.steps, model_toml=model_toml(state), extra=extra)
+    res = Identification(kind="frf", effects=sel.effects, error_before=sel.error_before, error_after=sel.error_after,
+                         metric=METRIC, noise_floor=noise, steps=sel.steps, model_toml=model_toml(state), extra=extra)
+    from .modal import _model_modes
+    from .signatures import annotate, frf_pose_residual, frf_signatures
+    detected = frf_signatures([frf_pose_residual(pd, predict(pd, []), _model_modes(pd, [])) for pd in poses],
+                              alpha=alpha)
+    return annotate(res, detected, candidates)
