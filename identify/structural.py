@@ -285,7 +285,10 @@ class ServoEffect(StructuralEffect):
     observed_by = {"frf": "static: kp <= 9 k (the axis 10 % softer, as a joint correction); told apart from a "
                           "joint correction when the axis's dynamic stiffness at its dominant robot mode f_r differs "
                           "from the static one by >= 10 %: |(k / kp) x / (1 - x)| >= 0.1, x = (f_r / rotor_freq_hz)^2"}
-    signatures = ("extra_peak", "pose_shift", "peak_height")
+    # a softer axis statically (k kp / (k + kp)) and reshaped, pose-dependent robot modes; its rotor
+    # mode's frequency and height move with the pose (the axis's participation), so it is not the
+    # "extra_peak" signature (same frequency in every pose: a tool-holder mode)
+    signatures = ("pose_shift", "peak_height", "static_offset")
 
     def __init__(self, joint: int):
         self.joint = joint
