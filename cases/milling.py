@@ -58,6 +58,7 @@ __all__ = [
     "engagement_rad",
     "in_cut",
     "edge_forces",
+    "eccentric_runout",
     "edge_force_law",
     "project_cut_frame",
     "tool_force_cut_frame",
@@ -390,6 +391,22 @@ def cut_frame(feed_direction: np.ndarray, tool_axis: np.ndarray) -> np.ndarray:
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     return np.vstack([x, y, z])
+
+
+def eccentric_runout(tool: Tool, amplitude_m: float, phase_rad: float) -> np.ndarray:
+    """Tooth-tip radius offsets of a tool whose axis is offset from the spindle axis, shape (N,), m.
+
+    An axis offset (eccentricity) ``e = amplitude_m`` towards the tool angle ``phi = phase_rad``
+    (measured like the tooth angles, from tooth 0 at t = 0) moves tooth j's tip, at angular position
+    ``theta_j`` (:attr:`Tool.tooth_angle_rad`, variable pitch included), radially by
+    ``r_j = e cos(theta_j - phi)`` to first order in ``e / R`` (the tangential part, ``e sin``, only
+    shifts the tooth's phase by ``e / R`` rad, negligible at micrometres). For an equal-pitch
+    two-tooth tool ``r = (e cos phi, -e cos phi)``: only ``e cos phi`` shows in the forces.
+    Add the result to ``Tool.runout_m`` to model the offset.
+    """
+    if not (math.isfinite(amplitude_m) and math.isfinite(phase_rad)) or amplitude_m < 0:
+        raise MillingError(f"runout amplitude {amplitude_m!r} m must be finite and >= 0, phase {phase_rad!r} finite")
+    return amplitude_m * np.cos(np.asarray(tool.tooth_angle_rad) - phase_rad)
 
 
 @dataclass(frozen=True)

@@ -6,12 +6,12 @@ Each effect is a parametrized extension with physical bounds, added where the mo
 effect              enters as              parameters (SI), bounds, detection threshold
 ==================  =====================  =========================================================
 edge_coefficients   cutting law            Kte, Kre in N/m, [0, 1e5] (0-100 N/mm); 5e3 N/m (5 N/mm)
-runout              tool (tooth radii)     delta_m = r_1 - r_2 in m, [-3e-5, 3e-5]; 3e-6 m
+runout              tool (tooth radii)     amplitude_m e [0, 3e-5], phase_rad phi; 2 e cos phi >= 3e-6 m
 dynamometer         measurement chain      fn_hz [500, 8000], zeta [0.005, 0.3]; fn <= 6 kHz
 lowpass             measurement chain      cutoff_hz [300, 20000] (4th-order Butterworth); <= 5 kHz
 backlash            robot (motion axes)    half_width_rad [0, 3e-4]; 3e-5 rad (:class:`Backlash`)
-joint_damping       robot (motion axes)    scale [1, 50] on every joint damper (stability data)
-process_damping     tool tip (cut plane)   damper c [10, 1e6] N s/m (stability data, :func:`process_damping_c`)
+joint_damping       robot (motion axes)    scale [0.2, 50] on every joint damper (stability data)
+process_damping     tool tip (cut plane)   Ksp L^2 [0, 9e6] N/m (stability data, :class:`ProcessDamping`)
 ==================  =====================  =========================================================
 
 The detection thresholds are for a cutting-force set of the TX200 aluminium pass (0.15 s of steady
@@ -23,10 +23,11 @@ runout of 3.4 um changes the average by 3.8 times the noise floor, and was found
   ``dFr = Krc h db + Kre db``: a force independent of the chip while a tooth is engaged. Forces are
   linear in (Kte, Kre) for a given motion, so the fit is a linear regression on two basis runs
   (Altintas' average-force method is the same regression on mean forces only).
-* **Runout**: tooth tips at radii ``R + r_j``; the chip of tooth j grows by ``r_j - r_(j-1)``
-  (:func:`cases.milling.regeneration`), giving once-per-revolution lines. For a two-tooth cutter
-  only the difference ``delta = r_1 - r_2`` changes the forces (a common offset moves the wall by
-  micrometres); the axis-offset amplitude and phase of a cutter with more teeth are not built.
+* **Runout**: an axis offset ``e`` at angle ``phi`` puts tooth tips at radii ``R + e cos(theta_j - phi)``
+  (:func:`cases.milling.eccentric_runout`); the chip of tooth j grows by ``r_j - r_(j-1)``
+  (:func:`cases.milling.regeneration`), giving once-per-revolution lines. For an equal-pitch
+  two-tooth cutter only ``e cos phi`` (half of ``r_1 - r_2``) changes the forces: the phase is then
+  not identifiable (see :class:`Runout`).
 * **Dynamometer**: one lightly damped mode per axis, ``H = 1 / (1 - (f/fn)^2 + 2 i zeta f/fn)``, unit
   static gain: it leaves the mean force and rings after each tooth entry.
 * **Low-pass**: the acquisition's anti-aliasing filter, 4th-order Butterworth at ``cutoff_hz``: it
@@ -34,8 +35,9 @@ runout of 3.4 um changes the average by 3.8 times the noise floor, and was found
 * **Backlash**: the paper's dead zone on the motion axes, the element ``backlash`` in any variant
   (``basic`` included: the dead zone is in the gearboxes, not in the orthogonal compliance);
   observable in forces only (amplitude-dependent, linearization takes the gears as engaged).
-* **Joint damping** and **process damping**: observed by stability observations; see
-  :mod:`identify.forces` (``stability``).
+* **Joint damping** and **process damping**: observed by stability observations
+  (:mod:`identify.force_stability`); process damping is :class:`ProcessDamping` (parameter
+  ``Ksp L^2``, the ``tip_damper`` element per cut), joint damping a scale on every joint damper.
 
 Each effect says which measurement kinds observe it (``observed_by``) and which case-TOML keys it
 writes (``toml``); measurement-chain effects are not part of the cut model and are written as a
@@ -44,6 +46,7 @@ comment block (the case TOML keeps loading under the strict key check).
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -51,7 +54,8 @@ import numpy as np
 from .effects import Effect, ModelState, Parameter, check_params, register
 
 __all__ = ["ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
-           "FORCE_EFFECTS", "chain_transfer", "process_damping_c"]
+           "FORCE_EFFECTS", "chain_transfer", "process_damping_c", "ProcessDamping", "KSP_RANGE_N_PER_M3",
+           "FLANK_RANGE_M"]
 
 
 class ForceEffect(Effect):
@@ -153,40 +157,85 @@ class EdgeCoefficients(ForceEffect):
 
 
 class Runout(ForceEffect):
+    """Runout as an axis offset: amplitude ``e`` and phase ``phi`` (:func:`cases.milling.eccentric_runout`,
+    ``r_j = e cos(theta_j - phi)``, any tooth count and pitch).
+
+    The forces depend on ``(a, b) = (e cos phi, e sin phi)`` through ``r_j = a cos theta_j + b sin theta_j``;
+    the family interpolates runs on a 3 x 3 grid in ``(a, b)`` (biquadratic; nearly linear while every
+    tooth cuts).
+    For an equal-pitch two-tooth tool ``sin theta_j = 0``: only ``a = e cos phi`` changes the forces
+    (:meth:`identifiable`), the grid is one-dimensional and the phase is reported as 0 or pi.
+
+    The phase is relative to tooth 0 of the model, whose angle at the start of the measured block is
+    fixed by the force data's alignment (the fitted circular shift, ``phase_shift_rev``): the measured
+    spindle angle at t = 0 is unknown, so ``phi`` is only defined relative to the aligned model, and,
+    for an equal-pitch tool, only modulo the pitch (shifting the alignment by one tooth and ``phi`` by
+    one pitch gives the same forces).
+    """
+
     name = "runout"
     stage = "cutting_law"
-    parameters = (Parameter("delta_m", -3e-5, 3e-5, neutral=0.0, detect=3e-6,
-                            doc="radius of tooth 1 minus tooth 2 (two-tooth cutters)"),)
-    observed_by = {"forces": "once-per-revolution lines: |r1 - r2| >= 3 um (3 % of the 0.1 mm chip)",
+    parameters = (Parameter("amplitude_m", 0.0, 3e-5, neutral=0.0, detect=1.5e-6,
+                            doc="axis offset e: tooth j radius offset e cos(theta_j - phi)"),
+                  Parameter("phase_rad", -2 * np.pi, 2 * np.pi, periodic=True,
+                            doc="direction phi of the offset from tooth 0 of the aligned model"))
+    observed_by = {"forces": "once-per-revolution lines: |r1 - r2| = 2 e |cos phi| >= 3 um (3 % of the 0.1 mm "
+                             "chip) for two teeth",
                    "force_stats": "extremes of one tooth raised, of the other lowered"}
     signatures = ("once_per_rev",)
-    doc = "tooth-tip radii R + r_j: the chip of tooth j changes by r_j - r_(j-1)"
+    doc = "tool axis offset e at angle phi: tooth-tip radii R + e cos(theta_j - phi)"
     toml = "[tool] runout_um"
-    #: Runs of the family, m; forces between them by cubic interpolation (they are nearly linear in
-    #: delta while both teeth cut: the chip of each tooth changes by +-delta).
+    #: Grid of a = e cos phi, m, for the family of a tool where only a shows (cubic spline).
     GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
+    #: Grid of (a, b) = e (cos phi, sin phi), m, otherwise: 3 x 3 runs, biquadratic (the forces are
+    #: nearly linear in the tooth radii while every tooth cuts).
+    GRID_2D = (-3e-5, 0.0, 3e-5)
 
-    def reason_not_applicable(self, state):
-        if state.case.tool.teeth != 2:
-            return "runout is built for two-tooth cutters only (delta = r1 - r2)"
-        return None
+    @staticmethod
+    def identifiable(tool) -> str:
+        """``"amplitude and phase"``, or ``"e cos(phi) only"`` for an equal-pitch two-tooth tool."""
+        if tool.teeth == 2 and abs(tool.pitch_rad[0] - np.pi) < 1e-9:
+            return "e cos(phi) only"
+        return "amplitude and phase"
 
     def apply_values(self, state, values):
-        d = float(values[0])
+        from robolobes.cases.milling import eccentric_runout
+
+        e, phi = float(values[0]), float(values[1])
         tool = state.case.tool
-        r = np.asarray(tool.runout_m, float) + np.array([d / 2, -d / 2])
+        r = np.asarray(tool.runout_m, float) + eccentric_runout(tool, e, phi)
         case = replace(state.case, tool=replace(tool, runout_m=tuple(r.tolist())))
         return state.with_override("tool", "runout_um", [float(x) * 1e6 for x in r], case)
+
+    def _apply_ab(self, state, a, b):
+        return self.apply_values(state, (float(np.hypot(a, b)), float(np.arctan2(b, a))))
 
     def family(self, ctx, state):
         from scipy.interpolate import CubicSpline
 
-        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
-        splines = [CubicSpline(self.GRID, np.stack([r[b] for r in runs]), axis=0) for b in range(len(runs[0]))]
-        return lambda v: [s(float(v[0])) for s in splines]
+        g = np.array(self.GRID)
+        if self.identifiable(state.case.tool) != "amplitude and phase":
+            runs = [ctx.raw_averages(self._apply_ab(state, a, 0.0)) for a in g]
+            splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
+            return lambda v: [s(float(v[0]) * np.cos(float(v[1]))) for s in splines]
+        g3 = np.array(self.GRID_2D)
+        runs = [[ctx.raw_averages(self._apply_ab(state, a, b)) for b in g3] for a in g3]
+        blocks = [np.stack([np.stack([row[j][k] for j in range(3)]) for row in runs]) for k in range(len(runs[0][0]))]
+
+        def lagrange(x):  # quadratic Lagrange weights on g3, shape (3,)
+            return np.array([np.prod([(x - g3[m]) / (g3[i] - g3[m]) for m in range(3) if m != i]) for i in range(3)])
+
+        def f(v):
+            wa, wb = lagrange(v[0] * np.cos(v[1])), lagrange(v[0] * np.sin(v[1]))
+            return [np.einsum("i,j,ij...->...", wa, wb, b) for b in blocks]
+        return f
+
+    def as_dict(self, values):
+        e, phi = float(values[0]), float(values[1])
+        return {"amplitude_m": e, "phase_rad": float(np.angle(np.exp(1j * phi)))}
 
     def starts(self):
-        return [np.array([-1e-5]), np.array([1e-5])]
+        return [np.array([1e-5, 0.3]), np.array([1e-5, np.pi - 0.3])]
 
 
 def _dynamometer_h(fn_hz: float, zeta: float):
@@ -356,3 +405,113 @@ def process_damping_c(ksp_n_per_m3: float, flank_m: float, depth_m: float, speed
     ``b L^2 ydot / (2 V)``, times the indentation coefficient ``Ksp`` (N/m^3)."""
     return ksp_n_per_m3 * depth_m * flank_m ** 2 / (2.0 * speed_m_per_s)
 
+
+#: Indentation (ploughing) coefficient range for steels, N/m^3 (order of magnitude of published
+#: process-damping identifications, e.g. 4e13 N/m^3 in Altintas, Eynian & Onozuka 2008).
+KSP_RANGE_N_PER_M3 = (1e13, 1e14)
+#: Flank-contact (wear land) length of an end mill, m: 0.02 mm (sharp) to 0.3 mm (ISO 8688 end of life, VB).
+FLANK_RANGE_M = (2e-5, 3e-4)
+
+
+def _engaged_nn(tool, cut) -> np.ndarray:
+    """``(N / 2 pi) * integral over the engagement of n n^T dphi`` (2, 2), ``n = (sin phi, cos phi)``:
+    the time average of ``sum_j g_j n_j n_j^T`` over a revolution (dimensionless)."""
+    from robolobes.cases.milling import engagement_rad
+
+    a, b = engagement_rad(tool, cut)
+    s2 = lambda p: np.sin(2 * p)  # noqa: E731
+    ss = 0.5 * (b - a) - 0.25 * (s2(b) - s2(a))           # int sin^2
+    cc = 0.5 * (b - a) + 0.25 * (s2(b) - s2(a))           # int cos^2
+    sc = 0.5 * (np.sin(b) ** 2 - np.sin(a) ** 2)           # int sin cos
+    return tool.teeth / (2 * np.pi) * np.array([[ss, sc], [sc, cc]])
+
+
+class ProcessDamping(Effect):
+    """Process damping: the flank of each engaged tooth indents the wavy surface it cuts.
+
+    Law (Altintas, Eynian & Onozuka 2008; Budak & Tunc 2010): a tooth whose flank of length ``L``
+    rubs a surface of slope ``y'/V`` indents the volume ``b L^2 y' / (2 V)`` and feels the force
+    ``Ksp`` times it, along its own chip normal ``n = (sin phi, cos phi)``: a viscous damper
+    ``c = Ksp L^2 b / (2 V)`` per engaged tooth, ``b`` the axial depth and ``V = pi D n / 60`` the
+    cutting speed (:func:`process_damping_c`). The law only sees ``Ksp L^2``: that product
+    (``ksp_l2_n_per_m``, N/m) is the parameter; ``L`` is reported at the published ``Ksp`` range.
+
+    Time-invariant form (what the lobes and the time domain both build, :class:`TipDamper`): the
+    damper averaged over the revolution, ``Cc = c * (N / 2 pi) int_engagement n n^T dphi`` (2 x 2 in
+    ``x_c, y_c``); the periodic part is dropped as the zeroth-order approximation drops it for the
+    cutting force. So the damping falls as ``1 / V`` and grows with the depth: at a fixed
+    ``Ksp L^2`` it is strongest at low spindle speed, which is what tells it from a joint-damping
+    scale in observations over several speeds. Valid while ``L`` is much shorter than the surface
+    wavelength ``V / f`` (small slope under the flank).
+
+    Bounds: ``0 <= Ksp L^2 <= 1e14 * (0.3 mm)^2 = 9e6 N/m`` (:data:`KSP_RANGE_N_PER_M3`,
+    :data:`FLANK_RANGE_M`). Detection: an observation's verdict flips when the damper closes its
+    margin to the lobes' limit; :meth:`detection_threshold` gives the ``Ksp L^2`` that adds a given
+    fraction of the chatter mode's own damping at a speed and depth.
+    """
+
+    name = "process_damping"
+    stage = "element"
+    parameters = (Parameter("ksp_l2_n_per_m", 0.0, KSP_RANGE_N_PER_M3[1] * FLANK_RANGE_M[1] ** 2, neutral=0.0,
+                            doc="indentation coefficient times flank contact squared, Ksp L^2 (N/m)"),)
+    observed_by = {"stability": "an observation whose margin to the lobes' limit the damper closes "
+                                "(see ProcessDamping.detection_threshold)"}
+    signatures = ("stability_shift",)
+    doc = "process damping: flank indentation, c = Ksp L^2 b / (2 V) per engaged tooth, averaged in the cut plane"
+
+    @staticmethod
+    def speed_m_per_s(tool, cut) -> float:
+        """Cutting speed ``V = pi D n / 60`` at the tool's periphery, m/s."""
+        return math.pi * tool.diameter_m * cut.spindle_rpm / 60.0
+
+    def matrix_cut(self, ksp_l2_n_per_m: float, tool, cut) -> np.ndarray:
+        """Averaged damper ``Cc`` (2, 2) in N s/m, cut frame ``(x_c, y_c)``, at the cut's depth and speed."""
+        c = ksp_l2_n_per_m * cut.ap_m / (2.0 * self.speed_m_per_s(tool, cut))
+        return c * _engaged_nn(tool, cut)
+
+    def table(self, params) -> dict:
+        raise NotImplementedError("process_damping depends on the cut: use element_table(ksp_l2, tool, cut, feed_direction)")
+
+    def element_table(self, ksp_l2_n_per_m: float, tool, cut, feed_direction) -> dict:
+        """The ``[[elements]]`` table (``tip_damper``) of the damper for this cut."""
+        C = self.matrix_cut(ksp_l2_n_per_m, tool, cut)
+        return {"type": "tip_damper", "cxx_n_s_per_m": float(C[0, 0]), "cyy_n_s_per_m": float(C[1, 1]),
+                "cxy_n_s_per_m": float(C[0, 1]), "feed_direction": [float(x) for x in feed_direction]}
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the damper of its own case's cut (the damper depends on depth and speed)."""
+        from robolobes.cases.spec import ElementSpec
+
+        p = check_params(self, params)["ksp_l2_n_per_m"]
+        c = model.case
+        t = self.element_table(p, c.tool, c.cut, c.cut.feed_direction)
+        return model.with_element(ElementSpec(type=t.pop("type"), params=t))
+
+    def flank_m(self, ksp_l2_n_per_m: float) -> tuple[float, float]:
+        """Flank contact ``L`` (m) the value needs at ``Ksp`` = the upper and the lower end of its range."""
+        return tuple(math.sqrt(ksp_l2_n_per_m / k) for k in KSP_RANGE_N_PER_M3[::-1])
+
+    def detection_threshold(self, structure, tool, cut, fraction: float = 0.3) -> float:
+        """``Ksp L^2`` (N/m) whose damper adds ``fraction`` of the structure's own damping to its
+        tool-tip-dominant mode in the cut plane, at the cut's depth and speed.
+
+        For one mode the stability limit is proportional to its damping (``b_lim = 2 k zeta (1 + zeta)
+        / (N Kt alpha)`` at the lobes' minimum, Altintas ch. 3), so an observation at ``1 + fraction``
+        times the limit flips when the damping grows by about that fraction. Undamped real modes of
+        ``structure`` (a :class:`lobes.PhysicalStructure`): mode ``k`` with mass-normalized shape
+        ``psi`` has damping ``psi^T C psi`` and gains ``u^T Cc u`` with ``u = tcp[:2] psi``; the mode
+        taken is the one with the largest tool-tip compliance ``|u|^2 / omega^2``.
+        """
+        M, C, K, T = (np.asarray(x, float) for x in (structure.M, structure.C, structure.K, structure.tcp))
+        import scipy.linalg as sl
+
+        w2, psi = sl.eigh(K, M)
+        u = T[:2] @ psi
+        k = int(np.argmax(np.sum(u ** 2, axis=0) / w2))
+        own = float(psi[:, k] @ C @ psi[:, k])
+        D = self.matrix_cut(1.0, tool, cut)
+        per_unit = float(u[:, k] @ D @ u[:, k])
+        return fraction * own / per_unit
+
+
+register(ProcessDamping())

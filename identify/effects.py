@@ -79,6 +79,9 @@ class Parameter:
     log : bool
         Fit in log space (positive quantities spanning decades).
     doc : str
+    periodic : bool
+        An angle (period 2 pi): its range is a search range, not a physical bound, so a fitted value
+        at its end is not "on a bound" (reported wrapped to (-pi, pi]).
     """
 
     name: str
@@ -88,6 +91,7 @@ class Parameter:
     detect: float | None = None
     log: bool = False
     doc: str = ""
+    periodic: bool = False
 
     def __post_init__(self):
         if not (math.isfinite(self.lower) and math.isfinite(self.upper) and self.lower < self.upper):

@@ -14,6 +14,10 @@
    significance rule is the framework's (gain of squared held-out residual against the noise of
    the held-out average, Bonferroni over the candidates, family-wise 1 %); the noise per bin and
    axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
+4. Diagnosis (:mod:`identify.signatures`): the named signatures of the starting model's held-out
+   residual (mean offset, once-per-revolution lines, ringing, roll-off), each against the noise of
+   the average, and the candidates ranked by the signatures they explain (``signatures``,
+   ``ranking``; each effect's ``evidence`` says why it ranks where it does).
 
 ``force_stats`` (8 published numbers)
 ------------------------------------
@@ -47,6 +51,7 @@ from .force_signals import (ERROR_METRIC, align_shift, apply_transfer, estimate_
 from .model_toml import model_toml
 from .result import EffectFit, Identification
 from .selection import Trial, forward_select
+from .signatures import annotate, force_signatures
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
            "identify_stability", "ForceContext", "check_window", "aicc"]
@@ -112,6 +117,14 @@ class ForceContext:
         return [self.filtered(a, h) for a in raw]
 
 
+def _on_bound(x: np.ndarray, effects, tol: float) -> bool:
+    """Whether a fitted value (``x`` scaled to [0, 1] per parameter) sits on a physical bound; periodic
+    parameters (angles) have no physical bound and are skipped."""
+    periodic = np.array([p.periodic for e in effects for p in e.parameters], bool)
+    edge = (x <= tol) | (x >= 1 - tol)
+    return bool(np.any(edge & ~periodic))
+
+
 @dataclass
 class _Fit:
     values: np.ndarray
@@ -160,7 +173,7 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     except np.linalg.LinAlgError:
         sig = np.full(len(v), np.inf)
     avgs = model(v)
-    on_bound = bool(np.any(x[:-1] <= 1e-6) or np.any(x[:-1] >= 1 - 1e-6))
+    on_bound = _on_bound(x[:-1], [effect], 1e-6)
     return _Fit(values=v, sigma=sig, shift=float(x[-1]), train=shift_average(avgs[0], x[-1]),
                 heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound)
 
@@ -201,7 +214,9 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
         return Trial(residual=fit.heldout[:, :2].ravel() - meas, measured=meas, sigma=sigma, state=new,
                      params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
                      evidence={"signature": [SIGNATURES[k] for k in eff.signatures], "on_bound": fit.on_bound,
-                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift})
+                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift,
+                               **({"identifiable": eff.identifiable(st.case.tool)} if hasattr(eff, "identifiable")
+                                  else {})})
 
     library = [e for e in (effects if effects is not None else effects_for("forces", state))
                if hasattr(e, "family") and e.applicable(state)]
@@ -217,9 +232,11 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
              "not_applicable": {e.name: e.reason_not_applicable(state) for e in FORCE_EFFECTS
                                 if not e.applicable(state)},
              "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
-    return Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
-                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
-                          model_toml=model_toml(sel.state), extra=extra)
+    res = Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
+                         error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
+                         model_toml=model_toml(sel.state), extra=extra)
+    detected = force_signatures(ctx.heldout.mean, aligned[id(state)], ctx.heldout.noise, case.tool.teeth, alpha=alpha)
+    return annotate(res, detected, library)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -303,7 +320,7 @@ def _fit_stats(ctx, combo, state, target):
         sig = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
     except np.linalg.LinAlgError:
         pass
-    on_bound = bool(np.any(best.x <= 1e-4) or np.any(best.x >= 1 - 1e-4))
+    on_bound = _on_bound(best.x, combo, 1e-4)
     return out, sig, 2 * best.cost, on_bound, model(best.x)
 
 

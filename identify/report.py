@@ -78,6 +78,8 @@ def write_frf_report(directory: Path, result, poses, effects_state, provenance: 
     else:
         lines += ["No effect lowers the held-out error significantly: the model explains the data "
                   "within its noise (`effects: []`).", ""]
+    from .signatures import diagnosis_markdown
+    lines += diagnosis_markdown(result.extra)
     lines += ["## Selection steps", "", "| step | kept | z | threshold | error before | error after |",
               "|---|---|---|---|---|---|"]
     for i, s in enumerate(result.steps, 1):

@@ -386,3 +386,67 @@ def element_table(element: Element) -> dict:
                 out[k] = [float(x) for x in v] if isinstance(v, tuple) else v
             return out
     raise ValueError(f"{element!r} is not one of the extra elements ({', '.join(ELEMENT_TYPES)})")
+
+
+@dataclass(frozen=True)
+class TipDamper(Element):
+    """A viscous damper at the tool tip, acting in the cut plane (process damping's time-invariant form).
+
+    The force on the tool is ``F = -R2^T Cc R2 v_tcp`` with ``v_tcp = J q'`` the TCP velocity (base
+    frame), ``R2`` the rows ``x_c, y_c`` of the cut frame (:func:`cases.milling.cut_frame` of
+    ``feed_direction`` and the current tool axis) and ``Cc = [[cxx, cxy], [cxy, cyy]]`` (N s/m,
+    symmetric positive semi-definite). The generalized force is ``J^T F``; its velocity tangent
+    ``-J^T R2^T Cc R2 J`` is what the linearization adds to C (the position tangent, ``O(v)``, is
+    omitted: it vanishes at the linearization's rest state and only slows Newton elsewhere).
+
+    :class:`identify.cutting_effects.ProcessDamping` computes ``Cc`` from the process-damping law
+    for a cut; in a TOML it is ``type = "tip_damper"`` with ``cxx_n_s_per_m``, ``cyy_n_s_per_m``,
+    ``cxy_n_s_per_m`` and ``feed_direction`` (base frame).
+    """
+
+    cxx_n_s_per_m: float
+    cyy_n_s_per_m: float
+    cxy_n_s_per_m: float = 0.0
+    feed_direction: tuple = (1.0, 0.0, 0.0)
+    name: str = "tip damper"
+
+    def __post_init__(self):
+        _positive("tip_damper cxx_n_s_per_m", self.cxx_n_s_per_m, zero_ok=True)
+        _positive("tip_damper cyy_n_s_per_m", self.cyy_n_s_per_m, zero_ok=True)
+        cxy = self.cxy_n_s_per_m
+        if isinstance(cxy, bool) or not isinstance(cxy, (int, float)) or not math.isfinite(cxy):
+            raise BadInput(f"tip_damper cxy_n_s_per_m must be a finite number, got {cxy!r}")
+        if cxy * cxy > self.cxx_n_s_per_m * self.cyy_n_s_per_m * (1 + 1e-9) + 1e-300:
+            raise BadInput(f"tip_damper: cxy_n_s_per_m = {cxy:g} makes the damper active (cxy^2 > cxx cyy = "
+                           f"{self.cxx_n_s_per_m * self.cyy_n_s_per_m:g}); valid: |cxy| <= sqrt(cxx cyy)")
+        object.__setattr__(self, "feed_direction", tuple(_unit(self.feed_direction, "tip_damper feed_direction")))
+
+    @property
+    def matrix_cut(self) -> np.ndarray:
+        """``Cc`` (2, 2), N s/m, in ``(x_c, y_c)``."""
+        return np.array([[self.cxx_n_s_per_m, self.cxy_n_s_per_m], [self.cxy_n_s_per_m, self.cyy_n_s_per_m]])
+
+    def bind(self, robot):
+        object.__setattr__(self, "_data", robot.model.createData())  # own workspace: never clobbers robot.data
+
+    def _velocity_map(self, robot, q) -> np.ndarray:
+        """``(J^T R2^T Cc R2 J)`` (nv, nv) at q."""
+        from robolobes.cases.milling import cut_frame
+
+        d = self._data
+        J = np.asarray(pin.computeFrameJacobian(robot.model, d, q, robot.tcp_frame, pin.LOCAL_WORLD_ALIGNED))
+        J = J.reshape(6, robot.nv)[:3]
+        pin.updateFramePlacement(robot.model, d, robot.tcp_frame)
+        R2 = cut_frame(np.asarray(self.feed_direction), d.oMf[robot.tcp_frame].rotation[:, 2])[:2]
+        T = R2 @ J
+        return T.T @ self.matrix_cut @ T
+
+    def force(self, robot, q, v, theta):
+        return -self._velocity_map(robot, q) @ v
+
+    def tangent(self, robot, q, v, theta, engaged=False):
+        return np.zeros((robot.nv, robot.nv)), -self._velocity_map(robot, q)
+
+
+ELEMENT_TYPES["tip_damper"] = TipDamper
+__all__ += ["TipDamper"]

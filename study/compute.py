@@ -8,7 +8,9 @@ For the two built-in cases (``tx200-aluminium``, ``tx200-steel``):
 3. time-domain passes of both cases in the four variants;
 4. the smallest joint-damping scale that stabilizes steel (the paper says x10) by the lobes and by
    the time domain, each as a bracket [largest unstable, smallest stable];
-5. the paper's Tab. 10 (forces) and Tab. 11/12 (roughness) beside ours.
+5. the paper's Tab. 10 (forces) and Tab. 11/12 (roughness) beside ours;
+6. (full study) the seed's facts confronted with identification: (a) Tab. 10 identified by force
+   statistics, (b) the steel cut observed stable (:mod:`robolobes.identify.force_facts`).
 
 Nothing here writes a file: :mod:`.output` renders the result.
 """
@@ -37,7 +39,7 @@ from .settings import LOBE_RANGES_RPM, MATERIALS, PAPER, POSES, StudySettings
 
 __all__ = ["compute_study", "load_inputs", "study_poses", "compute_modes", "compute_operating_points",
            "compute_diagrams", "compute_absolute_limits", "bracket_search", "damping_by_lobes",
-           "damping_by_time_domain", "compute_time_domain", "FRF_FREQ_HZ"]
+           "damping_by_time_domain", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
 
 Progress = Callable[[float], None]
 
@@ -393,6 +395,15 @@ NOTES = ("The Tab. 7 pose has A3 = -212.14 deg = +147.86 deg, 2.86 deg past the 
 
 
 # ------------------------------------------------------------------------------------------ driver
+def compute_identify_facts(settings: StudySettings) -> dict | None:
+    """Facts (a) and (b) of the seed by identification (full study only: minutes), else None."""
+    if not settings.identify_facts:
+        return None
+    from robolobes.identify.force_facts import steel_fact, tab10_fact
+
+    return {"tab10": tab10_fact(), "steel": steel_fact()}
+
+
 def compute_study(settings: StudySettings, progress: Progress = _quiet,
                   lins: Linearizations | None = None) -> StudyResult:
     """Run every computation of the study and return its typed result (nothing is written).
@@ -421,6 +432,7 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
                                       == (mat, "basic", 1.0)))
              for mat in cs}
     return StudyResult(
+        identify_facts=compute_identify_facts(settings),
         settings=settings, provenance=provenance(study_inputs(settings, cs, paper)),
         cases={k: c.name for k, c in cs.items()}, notes=NOTES, modes=modes, operating_points=ops,
         diagrams=diagrams, absolute_limits=absolute, td_linearized=settings.td_linearized, time_domain=runs,

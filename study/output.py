@@ -85,6 +85,7 @@ def to_json(res: StudyResult) -> dict:
         "tab10": {r.name: r.values for r in res.tab10},
         "roughness": {r.name: {"Ra": r.Ra, "Rq": r.Rq, "Rt": r.Rt} for r in res.roughness},
         "explanation": explanation,
+        "identify_facts": res.identify_facts,
         "wall_s": res.wall_s, "generated": res.generated, "linearize_calls": res.linearize_calls,
     })
 

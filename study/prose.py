@@ -12,7 +12,7 @@ import math
 
 __all__ = ["position_in_range", "range_comparison", "times", "ratio_comparison", "modes_below",
            "limit_against_cut", "bracket_text", "brackets_relation", "damping_comparison",
-           "relative_agreement", "limit_scaling"]
+           "relative_agreement", "limit_scaling", "tab10_identified"]
 
 #: Two ratios are "about" equal when they differ by less than this factor (15 %): wider than the
 #: discretization errors of the limits (< 1 %), narrower than the effects the study explains.
@@ -123,3 +123,19 @@ def limit_scaling(ktc_ratio: float, absolute_ratio: float, local_ratio: float) -
     return (f"Steel takes {ktc_ratio:.2f} times the tangential force per unit chip (Ktc). Its absolute "
             f"(ZOA) limit is {absolute_ratio:.1f} times smaller than aluminium's, {ca} the Ktc ratio, and its "
             f"limit at its own cut speed {local_ratio:.1f} times smaller, {cl} the Ktc ratio{why}.")
+
+
+def tab10_identified(before_n: float, after_n: float, paper_basic_n: float, paper_best_n: float,
+                     paper_best_name: str, aim_n: float = 5.0) -> str:
+    """Fact (a) in one sentence: RMS over the 8 Tab. 10 statistics before and after identification, N.
+
+    "below"/"above" the aim by ``after < aim``; our basic model "matches" the paper's basic row when
+    they agree within 5 % (else "differs from"); the gain over the paper's best row by :func:`times`.
+    """
+    same = abs(before_n / paper_basic_n - 1) < 0.05
+    rel = "matches" if same else "differs from"
+    aim = "below" if after_n < aim_n else "above"
+    return (f"Our basic model is {before_n:.1f} N RMS over the 8 statistics ({rel} the paper's basic row, "
+            f"{paper_basic_n:.1f} N; the paper's best row, {paper_best_name}, is {paper_best_n:.1f} N); identification "
+            f"brings it to {after_n:.1f} N, {aim} the {aim_n:g} N aim and {times(paper_best_n, after_n)} lower "
+            f"than the paper's best row.")

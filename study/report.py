@@ -129,6 +129,23 @@ def _tab10_section(res: StudyResult) -> list[str]:
     return out
 
 
+def _facts_section(res: StudyResult) -> list[str]:
+    out = ["\n## The seed's facts, confronted with identification (issue 10)\n"]
+    f = res.identify_facts
+    if f is None:
+        return out + ["Facts (a) Tab. 10 and (b) steel were not computed in this quick study (they take minutes); "
+                      "the full study (`robolobes study`) computes them.\n"]
+    from robolobes.identify.force_facts import facts_markdown
+
+    a = f.get("tab10")
+    if a is not None:
+        rows = a["paper_rows_rms_n"]
+        best = min(rows, key=rows.get)
+        out.append(prose.tab10_identified(a["rms_before_n"], a["rms_after_n"], rows["basic"], rows[best], best)
+                   + "\n")
+    return out + [facts_markdown(a, f.get("steel")) + "\n"]
+
+
 def _roughness_cell(v) -> str:
     return f"{v[0]:g}-{v[1]:g}" if isinstance(v, (tuple, list)) else _fmt(v)
 
@@ -152,6 +169,7 @@ def render_report(res: StudyResult) -> str:
     """The markdown report of a study result."""
     data = to_json(res)
     parts = (_header(res) + _explanation(data) + _modes_table(res) + _operating_points_table(res)
-             + _time_domain_table(res) + _damping_section(res) + _tab10_section(res) + _roughness_section(res)
+             + _time_domain_table(res) + _damping_section(res) + _tab10_section(res) + _facts_section(res)
+             + _roughness_section(res)
              + _notes(res))
     return "\n".join(parts) + "\n"

@@ -266,3 +266,18 @@ def test_study_refuses_a_users_directory_before_any_work(tmp_path, monkeypatch, 
     assert robolobes_main(["study", "--quick", "--quiet", "--out", str(out)]) == 2
     assert (out / "notes.txt").read_text() == "mine" and [p.name for p in out.iterdir()] == ["notes.txt"]
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+# ---------------------------------------------------------------- the seed's facts (issue 10)
+def test_tab10_identified_sentence_follows_the_numbers():
+    s = prose.tab10_identified(20.9, 6.7, 20.9, 19.2, "backlash")
+    assert "matches the paper's basic row" in s and "above the 5 N aim" in s and "2.9 times lower" in s
+    # 18.0 vs 20.9 N: 14 % apart (> 5 %) -> "differs"; 3.8 < 5 N -> "below"
+    s = prose.tab10_identified(18.0, 3.8, 20.9, 19.2, "backlash")
+    assert "differs from the paper's basic row" in s and "below the 5 N aim" in s and "5.1 times lower" in s
+
+
+def test_quick_report_says_the_facts_were_not_computed(quick):
+    out, res = quick
+    assert res["identify_facts"] is None
+    assert "were not computed in this quick study" in (out / "report.md").read_text()
