@@ -345,9 +345,9 @@ class Backlash(ForceEffect):
     signatures = ("harmonic_rolloff",)
     doc = "the paper's eq. 12 dead zone on every motion axis (element 'backlash', any variant)"
     toml = "[[elements]] type = \"backlash\", half_width_rad"
-    RESOLUTION = 1e-6
-    SCAN_STEP = 1e-5
-    TOP = 3
+    RESOLUTION = 2e-6
+    SCAN_STEP = 2e-5
+    TOP = 2
 
     def apply_values(self, state, values):
         from robolobes.cases.spec import ElementSpec
