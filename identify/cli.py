@@ -104,7 +104,7 @@ def _register_identify(sub) -> None:
                                                     "replaces a user's files)")
     p.add_argument("--effects", default=None,
                    help="comma-separated candidate effects (default: the library's default candidates; "
-                        "e.g. servo_a2 is tried only when named)")
+                        "e.g. --effects servo_a2,joint_correction_a2)")
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")

@@ -9,9 +9,9 @@ edge_coefficients   cutting law            Kte, Kre in N/m, [0, 1e5] (0-100 N/mm
 runout              tool (tooth radii)     amplitude_m e [0, 3e-5], phase_rad phi; 2 e cos phi >= 3e-6 m
 dynamometer         measurement chain      fn_hz [500, 8000], zeta [0.005, 0.3]; fn <= 6 kHz
 lowpass             measurement chain      cutoff_hz [300, 20000] (4th-order Butterworth); <= 5 kHz
-backlash            robot (motion axes)    backlash_rad [0, 3e-4]; see :class:`Backlash`
-joint_damping       robot (motion axes)    scale [1, 50] on every joint damper (stability data)
-process_damping     tool tip (cut plane)   damper c [10, 1e6] N s/m (stability data, :func:`process_damping_c`)
+backlash            robot (motion axes)    half_width_rad [0, 3e-4]; 3e-5 rad (:class:`Backlash`)
+joint_damping       robot (motion axes)    scale [0.2, 50] on every joint damper (stability data)
+process_damping     tool tip (cut plane)   Ksp L^2 [0, 9e6] N/m (stability data, :class:`ProcessDamping`)
 ==================  =====================  =========================================================
 
 The detection thresholds are for a cutting-force set of the TX200 aluminium pass (0.15 s of steady
@@ -32,11 +32,12 @@ runout of 3.4 um changes the average by 3.8 times the noise floor, and was found
   static gain: it leaves the mean force and rings after each tooth entry.
 * **Low-pass**: the acquisition's anti-aliasing filter, 4th-order Butterworth at ``cutoff_hz``: it
   rounds the entry and exit edges; its delay is absorbed by the phase alignment.
-* **Backlash**: the paper's dead zone on the motion axes (variant ``backlash``, which includes the
-  orthogonal compliance); observable in forces only (amplitude-dependent, linearization takes the
-  gears as engaged).
-* **Joint damping** and **process damping**: observed by stability observations; see
-  :mod:`identify.forces` (``stability``).
+* **Backlash**: the paper's dead zone on the motion axes, the element ``backlash`` in any variant
+  (``basic`` included: the dead zone is in the gearboxes, not in the orthogonal compliance);
+  observable in forces only (amplitude-dependent, linearization takes the gears as engaged).
+* **Joint damping** and **process damping**: observed by stability observations
+  (:mod:`identify.force_stability`); process damping is :class:`ProcessDamping` (parameter
+  ``Ksp L^2``, the ``tip_damper`` element per cut), joint damping a scale on every joint damper.
 
 Each effect says which measurement kinds observe it (``observed_by``) and which case-TOML keys it
 writes (``toml``); measurement-chain effects are not part of the cut model and are written as a
@@ -45,6 +46,7 @@ comment block (the case TOML keeps loading under the strict key check).
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -52,7 +54,8 @@ import numpy as np
 from .effects import Effect, ModelState, Parameter, check_params, register
 
 __all__ = ["ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
-           "FORCE_EFFECTS", "chain_transfer", "process_damping_c"]
+           "FORCE_EFFECTS", "chain_transfer", "process_damping_c", "ProcessDamping", "KSP_RANGE_N_PER_M3",
+           "FLANK_RANGE_M"]
 
 
 class ForceEffect(Effect):
@@ -105,6 +108,12 @@ class ForceEffect(Effect):
         """Initial values for the nonlinear fit (inside the bounds)."""
         lo, hi = np.array(self.lower), np.array(self.upper)
         return [lo + 0.3 * (hi - lo)]
+
+    def starts_for(self, cost) -> list:
+        """Initial values given the training cost ``cost(values) -> float`` of the fit (default:
+        :meth:`starts`, which does not need it). An effect whose response is rough in its
+        parameters scans the cost here."""
+        return self.starts()
 
     def family(self, ctx, state: ModelState):
         """A callable ``values -> list of raw (bins, 3) averages`` for the context's blocks, before the
@@ -304,46 +313,70 @@ class Lowpass(ChainEffect):
         return [np.array([f]) for f in (700.0, 2000.0, 6000.0)]
 
 
+#: Detection threshold of the dead-zone half-width on the aluminium pass, rad. Derived (not tuned on
+#: identification outcomes) from the linearized path's synchronous averages of the held-out block
+#: (0.325-0.40 s, 23 revolutions) at half-widths 0, 1e-5, ..., 3e-4 rad (basic variant): the RMS change
+#: of the x, y average exceeds the noise of that average at the worst noise of a set, 3 N / sqrt(23) =
+#: 0.63 N, from 3e-5 rad on (0.42 N at 1e-5, 0.58 N at 2e-5, 0.87 N at 3e-5, >= 1.0 N above); the
+#: numbers are in the README ("Backlash").
+BACKLASH_DETECT_RAD = 3e-5
+
+
 class Backlash(ForceEffect):
-    """The motion axes' dead zone (eq. 12). The model variant becomes ``backlash`` (orthogonal compliance
-    plus the dead zone, the paper's variant); family by linear interpolation between runs at
-    ``GRID`` (the response to a dead zone is not smooth in its width)."""
+    """The motion axes' dead zone (eq. 12) as the ``backlash`` element
+    (:class:`linearize.extra_elements.GearBacklash`): offered from every variant, ``basic`` included
+    (the dead zone is in the gearboxes, i.e. in the motion springs every variant has; it needs
+    neither gravity nor the orthogonal compliance). From ``orthogonal`` it gives the paper's
+    ``backlash`` variant; from ``backlash`` it re-fits the width.
+
+    The forces are piecewise smooth in the width, with jumps where an axis starts or stops
+    separating during a block (adjacent runs 1e-5 rad apart differ by 0.3-2 N in the average, runs
+    1e-6 apart by ~0.1 N). So the family is linear interpolation between runs on a ``RESOLUTION``
+    grid, computed when first needed, and the fit starts from the ``TOP`` best widths of a scan at
+    ``SCAN_STEP`` (:meth:`starts_for`).
+    """
 
     name = "backlash"
     stage = "element"
-    parameters = (Parameter("backlash_rad", 0.0, 3e-4, neutral=0.0, detect=7.3e-5,
+    parameters = (Parameter("half_width_rad", 0.0, 3e-4, neutral=0.0, detect=BACKLASH_DETECT_RAD,
                             doc="dead-zone half-width on every motion axis"),)
-    observed_by = {"forces": "amplitude-dependent change of the tooth harmonics (tested from the orthogonal "
-                             "variant only)"}
+    observed_by = {"forces": "tooth-harmonic and mean-force changes that depend on the force amplitude: half-width "
+                             ">= 3e-5 rad (6 arcsec) on the aluminium pass"}
     signatures = ("harmonic_rolloff",)
-    doc = "the paper's eq. 12 dead zone (variant 'backlash')"
-    toml = "robot file: backlash half-width, variant 'backlash'"
-    GRID = (0.0, 3e-5, 7.3e-5, 1.5e-4, 3e-4)
-
-    def reason_not_applicable(self, state):
-        if state.variant not in ("orthogonal", "backlash"):
-            return (f"backlash is added to the 'orthogonal' variant (the paper's backlash variant); the model here "
-                    f"is {state.variant!r}: identify with --variant orthogonal to test it")
-        return None
+    doc = "the paper's eq. 12 dead zone on every motion axis (element 'backlash', any variant)"
+    toml = "[[elements]] type = \"backlash\", half_width_rad"
+    RESOLUTION = 1e-6
+    SCAN_STEP = 1e-5
+    TOP = 3
 
     def apply_values(self, state, values):
-        s = float(values[0])
-        robot = replace(state.case.robot, backlash_half_width_rad=s)
-        return replace(state, case=replace(state.case, robot=robot), variant="backlash" if s > 0 else "orthogonal")
+        from robolobes.cases.spec import ElementSpec
 
-    def table(self, params):  # not an element of the case file: the variant says it
-        return {}
+        kept = tuple(e for e in state.elements if e.type != self.name)  # one dead zone: the new width replaces
+        return replace(state, elements=kept + (ElementSpec(self.name, {"half_width_rad": float(values[0])}),))
 
     def family(self, ctx, state):
-        runs = [ctx.raw_averages(self.apply_values(state, (g,))) for g in self.GRID]
-        grid = np.array(self.GRID)
+        runs: dict = {}
+        n_max = int(round(self.upper[0] / self.RESOLUTION))
+
+        def run(k):
+            if k not in runs:
+                runs[k] = ctx.raw_averages(self.apply_values(state, (k * self.RESOLUTION,)))
+            return runs[k]
 
         def f(v):
-            s = float(np.clip(v[0], grid[0], grid[-1]))
-            i = int(np.clip(np.searchsorted(grid, s) - 1, 0, len(grid) - 2))
-            w = (s - grid[i]) / (grid[i + 1] - grid[i])
-            return [(1 - w) * a + w * b for a, b in zip(runs[i], runs[i + 1])]
+            x = float(np.clip(v[0], 0.0, self.upper[0])) / self.RESOLUTION
+            k = int(min(np.floor(x), n_max - 1))
+            w = x - k
+            if w < 1e-9:
+                return run(k)
+            return [(1 - w) * a + w * b for a, b in zip(run(k), run(k + 1))]
         return f
+
+    def starts_for(self, cost):
+        grid = np.arange(0.0, self.upper[0] + 0.5 * self.SCAN_STEP, self.SCAN_STEP)
+        c = np.array([cost(np.array([g])) for g in grid])
+        return [np.array([grid[i]]) for i in np.argsort(c)[:self.TOP]]
 
     def starts(self):
         return [np.array([5e-5]), np.array([1.5e-4])]
@@ -372,3 +405,113 @@ def process_damping_c(ksp_n_per_m3: float, flank_m: float, depth_m: float, speed
     ``b L^2 ydot / (2 V)``, times the indentation coefficient ``Ksp`` (N/m^3)."""
     return ksp_n_per_m3 * depth_m * flank_m ** 2 / (2.0 * speed_m_per_s)
 
+
+#: Indentation (ploughing) coefficient range for steels, N/m^3 (order of magnitude of published
+#: process-damping identifications, e.g. 4e13 N/m^3 in Altintas, Eynian & Onozuka 2008).
+KSP_RANGE_N_PER_M3 = (1e13, 1e14)
+#: Flank-contact (wear land) length of an end mill, m: 0.02 mm (sharp) to 0.3 mm (ISO 8688 end of life, VB).
+FLANK_RANGE_M = (2e-5, 3e-4)
+
+
+def _engaged_nn(tool, cut) -> np.ndarray:
+    """``(N / 2 pi) * integral over the engagement of n n^T dphi`` (2, 2), ``n = (sin phi, cos phi)``:
+    the time average of ``sum_j g_j n_j n_j^T`` over a revolution (dimensionless)."""
+    from robolobes.cases.milling import engagement_rad
+
+    a, b = engagement_rad(tool, cut)
+    s2 = lambda p: np.sin(2 * p)  # noqa: E731
+    ss = 0.5 * (b - a) - 0.25 * (s2(b) - s2(a))           # int sin^2
+    cc = 0.5 * (b - a) + 0.25 * (s2(b) - s2(a))           # int cos^2
+    sc = 0.5 * (np.sin(b) ** 2 - np.sin(a) ** 2)           # int sin cos
+    return tool.teeth / (2 * np.pi) * np.array([[ss, sc], [sc, cc]])
+
+
+class ProcessDamping(Effect):
+    """Process damping: the flank of each engaged tooth indents the wavy surface it cuts.
+
+    Law (Altintas, Eynian & Onozuka 2008; Budak & Tunc 2010): a tooth whose flank of length ``L``
+    rubs a surface of slope ``y'/V`` indents the volume ``b L^2 y' / (2 V)`` and feels the force
+    ``Ksp`` times it, along its own chip normal ``n = (sin phi, cos phi)``: a viscous damper
+    ``c = Ksp L^2 b / (2 V)`` per engaged tooth, ``b`` the axial depth and ``V = pi D n / 60`` the
+    cutting speed (:func:`process_damping_c`). The law only sees ``Ksp L^2``: that product
+    (``ksp_l2_n_per_m``, N/m) is the parameter; ``L`` is reported at the published ``Ksp`` range.
+
+    Time-invariant form (what the lobes and the time domain both build, :class:`TipDamper`): the
+    damper averaged over the revolution, ``Cc = c * (N / 2 pi) int_engagement n n^T dphi`` (2 x 2 in
+    ``x_c, y_c``); the periodic part is dropped as the zeroth-order approximation drops it for the
+    cutting force. So the damping falls as ``1 / V`` and grows with the depth: at a fixed
+    ``Ksp L^2`` it is strongest at low spindle speed, which is what tells it from a joint-damping
+    scale in observations over several speeds. Valid while ``L`` is much shorter than the surface
+    wavelength ``V / f`` (small slope under the flank).
+
+    Bounds: ``0 <= Ksp L^2 <= 1e14 * (0.3 mm)^2 = 9e6 N/m`` (:data:`KSP_RANGE_N_PER_M3`,
+    :data:`FLANK_RANGE_M`). Detection: an observation's verdict flips when the damper closes its
+    margin to the lobes' limit; :meth:`detection_threshold` gives the ``Ksp L^2`` that adds a given
+    fraction of the chatter mode's own damping at a speed and depth.
+    """
+
+    name = "process_damping"
+    stage = "element"
+    parameters = (Parameter("ksp_l2_n_per_m", 0.0, KSP_RANGE_N_PER_M3[1] * FLANK_RANGE_M[1] ** 2, neutral=0.0,
+                            doc="indentation coefficient times flank contact squared, Ksp L^2 (N/m)"),)
+    observed_by = {"stability": "an observation whose margin to the lobes' limit the damper closes "
+                                "(see ProcessDamping.detection_threshold)"}
+    signatures = ("stability_shift",)
+    doc = "process damping: flank indentation, c = Ksp L^2 b / (2 V) per engaged tooth, averaged in the cut plane"
+
+    @staticmethod
+    def speed_m_per_s(tool, cut) -> float:
+        """Cutting speed ``V = pi D n / 60`` at the tool's periphery, m/s."""
+        return math.pi * tool.diameter_m * cut.spindle_rpm / 60.0
+
+    def matrix_cut(self, ksp_l2_n_per_m: float, tool, cut) -> np.ndarray:
+        """Averaged damper ``Cc`` (2, 2) in N s/m, cut frame ``(x_c, y_c)``, at the cut's depth and speed."""
+        c = ksp_l2_n_per_m * cut.ap_m / (2.0 * self.speed_m_per_s(tool, cut))
+        return c * _engaged_nn(tool, cut)
+
+    def table(self, params) -> dict:
+        raise NotImplementedError("process_damping depends on the cut: use element_table(ksp_l2, tool, cut, feed_direction)")
+
+    def element_table(self, ksp_l2_n_per_m: float, tool, cut, feed_direction) -> dict:
+        """The ``[[elements]]`` table (``tip_damper``) of the damper for this cut."""
+        C = self.matrix_cut(ksp_l2_n_per_m, tool, cut)
+        return {"type": "tip_damper", "cxx_n_s_per_m": float(C[0, 0]), "cyy_n_s_per_m": float(C[1, 1]),
+                "cxy_n_s_per_m": float(C[0, 1]), "feed_direction": [float(x) for x in feed_direction]}
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the damper of its own case's cut (the damper depends on depth and speed)."""
+        from robolobes.cases.spec import ElementSpec
+
+        p = check_params(self, params)["ksp_l2_n_per_m"]
+        c = model.case
+        t = self.element_table(p, c.tool, c.cut, c.cut.feed_direction)
+        return model.with_element(ElementSpec(type=t.pop("type"), params=t))
+
+    def flank_m(self, ksp_l2_n_per_m: float) -> tuple[float, float]:
+        """Flank contact ``L`` (m) the value needs at ``Ksp`` = the upper and the lower end of its range."""
+        return tuple(math.sqrt(ksp_l2_n_per_m / k) for k in KSP_RANGE_N_PER_M3[::-1])
+
+    def detection_threshold(self, structure, tool, cut, fraction: float = 0.3) -> float:
+        """``Ksp L^2`` (N/m) whose damper adds ``fraction`` of the structure's own damping to its
+        tool-tip-dominant mode in the cut plane, at the cut's depth and speed.
+
+        For one mode the stability limit is proportional to its damping (``b_lim = 2 k zeta (1 + zeta)
+        / (N Kt alpha)`` at the lobes' minimum, Altintas ch. 3), so an observation at ``1 + fraction``
+        times the limit flips when the damping grows by about that fraction. Undamped real modes of
+        ``structure`` (a :class:`lobes.PhysicalStructure`): mode ``k`` with mass-normalized shape
+        ``psi`` has damping ``psi^T C psi`` and gains ``u^T Cc u`` with ``u = tcp[:2] psi``; the mode
+        taken is the one with the largest tool-tip compliance ``|u|^2 / omega^2``.
+        """
+        M, C, K, T = (np.asarray(x, float) for x in (structure.M, structure.C, structure.K, structure.tcp))
+        import scipy.linalg as sl
+
+        w2, psi = sl.eigh(K, M)
+        u = T[:2] @ psi
+        k = int(np.argmax(np.sum(u ** 2, axis=0) / w2))
+        own = float(psi[:, k] @ C @ psi[:, k])
+        D = self.matrix_cut(1.0, tool, cut)
+        per_unit = float(u[:, k] @ D @ u[:, k])
+        return fraction * own / per_unit
+
+
+register(ProcessDamping())

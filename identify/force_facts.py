@@ -62,21 +62,52 @@ def tab10_fact(variant: str = "basic", progress=None) -> dict:
 def steel_fact(variant: str = "basic", progress=None) -> dict:
     """Fact (b): the steel cut observed stable at 3100 rpm, 1.6 mm, at the pass start (module docstring).
 
-    Slow: every bisection step is a robust lobes verdict (about 15-25 evaluations)."""
+    The fast stability pipeline (:mod:`identify.force_stability`, about 15 s). ``verdict_before`` is
+    the lobes' robust verdict (:func:`lobes.stability`, Richardson) with ``depth_limit_m`` and
+    ``chatter_freq_hz``. When process damping within its physical bound (``Ksp L^2 <= 9e6 N/m``)
+    cannot stabilize the cut, the value it would need (searched up to 1e12 N/m) is added to
+    ``effects`` with ``"within_bounds": False`` and ``credible`` False."""
+    import math
+    from dataclasses import replace
+
     from robolobes.cases import load_case
+    from robolobes.lobes import LobeProblem, stability
 
     from .effects import ModelState
     from .force_data import StabilityObservation, StabilityObservations
-    from .force_stability import identify_stability
+    from .force_stability import Candidate, ObservationModel, _pd_evidence, critical_value, identify_stability
 
     case = load_case("tx200-steel")
-    obs = StabilityObservations(path=Path("tx200-steel (paper, section 4.2)"),
-                                rows=(StabilityObservation(case="tx200-steel", rpm=case.cut.spindle_rpm,
-                                                           depth_m=case.cut.ap_m, chatter=False, path_s_m=0.0),))
-    res = identify_stability(obs, ModelState(case=case, variant=variant, case_ref="tx200-steel"), progress=progress)
+    row = StabilityObservation(case="tx200-steel", rpm=case.cut.spindle_rpm, depth_m=case.cut.ap_m, chatter=False,
+                               path_s_m=0.0)
+    obs = StabilityObservations(path=Path("tx200-steel (paper, section 4.2)"), rows=(row,))
+    state = ModelState(case=case, variant=variant, case_ref="tx200-steel")
+    res = identify_stability(obs, state, progress=progress)
     d = res.to_json()
+    om = ObservationModel.build(state, case, row)
+    sp = stability(om.problem)
+    vb = {**d["verdicts_before"][0], "lobes_verdict": sp.verdict.status, "lobes_verdict_reason": sp.verdict.reason,
+          "depth_limit_m": sp.depth_limit_m, "depth_limit_error_m": sp.depth_limit_error_m,
+          "chatter_freq_hz": sp.limit_chatter_freq_hz, "bifurcation": sp.limit_bifurcation}
+    effects = list(d["effects"])
+    if not any(e["name"] == "process_damping" for e in effects):
+        wide = Candidate("process_damping", "ksp_l2_n_per_m", 0.0, 1e12, 0.0)
+        need = critical_value(om, wide)
+        if math.isfinite(need):
+            ev = _pd_evidence({"value": need}, [om], sp.limit_chatter_freq_hz)
+            ev.update(credible=False, within_bounds=False,
+                      why=ev["why"] + f"; beyond the physical bound Ksp L^2 <= {wide_bound():.3g} N/m")
+            effects.append({"name": "process_damping", "params": {"ksp_l2_n_per_m": need},
+                            "uncertainty": {"ksp_l2_n_per_m": math.nan}, "evidence": ev})
     return {"variant": variant, "error_before": res.error_before, "error_after": res.error_after,
-            "verdict_before": d["verdicts_before"][0], "effects": d["effects"]}
+            "verdict_before": vb, "effects": effects}
+
+
+def wide_bound() -> float:
+    """The physical upper bound of process damping's ``Ksp L^2``, N/m."""
+    from .cutting_effects import ProcessDamping
+
+    return ProcessDamping.parameters[0].upper
 
 
 def _fmt_stats(v) -> str:

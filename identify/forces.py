@@ -153,8 +153,12 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
         v = lo + x[:-1] * scale
         return (shift_average(model(v)[0], x[-1])[:, :2] - meas).ravel()
 
+    def cost(v):  # training cost at values v, the phase re-aligned (for effects that scan: starts_for)
+        a = model(np.asarray(v, float))[0]
+        return float(np.sum((shift_average(a, align_shift(a, ctx.train.mean))[:, :2] - meas) ** 2))
+
     best = None
-    for v0 in effect.starts():
+    for v0 in effect.starts_for(cost):
         x0 = np.append(np.clip((np.asarray(v0, float) - lo) / scale, 0, 1), shift0)
         r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift0 - 0.5),
                                              np.append(np.ones(len(lo)), shift0 + 0.5)), x_scale="jac")

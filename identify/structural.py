@@ -31,7 +31,7 @@ import numpy as np
 from .effects import Effect, ModelState, Parameter, register
 
 __all__ = ["PoseMatrices", "StructuralEffect", "TcpModeEffect", "JointCorrectionEffect",
-           "OrthogonalCorrectionEffect", "PayloadMassEffect", "pose_matrices"]
+           "OrthogonalCorrectionEffect", "PayloadMassEffect", "ServoEffect", "pose_matrices"]
 
 
 @dataclass(frozen=True)
@@ -257,38 +257,85 @@ class PayloadMassEffect(StructuralEffect):
 
 
 class ServoEffect(StructuralEffect):
-    """Servo dynamics of axis ``joint``: not a default candidate (name it with ``--effects``)."""
+    """Servo dynamics of axis ``joint``: the rotor (reflected inertia ``J``) held by a PD position loop
+    (``kp``, ``kd``) behind the joint spring ``k`` (element :class:`~robolobes.linearize.extra_elements.ServoDrive`).
 
-    candidate = False
-    observed_by = {"frf": "an extra pose-dependent mode and reshaped robot modes when the position loop "
-                          "kp is within ~10x the joint stiffness"}
+    Parameters are the loop's physics, relative to the axis (so one set of bounds fits every axis):
+    ``kp_scale = kp / k``, the rotor's natural frequency against a locked link
+    ``rotor_freq_hz = sqrt((k + kp) / J) / 2 pi`` and its damping ratio
+    ``rotor_damping_ratio = kd / (2 sqrt((k + kp) J))``. The element's ``J, kp, kd`` follow from them
+    and the joint table's ``k``.
+
+    Detection threshold (derived from the axis's dynamic stiffness, not tuned): seen from the link,
+    the servo puts the loop in series with the joint spring,
+    ``k_eff(w) = k (kp - J w^2 + i w kd) / (k + kp - J w^2 + i w kd)``.
+
+    * Against the model without it: the static stiffness ``k kp / (k + kp)`` differs from ``k`` by
+      ``k / (k + kp)``; this must exceed the 10 % stiffness a joint correction needs
+      (``joint_correction_aN`` ``detect``): ``kp_scale <= 9`` ("kp within ~10x the joint stiffness").
+    * Against a joint correction (a constant stiffness scale, which mimics any static softening):
+      only the frequency dependence of ``k_eff`` tells a servo apart. Undamped, between 0 and the
+      axis's dominant robot mode ``f_r`` it changes by
+      ``delta = (1 / kp_scale) x / (1 - x)``, ``x = (f_r / rotor_freq_hz)^2``; the same 10 %:
+      ``|delta| >= 0.1``, i.e. the rotor mode within ``f_r / sqrt(x_t)`` with
+      ``x_t = 0.1 kp_scale / (1 + 0.1 kp_scale)`` (for ``kp_scale = 1``: below 3.3 f_r). Above it the
+      servo is a joint correction to within the noise, and either may be reported.
+    """
+
+    observed_by = {"frf": "static: kp <= 9 k (the axis 10 % softer, as a joint correction); told apart from a "
+                          "joint correction when the axis's dynamic stiffness at its dominant robot mode f_r differs "
+                          "from the static one by >= 10 %: |(k / kp) x / (1 - x)| >= 0.1, x = (f_r / rotor_freq_hz)^2"}
     signatures = ("extra_peak", "pose_shift", "peak_height")
 
     def __init__(self, joint: int):
         self.joint = joint
         self.name = f"servo_a{joint}"
-        self.doc = f"axis {joint}: rotor inertia and PD position loop behind the joint spring"
-        self.parameters = (Parameter("rotor_inertia_kg_m2", 0.05, 200.0, log=True),
-                           Parameter("kp_n_m_per_rad", 1e5, 1e9, log=True),
-                           Parameter("kd_n_m_s_per_rad", 1.0, 1e5, log=True))
+        self.doc = (f"axis {joint}: rotor inertia and PD position loop behind the joint spring (kp = kp_scale k, "
+                    "rotor frequency against a locked link, its damping ratio)")
+        self.parameters = (
+            Parameter("kp_scale", 0.05, 100.0, detect=9.0, log=True,
+                      doc="position-loop stiffness / joint stiffness (link side); seen when <= 9"),
+            Parameter("rotor_freq_hz", 5.0, 3000.0, log=True, doc="sqrt((k + kp) / J) / 2 pi"),
+            Parameter("rotor_damping_ratio", 0.005, 2.0, log=True, doc="kd / (2 sqrt((k + kp) J))"))
+
+    @staticmethod
+    def physical(k: float, params) -> tuple[float, float, float]:
+        """``(J kg m^2, kp N m/rad, kd N m s/rad)`` from the effect's parameters and the joint stiffness ``k``."""
+        kp = params["kp_scale"] * k
+        J = (k + kp) / (2 * math.pi * params["rotor_freq_hz"]) ** 2
+        kd = 2 * params["rotor_damping_ratio"] * math.sqrt((k + kp) * J)
+        return J, kp, kd
 
     def table(self, params):
-        return {"type": "servo_drive", "joint": self.joint, **{k: float(v) for k, v in params.items()}}
+        raise NotImplementedError("servo needs the joint stiffness: use apply(model, params)")
+
+    def apply(self, model, params):
+        from robolobes.cases.spec import ElementSpec
+        from .effects import check_params
+
+        params = check_params(self, params)
+        J, kp, kd = self.physical(model.case.robot.joints[self.joint - 1].stiffness_n_m_per_rad, params)
+        return model.with_element(ElementSpec("servo_drive", {"joint": self.joint, "rotor_inertia_kg_m2": J,
+                                                              "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": kd}))
 
     def applicable(self, model: ModelState) -> bool:
         return self.joint <= model.case.robot.n_joints
 
     def guesses(self, diagnosis):
-        return [{"rotor_inertia_kg_m2": 5.0, "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": 1e3} for kp in (3e6, 3e7)]
+        # a scan: the rotor mode is a local minimum of the least squares away from its frequency;
+        # fit() optimizes from the two starts with the lowest cost
+        return [{"kp_scale": s, "rotor_freq_hz": f, "rotor_damping_ratio": 0.1}
+                for s in (0.5, 2.0) for f in (20.0, 40.0, 80.0, 160.0, 320.0)]
 
     def perturb(self, pm, params):
         i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
         k = pm.joint_k[self.joint - 1]
-        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = params["rotor_inertia_kg_m2"]
-        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = params["kd_n_m_s_per_rad"]
+        J, kp, kd = self.physical(k, params)
+        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = J
+        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = kd
         K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K
         K[i, n] = K[n, i] = -k
-        K[n, n] = k + params["kp_n_m_per_rad"]
+        K[n, n] = k + kp
         z = np.zeros((3, 1))
         return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, z]), J_payload=np.hstack([pm.J_payload, z]))
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from robolobes.core.errors import BadInput
 
-__all__ = ["POSE_OFFSETS_DEG", "PAIRS", "synthetic_frf_set", "write_uff_pairs"]
+__all__ = ["POSE_OFFSETS_DEG", "PAIRS", "synthetic_frf_set", "write_uff_pairs", "truth_errors"]
 
 # motor-angle offsets from the case's start pose (deg): reachable, within the joint ranges
 POSE_OFFSETS_DEG = np.array([[0, 0, 0, 0, 0, 0], [15, 5, -5, 0, 10, 0], [-15, -5, 8, 10, -10, 20],
@@ -95,3 +95,15 @@ def synthetic_frf_set(directory, case, *, variant: str = "basic", elements=(), n
         out["H_meas"].append(hm)
     (d / "poses.csv").write_text("\n".join(lines) + "\n")
     return out
+
+
+def truth_errors(truth: dict) -> tuple[float, float]:
+    """For a set written by :func:`synthetic_frf_set` (its returned ``truth``): the error of the
+    generating model on the data (the noise alone) and the undeclared elements' own size (model
+    with them minus model without), both RMS over all lines divided by RMS |H_meas|."""
+    meas = np.concatenate([h.ravel() for h in truth["H_meas"]])
+    true = np.concatenate([h.ravel() for h in truth["H_true"]])
+    base = np.concatenate([h.ravel() for h in truth["H_base"]])
+    den = np.sqrt(np.mean(np.abs(meas) ** 2))
+    return (float(np.sqrt(np.mean(np.abs(true - meas) ** 2)) / den),
+            float(np.sqrt(np.mean(np.abs(true - base) ** 2)) / den))

@@ -33,6 +33,10 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     kp_n_m_per_rad = 2.0e7
     kd_n_m_s_per_rad = 2.0e3
 
+    [[elements]]
+    type = "backlash"              # dead zone (eq. 12) on every motion axis, any variant
+    half_width_rad = 7.3e-5
+
 :data:`ELEMENT_TYPES` maps each ``type`` to its class; :func:`element_from_spec` checks the keys
 strictly (unknown or missing keys, values out of range: :class:`BadInput` naming them).
 """
@@ -51,8 +55,8 @@ from robolobes.core.validate import finite
 
 from .model import Element, ModelBuilder, VirtualJoints
 
-__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "ELEMENT_TYPES",
-           "element_from_spec", "element_table"]
+__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
+           "ELEMENT_TYPES", "element_from_spec", "element_table"]
 
 
 def _unit(v, what: str) -> np.ndarray:
@@ -304,9 +308,38 @@ class ServoDrive(Element):
         return kq, kv
 
 
+@dataclass(frozen=True)
+class GearBacklash(Element):
+    """The backlash dead zone of eq. 12 on every motion axis, in any variant.
+
+    ``tau_i = -k_i dz(q_i - theta_i) - d_i qd_i``, ``dz`` zero inside ``+-half_width_rad``. The dead
+    zone belongs to the motion springs (the gearboxes), not to the orthogonal compliance, so the
+    element applies to the ``basic`` variant as well: :func:`linearize.model.build_model` gives the
+    variant's :class:`~robolobes.linearize.model.MotionSprings` this half-width (the last such
+    element wins, also over the ``backlash`` variant's) and keeps no separate element, so every
+    solver that knows the dead zone (the full nonlinear path, the fast path, the backlash
+    equilibrium) sees it. Linearizations take the gears as engaged (no change of K).
+
+    Parameters
+    ----------
+    half_width_rad : float >= 0     dead-zone half-width s, rad (the paper's 7.3e-5 = 15 arcsec)
+    """
+
+    half_width_rad: float
+    name: str = "backlash"
+
+    def __post_init__(self):
+        _positive("backlash half_width_rad", self.half_width_rad, zero_ok=True)
+
+    @property
+    def dead_zone_rad(self) -> float:
+        """The half-width :func:`linearize.model.build_model` gives the motion springs."""
+        return float(self.half_width_rad)
+
+
 ELEMENT_TYPES = {"tcp_mode": TcpMode, "joint_correction": JointCorrection,
                  "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
-                 "servo_drive": ServoDrive}
+                 "servo_drive": ServoDrive, "backlash": GearBacklash}
 
 
 def _keys(cls) -> list[str]:
@@ -353,3 +386,67 @@ def element_table(element: Element) -> dict:
                 out[k] = [float(x) for x in v] if isinstance(v, tuple) else v
             return out
     raise ValueError(f"{element!r} is not one of the extra elements ({', '.join(ELEMENT_TYPES)})")
+
+
+@dataclass(frozen=True)
+class TipDamper(Element):
+    """A viscous damper at the tool tip, acting in the cut plane (process damping's time-invariant form).
+
+    The force on the tool is ``F = -R2^T Cc R2 v_tcp`` with ``v_tcp = J q'`` the TCP velocity (base
+    frame), ``R2`` the rows ``x_c, y_c`` of the cut frame (:func:`cases.milling.cut_frame` of
+    ``feed_direction`` and the current tool axis) and ``Cc = [[cxx, cxy], [cxy, cyy]]`` (N s/m,
+    symmetric positive semi-definite). The generalized force is ``J^T F``; its velocity tangent
+    ``-J^T R2^T Cc R2 J`` is what the linearization adds to C (the position tangent, ``O(v)``, is
+    omitted: it vanishes at the linearization's rest state and only slows Newton elsewhere).
+
+    :class:`identify.cutting_effects.ProcessDamping` computes ``Cc`` from the process-damping law
+    for a cut; in a TOML it is ``type = "tip_damper"`` with ``cxx_n_s_per_m``, ``cyy_n_s_per_m``,
+    ``cxy_n_s_per_m`` and ``feed_direction`` (base frame).
+    """
+
+    cxx_n_s_per_m: float
+    cyy_n_s_per_m: float
+    cxy_n_s_per_m: float = 0.0
+    feed_direction: tuple = (1.0, 0.0, 0.0)
+    name: str = "tip damper"
+
+    def __post_init__(self):
+        _positive("tip_damper cxx_n_s_per_m", self.cxx_n_s_per_m, zero_ok=True)
+        _positive("tip_damper cyy_n_s_per_m", self.cyy_n_s_per_m, zero_ok=True)
+        cxy = self.cxy_n_s_per_m
+        if isinstance(cxy, bool) or not isinstance(cxy, (int, float)) or not math.isfinite(cxy):
+            raise BadInput(f"tip_damper cxy_n_s_per_m must be a finite number, got {cxy!r}")
+        if cxy * cxy > self.cxx_n_s_per_m * self.cyy_n_s_per_m * (1 + 1e-9) + 1e-300:
+            raise BadInput(f"tip_damper: cxy_n_s_per_m = {cxy:g} makes the damper active (cxy^2 > cxx cyy = "
+                           f"{self.cxx_n_s_per_m * self.cyy_n_s_per_m:g}); valid: |cxy| <= sqrt(cxx cyy)")
+        object.__setattr__(self, "feed_direction", tuple(_unit(self.feed_direction, "tip_damper feed_direction")))
+
+    @property
+    def matrix_cut(self) -> np.ndarray:
+        """``Cc`` (2, 2), N s/m, in ``(x_c, y_c)``."""
+        return np.array([[self.cxx_n_s_per_m, self.cxy_n_s_per_m], [self.cxy_n_s_per_m, self.cyy_n_s_per_m]])
+
+    def bind(self, robot):
+        object.__setattr__(self, "_data", robot.model.createData())  # own workspace: never clobbers robot.data
+
+    def _velocity_map(self, robot, q) -> np.ndarray:
+        """``(J^T R2^T Cc R2 J)`` (nv, nv) at q."""
+        from robolobes.cases.milling import cut_frame
+
+        d = self._data
+        J = np.asarray(pin.computeFrameJacobian(robot.model, d, q, robot.tcp_frame, pin.LOCAL_WORLD_ALIGNED))
+        J = J.reshape(6, robot.nv)[:3]
+        pin.updateFramePlacement(robot.model, d, robot.tcp_frame)
+        R2 = cut_frame(np.asarray(self.feed_direction), d.oMf[robot.tcp_frame].rotation[:, 2])[:2]
+        T = R2 @ J
+        return T.T @ self.matrix_cut @ T
+
+    def force(self, robot, q, v, theta):
+        return -self._velocity_map(robot, q) @ v
+
+    def tangent(self, robot, q, v, theta, engaged=False):
+        return np.zeros((robot.nv, robot.nv)), -self._velocity_map(robot, q)
+
+
+ELEMENT_TYPES["tip_damper"] = TipDamper
+__all__ += ["TipDamper"]

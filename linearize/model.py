@@ -404,7 +404,18 @@ def build_model(spec: RobotSpec, variant: str = "basic", *, damping_scale: float
     """
     els = variant_elements(spec, variant, damping_scale) + tuple(extra_elements)
     name = variant if not extra_elements and damping_scale == 1.0 else f"{variant}+"
-    return assemble(spec, els, variant=name)
+    return assemble(spec, _with_dead_zone(els), variant=name)
+
+
+def _with_dead_zone(els: tuple) -> tuple:
+    """Fold elements that set the motion springs' dead zone (``dead_zone_rad``: the ``backlash``
+    element of :mod:`linearize.extra_elements`, any variant) into the :class:`MotionSprings`; the
+    last one wins. The solvers read the dead zone from the springs only."""
+    widths = [float(e.dead_zone_rad) for e in els if hasattr(e, "dead_zone_rad")]
+    if not widths:
+        return els
+    return tuple(replace(e, backlash_rad=widths[-1]) if isinstance(e, MotionSprings) else e
+                 for e in els if not hasattr(e, "dead_zone_rad"))
 
 
 def rigid_q(robot: FlexibleRobot, theta: np.ndarray) -> np.ndarray:

@@ -242,14 +242,44 @@ def _search(rho_fn, rpm: np.ndarray, rho0: np.ndarray, depth_max: float, n_coars
     return est, hi, np.isfinite(hi)
 
 
+def _walk(rho_fn, rpm: np.ndarray, grid: np.ndarray, j0: np.ndarray, step: int, stats: dict):
+    """Walk along ``grid`` from index ``j0`` (per speed) in direction ``step`` (+1 up, -1 down) until
+    ``rho - 1`` changes sign: up, to the first unstable depth; down, to the first stable one.
+
+    Returns ``j, g, gprev``: the index where the walk stopped (``len(grid)`` up or ``-1`` down when
+    it ran off the grid), ``rho - 1`` there and at the index before it (``j - step``); NaN where
+    not evaluated.
+    """
+    j = np.array(j0, dtype=int)
+    g = np.full(len(rpm), np.nan)
+    gprev = np.full(len(rpm), np.nan)
+    active = (j >= 0) & (j < len(grid))
+    while active.any():
+        idx = np.flatnonzero(active)
+        gi = rho_fn(rpm[idx], grid[j[idx]]) - 1.0
+        stats["evaluations"] += len(idx)
+        stats["rounds"] += 1
+        stop = (gi >= 0) if step > 0 else (gi < 0)
+        g[idx[stop]] = gi[stop]
+        go = idx[~stop]
+        gprev[go] = gi[~stop]
+        j[go] += step
+        active[idx[stop]] = False
+        active[go] = (j[go] >= 0) & (j[go] < len(grid))
+    return j, g, gprev
+
+
 def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, n_coarse, rtol, stats):
     """SDM search whose coarse scan is made with the cheap exact-free-decay scheme, then VERIFIED.
 
     The two schemes discretize the same equation to O(dt^2), so their brackets agree except where
     the spectral radius is within that error of 1 at a grid depth. Each prescan bracket is checked
-    with the SDM itself (stable at ``lo`` -- or ``lo = 0`` --, unstable at ``hi``; stable at
-    ``depth_max`` when no bracket was found); any speed that fails the check is rescanned with the
-    SDM. The refinement is all SDM, so the result is the SDM's own limit.
+    with the SDM itself, in one batch: stable at ``lo`` (or ``lo = 0``), unstable at ``hi``; stable
+    at ``depth_max`` when no bracket was found. Where the SDM disagrees, the SDM walks along the
+    grid from there to its own sign change: up from ``hi`` when it is stable there, down from
+    ``lo`` (or ``depth_max``) when it is unstable there. (The prescan's stable verdicts at the grid
+    depths below are kept, as for a bracket that passed the check.) The refinement is all SDM, so
+    the result is the SDM's own limit, bracketed by SDM evaluations of both signs.
     """
     sdm = lambda s, d: engine.multipliers(s, d)[0]
     grid = _grid(depth_max, n_coarse)
@@ -259,31 +289,47 @@ def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, 
     S = len(rpm)
     glo = rho0 - 1.0
     ghi = np.full(S, np.nan)
-    ok = np.ones(S, bool)
     found = np.isfinite(hi)
-    j = np.flatnonzero(found)
-    if len(j):
-        g = sdm(rpm[j], hi[j]) - 1.0
-        stats["evaluations"] += len(j)
-        ghi[j] = g
-        ok[j] &= g >= 0
-        k = j[lo[j] > 0]
-        if len(k):
-            g = sdm(rpm[k], lo[k]) - 1.0
-            stats["evaluations"] += len(k)
-            glo = glo.copy()
-            glo[k] = g
-            ok[k] &= g < 0
-    j = np.flatnonzero(~found)
-    if len(j):
-        g = sdm(rpm[j], np.full(len(j), depth_max)) - 1.0
-        stats["evaluations"] += len(j)
-        ok[j] &= g < 0
-    bad = np.flatnonzero(~ok)
-    stats["prescan_rejected"] = stats.get("prescan_rejected", 0) + len(bad)
-    if len(bad):
-        l2, gl2, h2, gh2 = _coarse(sdm, rpm[bad], rho0[bad], grid, stats)
-        lo[bad], glo[bad], hi[bad], ghi[bad] = l2, gl2, h2, gh2
+    jh = np.flatnonzero(found)
+    jl = jh[lo[jh] > 0]
+    jn = np.flatnonzero(~found)
+    idx = np.concatenate([jh, jl, jn])
+    if len(idx):
+        g = sdm(rpm[idx], np.concatenate([hi[jh], lo[jl], np.full(len(jn), depth_max)])) - 1.0
+        stats["evaluations"] += len(idx)
+        stats["rounds"] += 1
+        ghi[jh] = g[:len(jh)]
+        glo[jl] = g[len(jh):len(jh) + len(jl)]
+        gn = g[len(jh) + len(jl):]
+    else:
+        gn = np.zeros(0)
+    unstable_lo = np.zeros(S, bool)
+    unstable_lo[jl] = glo[jl] >= 0
+    unstable_lo[jn[gn >= 0]] = True
+    down = np.flatnonzero(unstable_lo)
+    up = np.flatnonzero(found & ~unstable_lo & (ghi < 0))
+    stats["prescan_rejected"] = stats.get("prescan_rejected", 0) + len(up) + len(down)
+    gidx = lambda d: np.searchsorted(grid, d)  # index of a grid depth
+    if len(up):  # SDM stable at the prescan's first unstable depth: on up the grid
+        j0 = gidx(hi[up]) + 1
+        j, g, gp = _walk(sdm, rpm[up], grid, j0, +1, stats)
+        glo[up] = np.where(j > j0, gp, ghi[up])
+        lo[up] = grid[j - 1]
+        off = j >= len(grid)  # stable at every grid depth up to depth_max: no limit
+        hi[up] = np.where(off, np.nan, grid[np.minimum(j, len(grid) - 1)])
+        ghi[up] = g
+    if len(down):  # SDM unstable at the prescan's last stable depth (or depth_max): down the grid
+        js = np.where(found[down], gidx(lo[down]), len(grid) - 1)
+        gs = np.full(len(down), np.nan)
+        gs[found[down]] = glo[down[found[down]]]
+        nf = down[~found[down]]
+        gs[~found[down]] = gn[np.searchsorted(jn, nf)]
+        j, g, gp = _walk(sdm, rpm[down], grid, js - 1, -1, stats)
+        hi[down] = grid[j + 1]
+        ghi[down] = np.where(j + 1 < js, gp, gs)
+        off = j < 0  # unstable at every grid depth below: bracket [0, grid[0]]
+        lo[down] = np.where(off, 0.0, grid[np.maximum(j, 0)])
+        glo[down] = np.where(off, rho0[down] - 1.0, g)
     est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats)
     return est, hi, np.isfinite(hi)
 

@@ -1,6 +1,7 @@
 """``robolobes map``: outputs, JSON contract, resume, and bad input (exit 2, nothing written)."""
 
 import json
+import math
 
 import pytest
 
@@ -83,4 +84,84 @@ def test_optimize_cli_bad_input(tmp_path, capsys, bad, words):
     assert main(["optimize", "--case", "tx200-steel", "--quiet", "--out", str(out)] + bad) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0]
+    assert not out.exists()
+
+
+def test_optimize_cli_mrr_and_strict_keys(tmp_path, capsys):
+    # --objective mrr over 3 speeds, tiny budget. The printed removal rate is the printed depth
+    # times a_e f_z N n (case numbers, closed form) in cm^3/min: rtol 1e-9. The paper's placement is
+    # not strictly feasible: A3 2.86 deg past +145 deg (Tab. 7, NOTES.md).
+    from robolobes.cases import load_case
+
+    out = tmp_path / "o"
+    args = ["optimize", "--case", "tx200-steel", "--over", "tool-rotation", "--n-starts", "1", "--max-local-evals",
+            "0", "--n-s", "2", "--objective", "mrr", "--rpm-min", "2000", "--rpm-max", "6000", "--n-rpm", "3",
+            "--quiet", "--json", "--out", str(out)]
+    assert main(args) == 0
+    js = json.loads(capsys.readouterr().out)
+    for k in ("objective", "best_rpm", "baseline_mrr_cm3_per_min", "optimized_mrr_cm3_per_min", "mrr_gain",
+              "objective_note", "strict_optimum", "baseline_strict_violation"):
+        assert k in js, k
+    assert js["objective"] == "mrr" and js["best_rpm"] in (2000.0, 4000.0, 6000.0)
+    c = load_case("tx200-steel")
+    mrr = js["optimized_min_depth_m"] * c.cut.ae_m * c.cut.feed_per_tooth_m * c.tool.teeth * js["best_rpm"] / 60.0
+    assert js["optimized_mrr_cm3_per_min"] == pytest.approx(mrr * 1e6 * 60.0, rel=1e-9)
+    assert js["mrr_gain"] >= 1.0
+    assert js["baseline_strict_ok"] is False
+    assert js["baseline_strict_violation"].startswith("A3 2.86 deg past +145 deg")
+    assert js["strict_optimum"]["how"] in ("tolerant optimum", "strict run")
+    assert f"--rpm-min {js['best_rpm']:g}" in js["lobes_check"]
+    # the optimum's case runs at the optimum's speed with the case's feed per tooth
+    oc = load_case(str(out / "optimum-case.toml"))
+    assert oc.cut.spindle_rpm == js["best_rpm"]
+    assert oc.cut.feed_per_tooth_m == pytest.approx(c.cut.feed_per_tooth_m, rel=1e-12)
+
+
+@pytest.mark.parametrize("bad, words", [
+    (["--n-rpm", "5"], "--n-rpm is for --objective mrr"),
+    (["--objective", "mrr", "--at-rpm", "3000"], "--at-rpm is for --objective depth"),
+    (["--objective", "mrr", "--n-rpm", "0"], "--n-rpm must be from 1 to 200"),
+    (["--objective", "mrr", "--rpm-min", "4000", "--rpm-max", "3000"], "--rpm-max"),
+])
+def test_optimize_cli_bad_speed_options(tmp_path, capsys, bad, words):
+    out = tmp_path / "o"
+    assert main(["optimize", "--case", "tx200-steel", "--quiet", "--out", str(out)] + bad) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+    assert not out.exists()
+
+
+def test_map_lead_tilt_sweeps_tilt_with_lead_fixed_at_zero(tmp_path, capsys):
+    # Two tilts, -8 and +8 deg. At each pose the tool axis (TCP z from fk of the stored joints) keeps
+    # the start pose's component along the feed (no lead: 2.6e-6, Tab. 7's printed angles are
+    # 3.4e-5 rad off vertical) and makes the tilt angle with the start pose's axis: geometry, to
+    # the IK's accuracy (1e-9).
+    import numpy as np
+    import xarray as xr
+
+    from robolobes.cases import load_case
+    from robolobes.linearize import fk
+
+    out = tmp_path / "lt"
+    args = ["map", "--case", "tx200-steel", "--over", "lead-tilt", "--n", "2", "--tilt-range-deg=-8,8",
+            "--n-rpm", "2", "--scheduler", "serial", "--quiet", "--json", "--out", str(out)]
+    assert main(args) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["lead_deg"] == 0.0 and "perpendicular to the tool axis" in js["lead_note"]
+    ds = xr.open_zarr(out / "map.zarr", consolidated=False)
+    case = load_case("tx200-steel")
+    z0 = np.asarray(fk(case.robot, case.path.start_q_rad)[1])[:, 2]
+    for i, tilt in enumerate(np.radians([-8.0, 8.0])):
+        assert ds["reachable"].values[i]
+        z = np.asarray(fk(case.robot, ds["theta_rad"].values[i])[1])[:, 2]
+        feed = ds["feed_direction"].values[i]
+        assert abs(z @ feed - z0 @ feed) < 1e-9
+        assert math.isclose(math.acos(np.clip(z @ z0, -1, 1)), abs(tilt), abs_tol=1e-9)
+
+
+def test_map_lead_angle_refused_with_its_reason(tmp_path, capsys):
+    out = tmp_path / "ld"
+    assert main(SMALL + ["--over", "lead-tilt", "--lead-range-deg", "0,10", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--lead-range-deg 0,10 refused" in err[0] and "perpendicular" in err[0]
     assert not out.exists()

@@ -23,6 +23,8 @@ __all__ = ["register", "register_optimize", "run_map", "run_optimize", "parse_ra
 
 MAX_N = 20_000
 MAX_N_RPM = 1_000
+#: speeds per candidate of the MRR objective (robolobes.workspace.optimize.MAX_MRR_SPEEDS)
+MAX_OPT_RPM = 200
 
 
 def parse_range(name: str, text: str | None, scale: float, default):
@@ -72,8 +74,10 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--rotation-range-deg", default=None, metavar="A,B",
                    help="tool rotation about its axis, deg (default -180,180)")
     p.add_argument("--tilt-range-deg", default=None, metavar="A,B",
-                   help="tool tilt about the feed, deg (default -20,20); lead (towards the feed) is not "
-                        "modelled: the 2.5-D cut needs the feed perpendicular to the tool axis")
+                   help="tool tilt about the feed (sideways), deg (default -20,20)")
+    p.add_argument("--lead-range-deg", default=None, metavar="A,B",
+                   help="tool lead towards the feed, deg: only 0,0 (the default) is accepted, because the 2.5-D "
+                        "cut model needs the feed perpendicular to the tool axis")
     p.add_argument("--rpm-min", type=float, default=2000.0)
     p.add_argument("--rpm-max", type=float, default=25000.0)
     p.add_argument("--n-rpm", type=int, default=100, help=f"speeds, 1..{MAX_N_RPM} (default 100)")
@@ -127,6 +131,11 @@ def problem_from_args(args):
                                                  (-math.pi, math.pi)),
                   tilt_range_rad=parse_range("--tilt-range-deg", args.tilt_range_deg, math.pi / 180,
                                              (-math.radians(20), math.radians(20))))
+    lead = parse_range("--lead-range-deg", args.lead_range_deg, 1.0, (0.0, 0.0))
+    if lead != (0.0, 0.0):
+        from .problem import LEAD_REASON
+
+        raise BadInput(f"--lead-range-deg {args.lead_range_deg} refused: {LEAD_REASON}")
     if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
         raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
     case = load_case(args.model if args.model is not None else args.case)
@@ -176,6 +185,11 @@ def run_map(args: argparse.Namespace) -> int:
         summary.update(wall_s=time.perf_counter() - t0, case=problem.case.name, variant=problem.variant,
                        over=problem.over, store="map.zarr", figures=figures, method=method.describe(),
                        **out.provenance)
+        if problem.over == "lead-tilt":
+            from .problem import LEAD_REASON
+
+            summary.update(lead_deg=0.0, lead_note=f"the sweep is over tilt (about the feed) only; lead is fixed at "
+                                                  f"0 deg: {LEAD_REASON}")
         write_json(out.path / "map.json", summary)
     if args.json:
         from robolobes.core.io import to_jsonable
@@ -212,6 +226,15 @@ def register_optimize(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--n-s", type=int, default=5, help="poses along the pass (default 5)")
     p.add_argument("--n-starts", type=int, default=12, help="multistart sample size (default 12)")
     p.add_argument("--max-local-evals", type=int, default=40, help="Nelder-Mead evaluations per local run (default 40)")
+    p.add_argument("--objective", default="depth", choices=("depth", "mrr"),
+                   help="depth: the minimum critical depth over the pass at the chosen speed (default); mrr: the "
+                        "material removal rate a_p a_e f_z N n with the speed free over --rpm-min..--rpm-max")
+    p.add_argument("--rpm-min", type=float, default=None,
+                   help="mrr: lowest speed searched, rpm (default half the case's speed)")
+    p.add_argument("--rpm-max", type=float, default=None,
+                   help="mrr: highest speed searched, rpm (default the case's speed: the cutting speed the tool and "
+                        "material allow, which the model does not know)")
+    p.add_argument("--n-rpm", type=int, default=None, help=f"mrr: speeds searched, 1..{MAX_OPT_RPM} (default 16)")
     p.add_argument("--strict", action="store_true", help="joint ranges without the 5 deg tolerance")
     p.add_argument("--time-domain", action="store_true", help="verify baseline and optimum in the time domain")
     p.add_argument("--td-end-s", type=float, default=4.0, help="simulated time of each verification run, s "
@@ -258,26 +281,64 @@ def optimize_problem_from_args(args):
     for k in names:
         if not rng[k][0] <= 0.0 <= rng[k][1]:
             raise BadInput(f"the range of {k} must contain 0 (the paper's placement is the baseline), got {rng[k]}")
+    speed_flags = [f for f, v in (("--rpm-min", args.rpm_min), ("--rpm-max", args.rpm_max), ("--n-rpm", args.n_rpm))
+                   if v is not None]
+    if args.objective == "depth" and speed_flags:
+        raise BadInput(f"{speed_flags[0]} is for --objective mrr (the depth objective uses --at-rpm)")
+    if args.objective == "mrr" and args.at_rpm is not None:
+        raise BadInput("--at-rpm is for --objective depth (mrr searches --rpm-min..--rpm-max)")
     case = load_case(args.model if args.model is not None else args.case)
+    speeds = _mrr_speeds(args, case) if args.objective == "mrr" else ()
     mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
                          op_rpm=args.at_rpm, tool_modes=_tool_modes(args.tool_modes), model_file=args.model)
-    return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict)
+    return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict,
+                           objective=args.objective, speeds_rpm=speeds)
 
 
-def _td_depth(res) -> float:
-    """The depth of the time-domain check, m: between the baseline's and the optimum's minimum
-    limits (their geometric mean, at most 1.5 times the baseline's; an optimum with no limit below
+def _mrr_speeds(args, case) -> np.ndarray:
+    """The speeds the MRR objective searches (rpm), checked: default half the case's speed to the
+    case's speed, 16 of them."""
+    lo = case.cut.spindle_rpm / 2 if args.rpm_min is None else args.rpm_min
+    hi = case.cut.spindle_rpm if args.rpm_max is None else args.rpm_max
+    n = 16 if args.n_rpm is None else args.n_rpm
+    for name, v in (("--rpm-min", lo), ("--rpm-max", hi)):
+        if not (math.isfinite(v) and 0 < v <= 100_000):
+            raise BadInput(f"{name} must be a speed in (0, 100000] rpm, got {v}")
+    if hi < lo:
+        raise BadInput(f"--rpm-max ({hi}) must be >= --rpm-min ({lo})")
+    if isinstance(n, bool) or not 1 <= n <= MAX_OPT_RPM:
+        raise BadInput(f"--n-rpm must be from 1 to {MAX_OPT_RPM}, got {n}")
+    return np.linspace(lo, hi, n)
+
+
+def _td_point(res) -> tuple[float, float, float, float]:
+    """Speed and depth of the time-domain check: ``(rpm, depth_m, baseline_limit_m,
+    optimum_limit_m)``. The speed is the optimum's (the chosen one, or the MRR's best); the
+    limits are the smallest over the pass at that speed. The depth lies between the two limits
+    (their geometric mean, at most 1.5 times the baseline's; an optimum with no limit below
     ``depth_max_m`` counts as that), where the lobes predict "unstable" for the baseline and
-    "stable" for the optimum -- a check that can fail either way. Without a gain: the case's depth."""
-    b, o = res.baseline.min_depth_m, min(res.best.min_depth_m, res.problem.depth_max_m)
-    if res.baseline.feasible and math.isfinite(b) and res.best.feasible and o > b * 1.02:
-        return b * min(math.sqrt(o / b), 1.5)
-    return res.problem.map_problem.case.cut.ap_m
+    "stable" for the optimum -- a check that can fail either way. Without a gain there: the
+    case's depth."""
+    base, best = res.baseline, res.best
+    dmax = res.problem.depth_max_m
+    rpm = best.rpm if best.feasible else res.problem.map_problem.op_rpm
+    b = o = math.nan
+    if base.feasible and best.feasible:
+        k = int(np.argmin(np.abs(np.asarray(base.speeds_rpm) - rpm)))
+        b, o = float(np.min(base.depth_by_speed_m[:, k])), min(best.min_depth_m, dmax)
+    if math.isfinite(b) and o > b * 1.02:
+        return rpm, b * min(math.sqrt(o / b), 1.5), b, o
+    return rpm, res.problem.map_problem.case.cut.ap_m, b, o
 
 
-def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
+def _predict(depth_m: float, limit_m: float) -> str | None:
+    """What the lobes predict at ``depth_m`` for a pass whose smallest limit is ``limit_m``."""
+    return None if math.isnan(limit_m) else ("stable" if depth_m < limit_m else "unstable")
+
+
+def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
     """Linearized time-domain run of the pass at a candidate (its start pose and feed), at
-    ``depth_m`` and the chosen speed: the verdict and chatter frequency."""
+    ``depth_m`` and ``rpm``: the verdict and chatter frequency."""
     import warnings
     from dataclasses import replace
 
@@ -288,7 +349,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
     mp = opt.map_problem
     case = mp.case
     case = replace(case, path=replace(case.path, start_q_rad=np.asarray(ev.theta[0])),
-                   cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=mp.op_rpm,
+                   cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=rpm,
                                ap_m=depth_m))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -297,13 +358,14 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float) -> dict:
         run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
     s = run.summary
     return {**s.verdict.to_json(), "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
-            "depth_m": case.cut.ap_m, "rpm": mp.op_rpm, "note": getattr(s, "note", None)}
+            "depth_m": case.cut.ap_m, "rpm": rpm, "note": getattr(s, "note", None)}
 
 
 def optimum_case_toml(case_ref: str, res) -> str:
     """The case TOML of the optimum: the case's own file with the optimum's feed direction and
-    start pose, so that ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit
-    in the optimum's cut frame (a yawed part feeds along another base direction)."""
+    start pose (and, for the MRR objective, its speed at the case's feed per tooth), so that
+    ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit in the optimum's cut
+    frame (a yawed part feeds along another base direction)."""
     from pathlib import Path
 
     from robolobes.cases.loader import _resolve
@@ -314,7 +376,14 @@ def optimum_case_toml(case_ref: str, res) -> str:
     if isinstance(robot, str) and robot.endswith(".toml") and not Path(robot).is_absolute():
         data["robot"] = str((src.parent / robot).resolve())
     data["name"] = f"{data.get('name', src.stem)}-optimum"
-    data.setdefault("cut", {})["feed_direction"] = [float(v) for v in res.best.feed]
+    cut = data.setdefault("cut", {})
+    cut["feed_direction"] = [float(v) for v in res.best.feed]
+    rpm0 = float(cut.get("spindle_rpm", res.best.rpm))
+    if res.problem.objective == "mrr" and rpm0 != res.best.rpm:
+        # the optimum's speed, at the case's feed per tooth (the feed rate scales with the speed)
+        cut["spindle_rpm"] = float(res.best.rpm)
+        if "feed_mm_per_min" in cut:
+            cut["feed_mm_per_min"] = float(cut["feed_mm_per_min"]) * res.best.rpm / rpm0
     data.setdefault("pass", {})["start_pose"] = [float(v) for v in np.degrees(res.best.theta[0])]
     return f"# {data['name']}: case {case_ref} with the placement found by robolobes optimize\n" + dumps(data)
 
@@ -327,13 +396,14 @@ def _plot_optimum(res, path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
     ax = axes[0]
     for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
-        ax.plot(ev.s_m * 1e3, np.minimum(ev.depth_m, res.problem.depth_max_m) * 1e3, "o-", color=c, label=lab)
+        ax.plot(ev.s_m * 1e3, np.minimum(ev.depth_m, res.problem.depth_max_m) * 1e3, "o-", color=c,
+                label=f"{lab}, {ev.rpm:.0f} rpm")
     ax.axhline(res.problem.map_problem.case.cut.ap_m * 1e3, color="k", ls="--", label="cut depth")
     ax.set_xlabel("travel along the pass, mm")
-    ax.set_ylabel(f"critical depth at {res.problem.map_problem.op_rpm:.0f} rpm, mm")
+    ax.set_ylabel("critical depth, mm")
     ax.set_ylim(bottom=0)
     ax.legend(fontsize=8)
-    ax.set_title(f"gain {res.gain:.3g}")
+    ax.set_title(f"gain {res.gain:.3g}" if res.problem.objective == "depth" else f"MRR gain {res.mrr_gain:.3g}")
     ax = axes[1]
     spec = res.problem.map_problem.case.robot
     for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
@@ -349,11 +419,101 @@ def _plot_optimum(res, path) -> None:
     plt.close(fig)
 
 
+#: cm^3/min per m^3/s (the edge unit of the removal rate)
+CM3_PER_MIN = 1e6 * 60.0
+
+
+def _placement_json(opt, ev) -> dict:
+    """Where a candidate puts the part and the tool (edge units), and its worst pass pose."""
+    vals = dict.fromkeys(("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad"), 0.0)
+    vals.update(zip(opt.variables, np.asarray(ev.x, dtype=float).tolist()))
+    return {"placement_offset_m": [vals["x_offset_m"], vals["y_offset_m"], vals["z_offset_m"]],
+            "yaw_deg": math.degrees(vals["yaw_rad"]), "tool_rotation_deg": math.degrees(vals["tool_rotation_rad"]),
+            "worst_pose_q_deg": np.degrees(ev.theta[ev.worst]).tolist() if ev.feasible else None}
+
+
+def _ratio(a: float, b: float) -> float | None:
+    return a / b if b > 0 and math.isfinite(b) and math.isfinite(a) else None
+
+
+def _objective_json(opt, res) -> dict:
+    """The objective, the speeds, and the removal rates of baseline and optimum (cm^3/min)."""
+    base, best = res.baseline, res.best
+    js = {"objective": opt.objective, "best_rpm": best.rpm if best.feasible else None,
+          "baseline_rpm": base.rpm if base.feasible else None,
+          "baseline_mrr_cm3_per_min": base.mrr_m3_per_s * CM3_PER_MIN if base.feasible else None,
+          "optimized_mrr_cm3_per_min": best.mrr_m3_per_s * CM3_PER_MIN if best.feasible else None,
+          "mrr_gain": _ratio(best.mrr_m3_per_s, base.mrr_m3_per_s)}
+    if opt.objective == "mrr":
+        sp = opt.eval_speeds_rpm
+        js["mrr_speeds_rpm"] = {"min": float(sp[0]), "max": float(sp[-1]), "n": len(sp)}
+        # per speed: the smallest limit over the pass poses (m; null: none below depth_max_m)
+        js["min_depth_by_speed_m"] = {"rpm": sp, **{k: (np.min(ev.depth_by_speed_m, axis=0) if ev.feasible else None)
+                                                     for k, ev in (("baseline", base), ("optimum", best))}}
+        js["objective_note"] = ("MRR = a_p a_e v_f, v_f = f_z N n (the case's a_e and f_z). At a fixed speed it is "
+                                "proportional to the depth, so the speed is free too: the maximum over the speeds of "
+                                "(the smallest critical depth over the pass poses at that speed) x a_e f_z N n. "
+                                "Baseline: the paper's placement at its own best speed in the same range. A depth "
+                                "with no limit below depth_max_m counts as depth_max_m (the MRR is then a lower "
+                                "bound).")
+    else:
+        js["objective_note"] = ("the smallest critical depth over the pass poses at the chosen speed; the MRR "
+                                "(a_p a_e f_z N n at that depth) is proportional to it")
+    return js
+
+
+def _strict_json(opt, res, strict) -> dict:
+    """The optimum with strict joint ranges (gains over the tolerant baseline: the paper's
+    placement is not strictly feasible)."""
+    ev = strict.best
+    js = {"how": strict.how, "note": strict.note, "feasible": ev.feasible,
+          "min_depth_m": ev.min_depth_m if ev.feasible else None, "rpm": ev.rpm if ev.feasible else None,
+          "mrr_cm3_per_min": ev.mrr_m3_per_s * CM3_PER_MIN if ev.feasible else None,
+          "gain_over_tolerant_baseline": _ratio(ev.min_depth_m, res.baseline.min_depth_m),
+          "mrr_gain_over_tolerant_baseline": _ratio(ev.mrr_m3_per_s, res.baseline.mrr_m3_per_s),
+          "strict_ok": ev.strict_ok}
+    place = _placement_json(opt, ev)
+    js.update(place if ev.feasible else dict.fromkeys(place))   # no strict-feasible candidate: no placement
+    if strict.result is not None:
+        js["evaluations"] = strict.result.stats["evaluations"]
+    return js
+
+
+def _optimize_json(opt, res, strict) -> dict:
+    from .optimize import strict_violation
+
+    base, best = res.baseline, res.best
+    js = {"case": opt.map_problem.case.name, "variant": opt.map_problem.variant, "rpm": opt.map_problem.op_rpm,
+          "variables": list(opt.variables), **_objective_json(opt, res),
+          "baseline_min_depth_m": base.min_depth_m, "optimized_min_depth_m": best.min_depth_m, "gain": res.gain,
+          "depth_max_m": opt.depth_max_m,
+          "gain_at_least": (opt.depth_max_m / base.min_depth_m
+                            if math.isinf(best.min_depth_m) and best.feasible and base.min_depth_m > 0 else None),
+          **_placement_json(opt, best),
+          "baseline_worst_pose_q_deg": np.degrees(base.theta[base.worst]).tolist() if base.feasible else None,
+          "optimum_strict_ok": best.strict_ok, "baseline_strict_ok": base.strict_ok,
+          "baseline_strict_violation": (strict_violation(opt.map_problem.case.robot, base.theta)
+                                        if base.feasible else None),
+          "baseline_feasible": base.feasible, "baseline_reason": base.reason,
+          "depth_along_pass_m": {"s_m": best.s_m, "baseline": base.depth_m, "optimum": best.depth_m},
+          "strict_limits": opt.strict, "strict_optimum": _strict_json(opt, res, strict),
+          "evaluations": res.stats["evaluations"],
+          "check": "minimum depths recomputed by SDM (m = 40) on the full, untruncated structure"}
+    return js
+
+
+def _lobes_check(opt, js: dict) -> str:
+    rpm = js["best_rpm"]
+    return ("robolobes lobes --case DIR/optimum-case.toml --variant " + opt.map_problem.variant
+            + " --q-deg=" + ",".join(f"{v:.6f}" for v in js["worst_pose_q_deg"])
+            + f" --rpm-min {rpm:g} --rpm-max {rpm:g} --n-rpm 1 --depth-max-mm {opt.depth_max_m * 1e3:g} --json")
+
+
 def run_optimize(args: argparse.Namespace) -> int:
     from robolobes.core.io import to_jsonable, write_json
     from robolobes.core.outdir import OutputDir
 
-    from .optimize import optimize_placement
+    from .optimize import optimize_with_strict
     from .problem import MapMethod
 
     t0 = time.perf_counter()
@@ -361,41 +521,24 @@ def run_optimize(args: argparse.Namespace) -> int:
     method = MapMethod()
     inputs = {"command": "optimize", "problem": opt.map_problem.describe(), "variables": list(opt.variables),
               "bounds": {k: list(v) for k, v in opt.bounds.items()}, "n_s": opt.n_s, "strict": opt.strict,
+              "objective": opt.objective, "speeds_rpm": list(opt.speeds_rpm),
               "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
               "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
     out = OutputDir(args.out, "optimize", inputs)
     cb, close = _progress(args.quiet, "optimize")
     try:
-        res = optimize_placement(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
-                                 progress=cb)
+        res, strict = optimize_with_strict(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
+                                           progress=cb)
     finally:
         close()
-    vals = dict.fromkeys(("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad"), 0.0)
-    vals.update(zip(opt.variables, res.best.x.tolist()))
-    js = {"case": opt.map_problem.case.name, "variant": opt.map_problem.variant, "rpm": opt.map_problem.op_rpm,
-          "variables": list(opt.variables), "baseline_min_depth_m": res.baseline.min_depth_m,
-          "optimized_min_depth_m": res.best.min_depth_m, "gain": res.gain,
-          "depth_max_m": opt.depth_max_m,
-          "gain_at_least": (opt.depth_max_m / res.baseline.min_depth_m
-                            if math.isinf(res.best.min_depth_m) and res.best.feasible and res.baseline.min_depth_m > 0
-                            else None),
-          "placement_offset_m": [vals["x_offset_m"], vals["y_offset_m"], vals["z_offset_m"]],
-          "yaw_deg": math.degrees(vals["yaw_rad"]), "tool_rotation_deg": math.degrees(vals["tool_rotation_rad"]),
-          "worst_pose_q_deg": np.degrees(res.best.theta[res.best.worst]).tolist() if res.best.feasible else None,
-          "baseline_worst_pose_q_deg": (np.degrees(res.baseline.theta[res.baseline.worst]).tolist()
-                                        if res.baseline.feasible else None),
-          "optimum_strict_ok": res.best.strict_ok, "baseline_strict_ok": res.baseline.strict_ok,
-          "baseline_feasible": res.baseline.feasible, "baseline_reason": res.baseline.reason,
-          "depth_along_pass_m": {"s_m": res.best.s_m, "baseline": res.baseline.depth_m, "optimum": res.best.depth_m},
-          "strict_limits": opt.strict, "evaluations": res.stats["evaluations"],
-          "check": "minimum depths recomputed by SDM (m = 40) on the full, untruncated structure"}
+    js = _optimize_json(opt, res, strict)
     if args.time_domain:
-        d = _td_depth(res)
+        rpm, d, b, o = _td_point(res)
         js["time_domain"] = {
-            "depth_m": d, "lobes_predict": {"baseline": "stable" if d < res.baseline.min_depth_m else "unstable",
-                                            "optimum": "stable" if d < res.best.min_depth_m else "unstable"},
-            "baseline": _time_domain(opt, res.baseline, args.td_end_s, d) if res.baseline.feasible else None,
-            "optimum": _time_domain(opt, res.best, args.td_end_s, d) if res.best.feasible else None}
+            "depth_m": d, "rpm": rpm,
+            "lobes_predict": {"baseline": _predict(d, b), "optimum": _predict(d, o)},
+            "baseline": _time_domain(opt, res.baseline, args.td_end_s, d, rpm) if res.baseline.feasible else None,
+            "optimum": _time_domain(opt, res.best, args.td_end_s, d, rpm) if res.best.feasible else None}
     js["wall_s"] = time.perf_counter() - t0
     with out:
         js.update(out.provenance)
@@ -403,17 +546,36 @@ def run_optimize(args: argparse.Namespace) -> int:
             from robolobes.core.io import write_text
 
             write_text(out.path / "optimum-case.toml", optimum_case_toml(args.model or args.case, res))
-            js["lobes_check"] = ("robolobes lobes --case DIR/optimum-case.toml --variant " + opt.map_problem.variant
-                                 + " --q-deg=" + ",".join(f"{v:.6f}" for v in js["worst_pose_q_deg"])
-                                 + f" --rpm-min {opt.map_problem.op_rpm:g} --rpm-max {opt.map_problem.op_rpm:g}"
-                                 + " --n-rpm 1 --depth-max-mm 50 --json")
+            js["lobes_check"] = _lobes_check(opt, js)
         write_json(out.path / "optimize.json", js)
         _plot_optimum(res, out.path / "optimize.png")
     if args.json:
         print(json.dumps(to_jsonable(js), indent=1))
     else:
-        print(f"{js['case']} at {js['rpm']:.0f} rpm: minimum critical depth over the pass "
-              f"{js['baseline_min_depth_m'] * 1e3:.4g} mm (paper's placement) -> {js['optimized_min_depth_m'] * 1e3:.4g} mm "
-              f"(gain {js['gain']:.3g}) with offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, "
-              f"yaw {js['yaw_deg']:.1f} deg, tool rotation {js['tool_rotation_deg']:.1f} deg -> {out.target}")
+        _print_optimum(js, out.target)
     return 0
+
+
+def _print_optimum(js: dict, target) -> None:
+    def mm(v):
+        if v is None or math.isinf(v):   # JSON writes inf as null: no limit below the depth searched
+            return f"no limit below {js['depth_max_m'] * 1e3:g} mm"
+        return f"{v * 1e3:.4g} mm"
+
+    g = js["gain"]
+    gain = f"{g:.3g}" if g is not None and math.isfinite(g) else (
+        f"at least {js['gain_at_least']:.3g}" if js["gain_at_least"] is not None else "none")
+    where = (f"offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, yaw {js['yaw_deg']:.1f} deg, "
+             f"tool rotation {js['tool_rotation_deg']:.1f} deg")
+    if js["objective"] == "mrr":
+        print(f"{js['case']}: material removal rate {js['baseline_mrr_cm3_per_min']:.4g} cm^3/min (paper's placement, "
+              f"{js['baseline_rpm']:.0f} rpm) -> {js['optimized_mrr_cm3_per_min']:.4g} cm^3/min at {js['best_rpm']:.0f} "
+              f"rpm (gain {js['mrr_gain']:.3g}; depth {mm(js['optimized_min_depth_m'])}) with {where} -> {target}")
+    else:
+        print(f"{js['case']} at {js['rpm']:.0f} rpm: minimum critical depth over the pass "
+              f"{mm(js['baseline_min_depth_m'])} (paper's placement) -> {mm(js['optimized_min_depth_m'])} "
+              f"(gain {gain}) with {where} -> {target}")
+    st = js["strict_optimum"]
+    found = mm(st["min_depth_m"]) if st["feasible"] else "none (no strictly feasible candidate found)"
+    print(f"strict joint ranges ({st['how']}): minimum depth {found}; baseline strict-feasible: "
+          f"{js['baseline_strict_ok']} ({js['baseline_strict_violation'] or 'inside'})")

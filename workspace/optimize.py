@@ -1,10 +1,18 @@
-"""Placement and tool-rotation optimization: maximize the minimum stable depth over the pass.
+"""Placement and tool-rotation optimization: maximize the minimum stable depth over the pass, or
+the material removal rate.
 
 Decision variables (any subset, ``over``): the pass start offset ``x, y, z`` (m, base frame), the
 part's yaw about base z (rad), and the tool's rotation about its own axis (rad), constant along the
-pass. Objective: the smallest critical depth over ``n_s`` poses along the (moved) pass at the
-chosen spindle speed (SDM, :func:`robolobes.lobes.solve` at that one speed, on the modally
-truncated structure of :class:`MapMethod`).
+pass. Objectives (SDM, :func:`robolobes.lobes.solve`, on the modally truncated structure of
+:class:`MapMethod`):
+
+* ``depth``: the smallest critical depth over ``n_s`` poses along the (moved) pass at the chosen
+  spindle speed;
+* ``mrr``: the material removal rate ``MRR = a_p a_e v_f`` with ``v_f = f_z N n`` (m^3/s; the
+  case's ``a_e`` and ``f_z``). At a fixed speed MRR is proportional to the depth, so this
+  objective frees the speed too: ``max over n in speeds_rpm of [min over the pass poses of
+  a_lim(n)] * a_e f_z N n``. A depth with no limit below ``depth_max_m`` counts as
+  ``depth_max_m`` (so the MRR is then a lower bound).
 
 Feasible poses: every pass pose reachable on one continuous IK branch (each pose's IK continued
 from the previous one), joints within their ranges (5 deg tolerance as the case loader, or strict),
@@ -33,9 +41,23 @@ from .compute import build_robot, pose_structure
 from .poses import solve_pose, start_pose, target
 from .problem import MapMethod, MapProblem
 
-__all__ = ["OptimizeProblem", "Optimum", "PassEvaluation", "evaluate_pass", "optimize_placement", "VARIABLES"]
+__all__ = ["OptimizeProblem", "Optimum", "PassEvaluation", "StrictOptimum", "evaluate_pass", "optimize_placement",
+           "optimize_with_strict", "mrr_per_depth_m2_per_s", "strict_violation", "VARIABLES", "OBJECTIVES",
+           "MAX_MRR_SPEEDS"]
 
 VARIABLES = ("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad")
+OBJECTIVES = ("depth", "mrr")
+#: speeds searched per candidate by the MRR objective (each multiplies the cost of an evaluation)
+MAX_MRR_SPEEDS = 200
+
+
+def mrr_per_depth_m2_per_s(case, rpm) -> np.ndarray:
+    """Material removal rate per unit axial depth, ``a_e v_f`` with ``v_f = f_z N n`` (the case's
+    radial depth and feed per tooth; the feed rate from ``Cut.feed_rate_m_per_s``), m^2/s, at each
+    spindle speed ``rpm`` (S,) rpm. Times the depth (m) gives the MRR in m^3/s."""
+    rpm = np.atleast_1d(np.asarray(rpm, dtype=float))
+    cut = case.cut
+    return np.array([cut.ae_m * replace(cut, spindle_rpm=float(n)).feed_rate_m_per_s(case.tool) for n in rpm])
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +81,12 @@ class OptimizeProblem:
         Joint ranges without the 5 deg tolerance.
     min_sin, min_shoulder_m : float
         Distance to the singularities.
+    objective : {"depth", "mrr"}
+        Maximize the minimum critical depth over the pass at ``map_problem.op_rpm``, or the
+        material removal rate with the speed free over ``speeds_rpm`` (module docstring).
+    speeds_rpm : tuple of float, rpm
+        The speeds searched by the ``mrr`` objective (1 to :data:`MAX_MRR_SPEEDS`); must be empty
+        for ``depth``.
     """
 
     map_problem: MapProblem
@@ -69,8 +97,19 @@ class OptimizeProblem:
     strict: bool = False
     min_sin: float = 0.05
     min_shoulder_m: float = 0.05
+    objective: str = "depth"
+    speeds_rpm: tuple = ()
 
     def __post_init__(self) -> None:
+        if self.objective not in OBJECTIVES:
+            raise BadInput(f"objective must be one of {', '.join(OBJECTIVES)}, got {self.objective!r}")
+        sp = tuple(float(v) for v in np.asarray(self.speeds_rpm, dtype=float).reshape(-1))
+        if self.objective == "mrr" and not (1 <= len(sp) <= MAX_MRR_SPEEDS
+                                            and all(math.isfinite(v) and v > 0 for v in sp)):
+            raise BadInput(f"the mrr objective needs 1 to {MAX_MRR_SPEEDS} finite speeds > 0 rpm, got {len(sp)}")
+        if self.objective == "depth" and sp:
+            raise BadInput("speeds_rpm is for the mrr objective; the depth objective uses map_problem.op_rpm")
+        object.__setattr__(self, "speeds_rpm", sp)
         bad = [v for v in self.variables if v not in VARIABLES]
         if bad or not self.variables:
             raise BadInput(f"variables must be a non-empty subset of {', '.join(VARIABLES)}, got {self.variables!r}")
@@ -81,12 +120,20 @@ class OptimizeProblem:
         if not 2 <= self.n_s <= 50:
             raise BadInput(f"n_s (poses along the pass) must be from 2 to 50, got {self.n_s}")
 
+    @property
+    def eval_speeds_rpm(self) -> np.ndarray:
+        """The speeds each candidate is solved at (S,), rpm: the chosen speed, or the MRR range."""
+        return np.array(self.speeds_rpm if self.objective == "mrr" else (self.map_problem.op_rpm,))
+
 
 @dataclass(frozen=True)
 class PassEvaluation:
     """The pass at one candidate: ``feasible`` (and ``reason`` if not), the critical depth at each
-    pass pose ``depth_m`` (n_s,) m (inf: none below ``depth_max_m``), ``theta`` (n_s, 6) rad,
-    ``feed`` (3,), ``s_m`` (n_s,)."""
+    pass pose ``depth_m`` (n_s,) m at the speed ``rpm`` (inf: none below ``depth_max_m``),
+    ``theta`` (n_s, 6) rad, ``feed`` (3,), ``s_m`` (n_s,); ``strict_ok`` every pose inside the
+    strict joint ranges. ``speeds_rpm`` (S,) the speeds solved, ``depth_by_speed_m`` (n_s, S) m,
+    ``rpm`` the speed of ``depth_m`` (the chosen one, or the MRR's best), ``mrr_m3_per_s`` the
+    removal rate there (the smallest depth capped at ``depth_max_m``; -inf when infeasible)."""
 
     x: np.ndarray
     feasible: bool
@@ -96,6 +143,15 @@ class PassEvaluation:
     feed: np.ndarray
     s_m: np.ndarray
     strict_ok: bool = False
+    speeds_rpm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    depth_by_speed_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    rpm: float = math.nan
+    mrr_m3_per_s: float = -math.inf
+
+    def objective(self, name: str) -> float:
+        """The value maximized: ``min_depth_m`` (m) for "depth", ``mrr_m3_per_s`` for "mrr";
+        -inf when infeasible."""
+        return self.min_depth_m if name == "depth" else (self.mrr_m3_per_s if self.feasible else -math.inf)
 
     @property
     def min_depth_m(self) -> float:
@@ -141,7 +197,8 @@ def _pass_poses(opt: OptimizeProblem, values: dict, s: np.ndarray):
     return np.array(thetas), feed, "" if strict else "tolerance"
 
 
-def _depth_at(opt: OptimizeProblem, method: MapMethod, theta, feed, full: bool) -> float:
+def _depths_at(opt: OptimizeProblem, method: MapMethod, theta, feed, full: bool) -> np.ndarray:
+    """Critical depth (S,) m at one pose at each of ``opt.eval_speeds_rpm``."""
     mp = opt.map_problem
     from robolobes.linearize import linearize
 
@@ -153,9 +210,21 @@ def _depth_at(opt: OptimizeProblem, method: MapMethod, theta, feed, full: bool) 
     else:
         structure, _ = pose_structure(mp, method, lin, feed)
     cut = replace(mp.case.cut, feed_direction=tuple(feed), spindle_rpm=mp.op_rpm)
+    speeds = opt.eval_speeds_rpm
     res = solve(LobeProblem(structure, mp.case.tool, cut, mp.case.law), SemiDiscretization(m=method.m),
-                [mp.op_rpm], depth_max_m=opt.depth_max_m, rtol=method.rtol)
-    return float(res.depth_limit_m[0])
+                speeds, depth_max_m=opt.depth_max_m, rtol=method.rtol, chunk=len(speeds))
+    return np.asarray(res.depth_limit_m, dtype=float)
+
+
+def _best_speed(opt: OptimizeProblem, depth_by_speed: np.ndarray) -> tuple[int, float]:
+    """Index of the speed of the evaluation and the MRR there, m^3/s: the chosen speed for
+    "depth"; for "mrr" the speed that maximizes (min over poses of the capped depth) x a_e v_f.
+    ``depth_by_speed`` (n_s, S) m."""
+    speeds = opt.eval_speeds_rpm
+    low = np.min(np.minimum(depth_by_speed, opt.depth_max_m), axis=0)           # (S,) m
+    mrr = low * mrr_per_depth_m2_per_s(opt.map_problem.case, speeds)            # (S,) m^3/s
+    k = int(np.argmax(mrr)) if opt.objective == "mrr" else 0
+    return k, float(mrr[k])
 
 
 def evaluate_pass(opt: OptimizeProblem, x, method: MapMethod | None = None, *, full: bool = False) -> PassEvaluation:
@@ -169,11 +238,15 @@ def evaluate_pass(opt: OptimizeProblem, x, method: MapMethod | None = None, *, f
     s = np.linspace(0.0, _travel(opt.map_problem.case), opt.n_s)
     thetas, feed, why = _pass_poses(opt, values, s)
     strict_ok = why == ""
+    speeds = opt.eval_speeds_rpm
     if thetas is None:
-        return PassEvaluation(x, False, why, np.full(len(s), np.nan), np.full((len(s), 6), np.nan), feed, s)
+        return PassEvaluation(x, False, why, np.full(len(s), np.nan), np.full((len(s), 6), np.nan), feed, s,
+                              speeds_rpm=speeds, depth_by_speed_m=np.full((len(s), len(speeds)), np.nan))
     with threadpool_limits(1):
-        depth = np.array([_depth_at(opt, method, th, feed, full) for th in thetas])
-    return PassEvaluation(x, True, "", depth, thetas, feed, s, strict_ok)
+        by_speed = np.array([_depths_at(opt, method, th, feed, full) for th in thetas])   # (n_s, S)
+    k, mrr = _best_speed(opt, by_speed)
+    return PassEvaluation(x, True, "", by_speed[:, k], thetas, feed, s, strict_ok, speeds_rpm=speeds,
+                          depth_by_speed_m=by_speed, rpm=float(speeds[k]), mrr_m3_per_s=mrr)
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,8 +254,9 @@ class Optimum:
     """Result of :func:`optimize_placement`.
 
     ``baseline`` and ``best`` are :class:`PassEvaluation` on the full structure (the SDM check);
-    ``gain`` = best / baseline minimum depth; ``history`` the truncated-model objective of every
-    evaluation (x, min depth m); ``stats`` evaluations and wall time.
+    ``gain`` = best / baseline minimum depth (at their speeds); ``mrr_gain`` = best / baseline
+    removal rate; ``history`` the truncated-model objective of every evaluation (x, value: min
+    depth m, or MRR m^3/s); ``stats`` evaluations and wall time.
     """
 
     problem: OptimizeProblem
@@ -195,6 +269,11 @@ class Optimum:
     def gain(self) -> float:
         b = self.baseline.min_depth_m
         return self.best.min_depth_m / b if b > 0 and math.isfinite(b) else math.nan
+
+    @property
+    def mrr_gain(self) -> float:
+        b = self.baseline.mrr_m3_per_s
+        return self.best.mrr_m3_per_s / b if b > 0 and math.isfinite(b) else math.nan
 
 
 def _lhs(rng, n: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -224,15 +303,19 @@ def optimize_placement(opt: OptimizeProblem, method: MapMethod | None = None, *,
     history = []
     budget = n_starts + 1 + n_local * max_local_evals
 
+    # the objective's largest possible value: depth_max_m (at the fastest speed, for the MRR)
+    top = opt.depth_max_m * (1.0 if opt.objective == "depth"
+                             else float(np.max(mrr_per_depth_m2_per_s(opt.map_problem.case, opt.eval_speeds_rpm))))
+
     def f(x):
         x = np.clip(x, lo, hi)
         ev = evaluate_pass(opt, x, method)
-        history.append((x.copy(), ev.min_depth_m))
+        v = ev.objective(opt.objective)
+        history.append((x.copy(), v))
         if progress is not None:
             progress(min(len(history), budget), budget)
-        d = ev.min_depth_m
         # infeasible below every feasible point; "no limit below depth_max" counts as depth_max
-        return 1.0 if not math.isfinite(d) and d < 0 else -min(d, opt.depth_max_m) / opt.depth_max_m
+        return 1.0 if not math.isfinite(v) and v < 0 else -min(v, top) / top
 
     rng = np.random.default_rng(seed)
     starts = [np.clip(np.zeros(len(lo)), lo, hi)] + list(_lhs(rng, n_starts, lo, hi))
@@ -251,3 +334,65 @@ def optimize_placement(opt: OptimizeProblem, method: MapMethod | None = None, *,
     base = evaluate_pass(opt, base_x, method, full=True)
     return Optimum(problem=opt, baseline=base, best=best, history=tuple(history),
                    stats={"evaluations": len(history), "wall_s": time.perf_counter() - t0})
+
+
+def strict_violation(spec, thetas) -> str:
+    """Which joints of the poses ``thetas`` (n, 6) rad lie past their strict datasheet ranges
+    (modulo 2 pi), and by how much (deg), e.g. ``"A3 2.86 deg past +145 deg at 2 of 5 pass poses"``; "" if none."""
+    import warnings
+
+    from robolobes.linearize.kinematics import check_limits
+
+    with warnings.catch_warnings():   # each angle's 2 pi representation nearest its range (no raise)
+        warnings.simplefilter("ignore")
+        th = np.atleast_2d(check_limits(spec, np.atleast_2d(np.asarray(thetas, dtype=float)), tolerance_deg=180.0))
+    parts = []
+    for j, js in enumerate(spec.joints):
+        lo, hi = (float(v) for v in js.range_rad)
+        over_hi, under_lo = th[:, j] - hi, lo - th[:, j]
+        for excess, bound in ((over_hi, hi), (under_lo, lo)):
+            bad = excess > 0
+            if bad.any():
+                parts.append(f"{js.name} {math.degrees(float(excess.max())):.2f} deg past "
+                             f"{math.degrees(bound):+.4g} deg at {int(bad.sum())} of {len(th)} pass poses")
+    return "; ".join(parts)
+
+
+@dataclass(frozen=True, eq=False)
+class StrictOptimum:
+    """The optimum within the strict joint ranges (no 5 deg tolerance).
+
+    ``best`` (full-structure :class:`PassEvaluation`); ``how``: ``"tolerant optimum"`` (it is
+    strict-feasible, so no second run), ``"strict run"`` (a second optimization with strict
+    limits) or ``"strict problem"`` (the problem was strict already); ``note`` says why in words;
+    ``result`` the second run's :class:`Optimum` when there was one.
+    """
+
+    best: PassEvaluation
+    how: str
+    note: str
+    result: Optimum | None = None
+
+
+def optimize_with_strict(opt: OptimizeProblem, method: MapMethod | None = None,
+                         **kw) -> tuple[Optimum, StrictOptimum]:
+    """:func:`optimize_placement` within the tolerance band, then the optimum with strict limits.
+
+    The strict feasible set is a subset of the tolerant one. So when the tolerant optimum is
+    strict-feasible, it is also the strict optimum (no strict point can beat a maximum over a
+    superset it belongs to; a search that missed a better strict point missed a better tolerant
+    point too), and no second run is made. Otherwise the optimization runs again with
+    ``strict=True`` (same budget and seed). ``kw`` goes to :func:`optimize_placement`.
+    """
+    res = optimize_placement(opt, method, **kw)
+    if opt.strict:
+        return res, StrictOptimum(res.best, "strict problem", "the optimization itself used the strict ranges")
+    if res.best.feasible and res.best.strict_ok:
+        return res, StrictOptimum(res.best, "tolerant optimum",
+                                  "the tolerant optimum lies inside the strict ranges; the strict feasible set is "
+                                  "a subset of the tolerant one, so it is also the strict optimum (no second run)")
+    strict = optimize_placement(replace(opt, strict=True), method, **kw)
+    why = strict_violation(opt.map_problem.case.robot, res.best.theta) if res.best.feasible else "infeasible"
+    return res, StrictOptimum(strict.best, "strict run",
+                              f"the tolerant optimum is not strict-feasible ({why}): optimized again with "
+                              "strict ranges", strict)

@@ -22,11 +22,15 @@ from robolobes.cases.spec import MillingCase
 from robolobes.core.errors import BadInput
 from robolobes.lobes import Mode
 
-__all__ = ["MapProblem", "MapMethod", "AXES", "OVER", "MAX_POSES", "MAX_SPEEDS"]
+__all__ = ["MapProblem", "MapMethod", "AXES", "OVER", "MAX_POSES", "MAX_SPEEDS", "LEAD_REASON"]
 
 Over = Literal["pass", "placement", "tool-rotation", "lead-tilt"]
 OVER = ("pass", "placement", "tool-rotation", "lead-tilt")
 AXES = ("x_offset_m", "y_offset_m", "z_offset_m", "yaw_rad", "tool_rotation_rad", "tilt_rad", "s_m")
+#: why a lead angle (the tool axis tilted towards the feed) is refused, in one sentence
+LEAD_REASON = ("a lead angle tilts the tool axis towards the feed, but the 2.5-D cut model needs the feed "
+               "perpendicular to the tool axis (chip and forces in the plane normal to the axis, axial motion "
+               "ignored), so it cannot describe that cut; only lead 0 is modelled")
 #: bounds on the inputs that set memory and run time (a 1000 x 100 map takes ~10 min here)
 MAX_POSES = 100_000
 MAX_SPEEDS = 2_000
@@ -104,18 +108,22 @@ class MapProblem:
     def make(cls, case: MillingCase, variant: str, over: Over, *, n: int = 25,
              x_range_m=(-0.2, 0.2), y_range_m=(-0.2, 0.2), z_range_m=(0.0, 0.0), yaw_range_rad=(0.0, 0.0),
              rotation_range_rad=(-math.pi, math.pi), tilt_range_rad=(-math.radians(20), math.radians(20)),
-             speeds_rpm=None, op_rpm: float | None = None, tool_modes=(), model_file=None) -> "MapProblem":
+             lead_range_rad=(0.0, 0.0), speeds_rpm=None, op_rpm: float | None = None, tool_modes=(),
+             model_file=None) -> "MapProblem":
         """A map over ``over`` with about ``n`` poses.
 
         ``placement``: a grid of the pass start offset (x, y, z, m) and yaw (rad) over the ranges,
         about ``n`` points in all shared among the ranges of non-zero width. ``pass``: ``n``
         points from the start to the end of the case's pass. ``tool-rotation``: ``n`` angles about
         the tool axis over ``rotation_range_rad`` (end excluded when it spans 2 pi).
-        ``lead-tilt``: ``n`` tilt angles about the feed over ``tilt_range_rad``.
+        ``lead-tilt``: ``n`` tilt angles about the feed over ``tilt_range_rad``; the lead stays 0
+        (``lead_range_rad`` other than (0, 0) raises :class:`BadInput`, see :data:`LEAD_REASON`).
         Speeds: default 100 from 2000 to 25 000 rpm; ``op_rpm`` default the case's spindle speed.
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_POSES:
             raise BadInput(f"n (number of poses) must be an integer from 1 to {MAX_POSES}, got {n!r}")
+        if tuple(lead_range_rad) != (0.0, 0.0):
+            raise BadInput(f"lead range {tuple(lead_range_rad)!r} rad refused: {LEAD_REASON}")
         if over == "placement":
             ranges = [("x_offset_m", x_range_m), ("y_offset_m", y_range_m), ("z_offset_m", z_range_m),
                       ("yaw_rad", yaw_range_rad)]

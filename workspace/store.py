@@ -104,7 +104,10 @@ def create_store(path: Path, problem, method, poses: dict) -> None:
     cp = method.chunk_poses
     enc = {v: {"chunks": tuple(cp if d == "pose" else ds[v].sizes[d] for d in ds[v].dims)} for v in ds.data_vars}
     tmp = path.parent / f".{path.name}.partial"
-    if tmp.exists():
+    if tmp.exists():   # a create that was killed: removed only if it is one of ours
+        if not _is_map_store(tmp):
+            raise BadInput(f"{tmp} exists and is not a partial robolobes map store; move it away or choose "
+                           f"another path")
         shutil.rmtree(tmp)
     try:
         ds.to_zarr(tmp, mode="w", encoding=enc, consolidated=False)
@@ -114,16 +117,35 @@ def create_store(path: Path, problem, method, poses: dict) -> None:
         raise
 
 
+def _is_map_store(path: Path) -> bool:
+    """A directory whose zarr group attributes (``zarr.json`` of zarr v3, ``.zattrs`` of v2) carry
+    the ``robolobes_map`` mark."""
+    for name, get in (("zarr.json", lambda m: m.get("attributes", {})), (".zattrs", lambda m: m)):
+        meta = path / name
+        try:
+            if path.is_dir() and meta.is_file() and get(json.loads(meta.read_text())).get("robolobes_map") == 1:
+                return True
+        except (OSError, ValueError, AttributeError):
+            pass
+    return False
+
+
 def open_for_resume(path: Path, problem, method):
-    """Open an existing store made by the same inputs; ``BadInput`` if it is not a map store or
-    its recorded inputs differ. Returns the ``done`` array (P,) bool."""
+    """Open an existing store made by the same inputs. ``BadInput`` (nothing is changed or
+    deleted) if ``path`` is a file, a directory that is not a robolobes map store (empty or not,
+    or another zarr store), or a map store whose recorded inputs differ. Returns the ``done``
+    array (P,) bool."""
     xr = _xr()
+    valid = "give a path that does not exist (the store is created there) or a map store of the same inputs"
+    if not path.is_dir():
+        raise BadInput(f"{path} is an existing file, not a robolobes map store; {valid}")
+    if not _is_map_store(path):
+        kind = "an empty directory" if not any(path.iterdir()) else "a directory"
+        raise BadInput(f"{path} is {kind} that is not a robolobes map store; {valid}")
     try:
         ds = xr.open_zarr(path, consolidated=False)
-    except Exception as e:  # not a zarr store at all
-        raise BadInput(f"{path} exists and is not a robolobes map store ({type(e).__name__}); choose another --out") from None
-    if ds.attrs.get("robolobes_map") != 1:
-        raise BadInput(f"{path} exists and is not a robolobes map store; choose another --out")
+    except Exception as e:  # marked, but not readable
+        raise BadInput(f"{path} is a damaged robolobes map store ({type(e).__name__}: {e}); {valid}") from None
     want = _inputs_hash(problem, method)["inputs_sha256"]
     if ds.attrs.get("inputs_sha256") != want:
         raise BadInput(f"{path} holds a map of other inputs (inputs_sha256 {ds.attrs.get('inputs_sha256', '?')[:12]}, "
