@@ -331,20 +331,31 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
 # ranking
 # ---------------------------------------------------------------------------------------------
 
+def _group(effect) -> str:
+    """The effect's type: instances of one class (six joint corrections, six servo drives) are one
+    explanation of a signature, whichever joint it is."""
+    return getattr(effect, "group", None) or type(effect).__qualname__
+
+
 def rank_candidates(detected: dict, effects, heldout: dict, error_before: float) -> list[dict]:
     """The candidates ranked by the detected signatures they explain, ties by the residual they explain.
 
     Score of an effect: the sum over the detected signatures it explains of ``1 / n``, ``n`` the number
-    of candidates that explain that signature: a signature only one effect explains counts fully, one
-    that six joint corrections all explain counts 1/6 for each (one unit of evidence per signature,
-    shared among its explanations), so declaring many signatures does not buy rank.
+    of effect *types* that explain that signature (the six joint corrections are one type): a
+    signature only one type explains counts fully, one that two types explain counts 1/2 for each
+    (one unit of evidence per signature, shared among its explanations). The signatures narrow the
+    candidates to the types the evidence points to; among equal scores the residual each fit
+    removes decides.
 
     ``detected``: name -> :class:`Signature`; ``effects``: the candidate Effect objects;
     ``heldout``: name -> held-out error with the effect added (first selection step), missing if untried.
     Returns JSON-ready rows, best first, each with ``why``.
     """
     present = [k for k, s in detected.items() if s.present]
-    n_explain = {k: sum(k in e.signatures for e in effects) for k in present}
+    groups = {}                                   # effect type -> the signatures it explains
+    for e in effects:
+        groups.setdefault(_group(e), set()).update(e.signatures)
+    n_explain = {k: sum(k in sig for sig in groups.values()) for k in present}
     rows = []
     for e in effects:
         explains = [k for k in e.signatures if k in present]
