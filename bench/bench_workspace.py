@@ -8,7 +8,11 @@ under 10 minutes on this 2-core machine. Printed:
    one core, measured in this process;
 2. the map (local pool of 2 processes, modal truncation <= 300 Hz), its wall time and the ratio
    ``n_reachable x t_single / t_map`` (how many times faster than solving the poses one by one);
-3. the projection of the map's time to 1000 reachable poses.
+3. the projection of the map's time to 1000 reachable poses;
+4. a load-independent check: the CPU time (of this process) of ``compute_chunk`` at ``--cpu-poses``
+   reachable poses of the map, one process, and the map time it implies on two cores
+   (``n_reachable x cpu_per_pose / 2``); on a machine shared with other jobs the wall times of 1-3
+   are inflated, the CPU time much less.
 
     python bench/bench_workspace.py               # the full 1000 x 100 map (~10+ min)
     python bench/bench_workspace.py --n 40        # a smaller grid, same fidelity
@@ -33,6 +37,7 @@ def main(argv=None) -> int:
     ap.add_argument("--n-rpm", type=int, default=100)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--reduce-hz", type=float, default=300.0, help="modal truncation (0: none)")
+    ap.add_argument("--cpu-poses", type=int, default=6, help="poses of the CPU-time check (0: skip)")
     args = ap.parse_args(argv)
 
     from robolobes import cases, linearize
@@ -68,7 +73,26 @@ def main(argv=None) -> int:
     print(f"   largest truncation error: static {s.get('max_truncation_static_error')}, "
           f"FRF {s.get('max_truncation_frf_error')}")
     print(f"3. projected for 1000 reachable poses: {1000 * t_map / max(n_ok, 1) / 60:.1f} min (target < 10 min)")
+    if args.cpu_poses > 0:
+        _cpu_check(pr, meth, n_ok, args.cpu_poses)
     return 0
+
+
+def _cpu_check(pr, meth, n_ok: int, n: int) -> None:
+    """Item 4 of the module docstring."""
+    from robolobes.workspace import pose_table
+    from robolobes.workspace.compute import compute_chunk
+
+    tab = pose_table(pr)
+    ok = np.flatnonzero(tab["reason"] <= 1)
+    pick = ok[np.linspace(0, len(ok) - 1, min(n, len(ok))).astype(int)]
+    compute_chunk(pr, meth, 0, tab["theta"][pick[:1]], tab["feed"][pick[:1]], np.ones(1, bool))  # warm-up
+    t0 = time.process_time()
+    compute_chunk(pr, meth, 0, tab["theta"][pick], tab["feed"][pick], np.ones(len(pick), bool))
+    cpu = (time.process_time() - t0) / len(pick)
+    print(f"4. CPU time per reachable pose (compute_chunk, {len(pick)} poses, one process): {cpu:.3f} s; "
+          f"implied map time on two cores: {n_ok * cpu / 2:.0f} s for these {n_ok} reachable poses, "
+          f"{1000 * cpu / 2:.0f} s for 1000 (target < 600 s)")
 
 
 if __name__ == "__main__":

@@ -161,8 +161,9 @@ class Runout(ForceEffect):
     ``r_j = e cos(theta_j - phi)``, any tooth count and pitch).
 
     The forces depend on ``(a, b) = (e cos phi, e sin phi)`` through ``r_j = a cos theta_j + b sin theta_j``;
-    the family interpolates runs on a 3 x 3 grid in ``(a, b)`` (biquadratic; nearly linear while every
-    tooth cuts).
+    the family is a cubic spline in ``a`` (5 runs) plus the change ``b`` makes at ``a = 0`` (quadratic,
+    2 more runs): separable, exact without cross terms in ``(a, b)``, which are small while ``b`` only
+    moves the teeth's common radius.
     For an equal-pitch two-tooth tool ``sin theta_j = 0``: only ``a = e cos phi`` changes the forces
     (:meth:`identifiable`), the grid is one-dimensional and the phase is reported as 0 or pi.
 
@@ -187,9 +188,9 @@ class Runout(ForceEffect):
     toml = "[tool] runout_um"
     #: Grid of a = e cos phi, m, for the family of a tool where only a shows (cubic spline).
     GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
-    #: Grid of (a, b) = e (cos phi, sin phi), m, otherwise: 3 x 3 runs, biquadratic (the forces are
-    #: nearly linear in the tooth radii while every tooth cuts).
-    GRID_2D = (-3e-5, 0.0, 3e-5)
+    #: Grid of b = e sin phi, m, for tools where it enters: the change b makes is added to the cubic
+    #: in a (separable, quadratic in b; b moves the teeth's common radius, a weak effect).
+    GRID_B = (-3e-5, 0.0, 3e-5)
 
     @staticmethod
     def identifiable(tool) -> str:
@@ -214,21 +215,30 @@ class Runout(ForceEffect):
         from scipy.interpolate import CubicSpline
 
         g = np.array(self.GRID)
+        runs = [ctx.raw_averages(self._apply_ab(state, a, 0.0)) for a in g]
+        splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
         if self.identifiable(state.case.tool) != "amplitude and phase":
-            runs = [ctx.raw_averages(self._apply_ab(state, a, 0.0)) for a in g]
-            splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
             return lambda v: [s(float(v[0]) * np.cos(float(v[1]))) for s in splines]
-        g3 = np.array(self.GRID_2D)
-        runs = [[ctx.raw_averages(self._apply_ab(state, a, b)) for b in g3] for a in g3]
-        blocks = [np.stack([np.stack([row[j][k] for j in range(3)]) for row in runs]) for k in range(len(runs[0][0]))]
+        # separable: cubic in a (5 runs, b = 0) plus the change b makes at a = 0 (quadratic, 2 more runs)
+        b3 = np.array(self.GRID_B)
+        base = runs[len(g) // 2]
+        side = [ctx.raw_averages(self._apply_ab(state, 0.0, b)) for b in (b3[0], b3[2])]
 
-        def lagrange(x):  # quadratic Lagrange weights on g3, shape (3,)
-            return np.array([np.prod([(x - g3[m]) / (g3[i] - g3[m]) for m in range(3) if m != i]) for i in range(3)])
+        def db(b, k):  # quadratic Lagrange through (b3, [side0, base, side1]) minus base
+            w = [np.prod([(b - b3[m]) / (b3[i] - b3[m]) for m in range(3) if m != i]) for i in range(3)]
+            return w[0] * side[0][k] + w[1] * base[k] + w[2] * side[1][k] - base[k]
 
         def f(v):
-            wa, wb = lagrange(v[0] * np.cos(v[1])), lagrange(v[0] * np.sin(v[1]))
-            return [np.einsum("i,j,ij...->...", wa, wb, b) for b in blocks]
+            a, b = float(v[0]) * np.cos(float(v[1])), float(v[0]) * np.sin(float(v[1]))
+            return [s(a) + db(b, k) for k, s in enumerate(splines)]
         return f
+
+    def identified(self, tool, values) -> dict:
+        """What the fit determines: the tooth-radius offsets it implies (m) and which parameters show."""
+        from robolobes.cases.milling import eccentric_runout
+
+        return {"identifiable": self.identifiable(tool),
+                "tooth_radius_offsets_m": eccentric_runout(tool, float(values[0]), float(values[1])).tolist()}
 
     def as_dict(self, values):
         e, phi = float(values[0]), float(values[1])
@@ -345,9 +355,9 @@ class Backlash(ForceEffect):
     signatures = ("harmonic_rolloff",)
     doc = "the paper's eq. 12 dead zone on every motion axis (element 'backlash', any variant)"
     toml = "[[elements]] type = \"backlash\", half_width_rad"
-    RESOLUTION = 1e-6
-    SCAN_STEP = 1e-5
-    TOP = 3
+    RESOLUTION = 2e-6
+    SCAN_STEP = 2e-5
+    TOP = 2
 
     def apply_values(self, state, values):
         from robolobes.cases.spec import ElementSpec

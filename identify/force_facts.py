@@ -132,7 +132,7 @@ def facts_markdown(a: dict | None, b: dict | None) -> str:
         for e in b["effects"]:
             ev = e["evidence"]
             val = ", ".join(f"{k} = {v:.4g}" for k, v in e["params"].items())
-            parts.append(f"{e['name']} ({val}): {'credible' if ev['credible'] else 'not credible'}: {ev['why']}")
+            parts.append(f"{e['name']} ({val}): {'credible' if ev['credible'] else 'not credible'}: {ev['why']}.")
         vb = b["verdict_before"]
         out.append(f"**(b) Steel, observed stable.** The lobes say {vb['verdict']} (limit "
                    f"{vb['depth_limit_m'] * 1e3:.3f} mm at 3100 rpm, chatter {vb['chatter_freq_hz']:.1f} Hz). "

@@ -24,7 +24,7 @@ from robolobes.cases.spec import MillingCase
 __all__ = ["simulate_forces", "with_spindle_hz", "revolution_averages"]
 
 _CACHE: OrderedDict = OrderedDict()
-_CACHE_SIZE = 128  # a backlash scan is 31 runs + its refinement (~0.7 MB per run of the aluminium set)
+_CACHE_SIZE = 128  # a backlash scan is 16 runs + its refinement (~0.7 MB per run of the aluminium set)
 
 
 def _key(state, t_end_s: float) -> tuple:

@@ -215,7 +215,7 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
                      params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
                      evidence={"signature": [SIGNATURES[k] for k in eff.signatures], "on_bound": fit.on_bound,
                                "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift,
-                               **({"identifiable": eff.identifiable(st.case.tool)} if hasattr(eff, "identifiable")
+                               **(eff.identified(st.case.tool, fit.values) if hasattr(eff, "identified")
                                   else {})})
 
     library = [e for e in (effects if effects is not None else effects_for("forces", state))

@@ -128,7 +128,8 @@ class TcpModeEffect(StructuralEffect):
     observed_by = {"frf": "an extra peak, same frequency at every pose: 1 / (2 zeta k) above ~3x the noise of "
                           "the measured receptance at that frequency",
                    "stability": "shifts the lobes near its frequency"}
-    signatures = ("extra_peak",)
+    # its stiffness k is in series with the robot: 1/k more compliance on the quasi-static lines
+    signatures = ("extra_peak", "static_offset")
 
     def table(self, params):
         d = _direction(params["polar_rad"], params["azimuth_rad"])

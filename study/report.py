@@ -130,20 +130,22 @@ def _tab10_section(res: StudyResult) -> list[str]:
 
 
 def _facts_section(res: StudyResult) -> list[str]:
-    out = ["\n## The seed's facts, confronted with identification (issue 10)\n"]
-    f = res.identify_facts
-    if f is None:
-        return out + ["Facts (a) Tab. 10 and (b) steel were not computed in this quick study (they take minutes); "
-                      "the full study (`robolobes study`) computes them.\n"]
     from robolobes.identify.force_facts import facts_markdown
 
-    a = f.get("tab10")
-    if a is not None:
+    out = ["\n## The seed's facts, confronted with identification (issue 10)\n"]
+    f = res.identify_facts or {}
+    a, b = f.get("tab10"), f.get("steel")
+    if a is None:
+        out.append("Fact (a), Tab. 10 identified from its 8 statistics, was not computed in this quick study (it "
+                   "takes minutes); the full study (`robolobes study`) computes it.\n")
+    else:
         rows = a["paper_rows_rms_n"]
         best = min(rows, key=rows.get)
         out.append(prose.tab10_identified(a["rms_before_n"], a["rms_after_n"], rows["basic"], rows[best], best)
                    + "\n")
-    return out + [facts_markdown(a, f.get("steel")) + "\n"]
+    if b is None:
+        out.append("Fact (b), the steel cut observed stable, was not computed in this study.\n")
+    return out + [facts_markdown(a, b) + "\n"]
 
 
 def _roughness_cell(v) -> str:

@@ -35,8 +35,9 @@ class StudySettings:
     damping_scales : tuple      joint-damping scales tried for steel, then bisected
     damping_tol : float         width of the final [largest unstable, smallest stable] bracket of
                                 the lobes' search (the time domain's is at least 0.25)
-    identify_facts : bool       confront the seed's facts (a) Tab. 10 and (b) steel with identification
-                                (:mod:`robolobes.identify.force_facts`; minutes, so full study only)
+    identify_facts : tuple      the seed's facts confronted with identification
+                                (:mod:`robolobes.identify.force_facts`): ``"tab10"`` (a, minutes: full
+                                study only) and ``"steel"`` (b, about 15 s)
     """
 
     quick: bool = False
@@ -49,7 +50,7 @@ class StudySettings:
     al_t_end_s: float | None = None
     damping_scales: tuple = (1.0, 10.0, 20.0, 40.0)
     damping_tol: float = 0.1
-    identify_facts: bool = True
+    identify_facts: tuple = ("tab10", "steel")
 
     @property
     def td_damping_tol(self) -> float:
@@ -61,5 +62,5 @@ class StudySettings:
         if quick:
             return StudySettings(quick=True, n_rpm=40, lobe_variants=("basic", "orthogonal"),
                                  lobe_poses=("start",), td_linearized=True, steel_t_end_s=5.5,
-                                 al_t_end_s=None, damping_tol=0.25, identify_facts=False)
+                                 al_t_end_s=None, damping_tol=0.25, identify_facts=("steel",))
         return StudySettings()

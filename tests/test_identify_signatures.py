@@ -108,8 +108,8 @@ def test_frf_noise_shows_no_signature_in_19_of_20_seeds():
 
 def test_ranking_puts_the_effect_that_explains_the_signature_first():
     class E:
-        def __init__(self, name, sig):
-            self.name, self.signatures = name, sig
+        def __init__(self, name, sig, group=None):
+            self.name, self.signatures, self.group = name, sig, group or name
 
     got = force_signatures(*_force_case("once_per_rev", 1), TEETH)
     effects = [E("edge_coefficients", ("mean_offset",)), E("runout", ("once_per_rev",)), E("lowpass", ())]
@@ -123,20 +123,24 @@ def test_ranking_puts_the_effect_that_explains_the_signature_first():
 
 def test_ranking_shares_a_signature_among_the_effects_that_explain_it():
     class E:
-        def __init__(self, name, sig):
-            self.name, self.signatures = name, sig
+        def __init__(self, name, sig, group=None):
+            self.name, self.signatures, self.group = name, sig, group or name
 
     class S:
         def __init__(self, present):
             self.present = present
 
     got = {"extra_peak": S(True), "peak_height": S(True), "pose_shift": S(True), "static_offset": S(False)}
-    joints = [E(f"joint_{j}", ("pose_shift", "peak_height", "static_offset")) for j in range(6)]
-    effects = joints + [E("tcp_mode", ("extra_peak",))]
-    rows = rank_candidates(got, effects, {}, 0.1)
-    # tcp_mode: extra_peak alone (1/1); each joint: pose_shift 1/6 + peak_height 1/6 = 1/3
-    assert rows[0]["name"] == "tcp_mode" and rows[0]["score"] == 1.0
-    assert rows[1]["score"] == pytest.approx(1 / 3)
+    joints = [E(f"joint_{j}", ("pose_shift", "peak_height", "static_offset"), "joint") for j in range(6)]
+    servos = [E(f"servo_{j}", ("extra_peak", "pose_shift", "peak_height"), "servo") for j in range(6)]
+    effects = joints + servos + [E("tcp_mode", ("extra_peak", "static_offset"))]
+    errs = {"tcp_mode": 0.02, "joint_0": 0.09, "servo_3": 0.08}
+    rows = rank_candidates(got, effects, errs, 0.1)
+    # types explaining: extra_peak {servo, tcp} -> 1/2 each; pose_shift, peak_height {joint, servo} -> 1/2
+    # servo: 1/2 + 1/2 + 1/2 = 1.5; joint: 1/2 + 1/2 = 1; tcp: 1/2
+    assert [r["score"] for r in rows[:1]] == [1.5] and rows[0]["name"] == "servo_3"  # tie among servos: residual
+    assert {r["name"]: r["score"] for r in rows}["joint_4"] == pytest.approx(1.0)
+    assert {r["name"]: r["score"] for r in rows}["tcp_mode"] == pytest.approx(0.5)
 
 
 # ---------------------------------------------------------------- on the project's FRF sets (CLI)
@@ -161,19 +165,28 @@ def _frf_set_ranking(tmp_path, capsys, element, seed):
 @pytest.mark.slow
 def test_frf_sets_rank_the_generating_effect_first(tmp_path, capsys):
     """Sets from the full model path with one undeclared element (fixed parameters above the
-    detection thresholds): the ranking by signatures puts that effect first; without one, no signature."""
+    detection thresholds): the ranking by signatures puts that effect first; without one, no signature.
+
+    Not an independent check of the ranking rule: the rule was revised after looking at sets like
+    these (see the README). A joint stiffness change shifts the modes with one sign in every pose,
+    which the shift detector calls uniform: payload mass and the joint correction then score alike
+    and the residual their fits remove decides."""
     import math
 
     from robolobes.cases import load_case
     from robolobes.linearize.extra_elements import JointCorrection, PayloadMass, TcpMode
 
     payload = load_case("tx200-aluminium").robot.payload.mass_kg
-    cases = [(TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (0.6, 0.0, 0.8)), "tcp_mode", 11),
-             (JointCorrection(2, 1.4, 1.0), "joint_correction_a2", 12),
-             (PayloadMass(0.25 * payload), "payload_mass", 13)]
-    for el, name, seed in cases:
+    cases = [(TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (0.6, 0.0, 0.8)), "tcp_mode", 11, 1),
+             (PayloadMass(0.25 * payload), "payload_mass", 13, 1),
+             (JointCorrection(2, 1.4, 1.0), "joint_correction_a2", 12, 1)]
+    got = []
+    for el, name, seed, rank in cases:
         sig, ranking, _ = _frf_set_ranking(tmp_path, capsys, el, seed)
-        assert ranking[0] == name, (name, sig, ranking[:4])
+        got.append((name, sig, ranking[:4]))
+        with capsys.disabled():
+            print(name, sig, ranking[:4])
+        assert name in ranking[:rank], got
     for seed in (21, 22):
         sig, _, _ = _frf_set_ranking(tmp_path, capsys, None, seed)
         assert sig == [], (seed, sig)

@@ -37,22 +37,26 @@ def test_negative_amplitude_is_rejected():
         eccentric_runout(Tool(diameter_m=0.01, teeth=2), -1e-6, 0.0)
 
 
-def test_runout_family_reproduces_forces_quadratic_in_the_radii():
-    """The identification family (3 x 3 runs in (e cos phi, e sin phi), biquadratic) is exact for any
-    model output of degree <= 2 in the tooth radii (the radii are linear in (a, b)); the stand-in
-    context returns such outputs instead of simulating."""
+def test_runout_family_is_exact_for_outputs_without_cross_terms():
+    """The identification family (cubic spline in a = e cos phi over 5 runs, plus the quadratic change
+    b = e sin phi makes at a = 0) is exact for any model output that is a quadratic in a plus a
+    quadratic in b (no a*b term); the stand-in context returns such an output instead of simulating.
+    With theta = (0, theta_1): r_0 = a, r_1 = a cos theta_1 + b sin theta_1."""
+    import math
+
     from robolobes.cases import load_case
     from robolobes.identify.cutting_effects import Runout
     from robolobes.identify.effects import ModelState
 
-    class Ctx:
-        def raw_averages(self, st):
-            r = np.array(st.case.tool.runout_m) * 1e5
-            return [np.full((4, 3), r[0] + r[1] ** 2), np.full((4, 3), r[0] * r[1] - 3 * r[0] ** 2)]
-
     st = ModelState(case=load_case("tx200-aluminium"))   # 170/190 deg pitch: (e, phi) both enter
+    c1 = math.cos(st.case.tool.tooth_angle_rad[1])
+
+    class Ctx:
+        def raw_averages(self, s):
+            r = np.array(s.case.tool.runout_m) * 1e5
+            return [np.full((4, 3), r[0] + 3 * r[1] - 2 * r[0] ** 2 + 5 * (r[1] - r[0] * c1) ** 2)]
+
     fam = Runout().family(Ctx(), st)
     for v in ((1.2e-5, 0.7), (2.9e-5, -2.5), (3e-6, 3.0)):
         exp = Ctx().raw_averages(Runout().apply_values(st, v))
-        for g, x in zip(fam(v), exp):
-            assert_allclose(g, x, rtol=1e-9, atol=1e-12)
+        assert_allclose(fam(v)[0], exp[0], rtol=1e-9, atol=1e-12)

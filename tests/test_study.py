@@ -277,7 +277,12 @@ def test_tab10_identified_sentence_follows_the_numbers():
     assert "differs from the paper's basic row" in s and "below the 5 N aim" in s and "5.1 times lower" in s
 
 
-def test_quick_report_says_the_facts_were_not_computed(quick):
+def test_quick_report_states_fact_b_and_says_fact_a_was_not_computed(quick):
     out, res = quick
-    assert res["identify_facts"] is None
-    assert "were not computed in this quick study" in (out / "report.md").read_text()
+    assert res["identify_facts"]["tab10"] is None
+    report = (out / "report.md").read_text()
+    assert "Fact (a), Tab. 10 identified from its 8 statistics, was not computed in this quick study" in report
+    steel = res["identify_facts"]["steel"]
+    # the study's own lobes say the steel cut is unstable at 1.6 mm: fact (b) must say so too
+    assert steel["verdict_before"]["verdict"] != "stable"
+    assert "**(b) Steel, observed stable.**" in report and "not credible" in report
