@@ -73,6 +73,10 @@ def run_identify_cli(args) -> int:
     out = {**result.to_json(), "provenance": prov}
     if report is not None and result.kind == "frf":
         _write_report(report, result, measurement, state)
+    elif report is not None:
+        from .report import write_report
+        with report:
+            write_report(report.path, result, report.provenance, teeth=state.case.tool.teeth)
     if args.json:
         print(json.dumps(to_jsonable(out), indent=2))
         return 0

@@ -374,7 +374,9 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
                            error_after=err_after, statistic=float(wrong0 - (fits[0].evidence["wrong_after"] if fits
                                                                             else wrong0)), threshold=1.0),)
     model = _model_toml(state, fits[0]) if fits else ""
-    vb = [{"verdict": v.status, "stable": v.stable, "verdict_reason": v.reason,
+    vb = [{"rpm": obs.rows[i].rpm, "depth_mm": obs.rows[i].depth_m * 1e3,
+           "observed": "chatter" if obs.rows[i].chatter else "stable",
+           "verdict": v.status, "stable": v.stable, "verdict_reason": v.reason,
            "critical_joint_damping_scale": thr["joint_damping"][i].value,
            "critical_ksp_l2_n_per_m": thr["process_damping"][i].value} for i, v in enumerate(before)]
     return Identification(kind="stability", effects=tuple(fits), error_before=err0, error_after=err_after,

@@ -234,7 +234,9 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
              "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
     res = Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
-                         model_toml=model_toml(sel.state), extra=extra)
+                         model_toml=model_toml(sel.state), extra=extra,
+                         arrays={"heldout_measured_n": ctx.heldout.mean, "model_before_n": aligned[id(state)],
+                                 "model_after_n": final_ho, "heldout_noise_n": ctx.heldout.noise})
     detected = force_signatures(ctx.heldout.mean, aligned[id(state)], ctx.heldout.noise, case.tool.teeth, alpha=alpha)
     return annotate(res, detected, library)
 

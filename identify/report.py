@@ -14,7 +14,7 @@ import numpy as np
 
 from robolobes.core.io import pyplot, save_figure, write_text
 
-__all__ = ["write_frf_report"]
+__all__ = ["write_frf_report", "write_report"]
 
 
 def _fig_pose(pd, before, after, path, provenance):
@@ -58,12 +58,9 @@ def _poles_lines(extra: dict) -> list[str]:
     return out
 
 
-def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict, model=None,
-                     theta=None) -> None:
-    """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
-    from .frf import predict
-
-    lines = ["# robolobes identify: tool-tip FRF set", "",
+def _summary_lines(title: str, result, provenance: dict) -> list[str]:
+    """Header, effects, diagnosis and selection steps of every report (Markdown lines)."""
+    lines = [f"# robolobes identify: {title}", "",
              f"- metric: {result.metric}",
              f"- error before: {result.error_before:.4g}; after: {result.error_after:.4g}; "
              f"noise floor (from the data): {result.noise_floor:.4g}",
@@ -83,8 +80,22 @@ def write_frf_report(directory: Path, result, poses, effects_state, provenance: 
     lines += ["## Selection steps", "", "| step | kept | z | threshold | error before | error after |",
               "|---|---|---|---|---|---|"]
     for i, s in enumerate(result.steps, 1):
-        lines.append(f"| {i} | {s.kept or '-'} | {s.statistic:.3g} | {s.threshold:.3g} | {s.error_before:.4g} | "
-                     f"{s.error_after:.4g} |")
+        lines.append(f"| {i} | {s.kept or '-'} | {_g(s.statistic, '.3g')} | {_g(s.threshold, '.3g')} | "
+                     f"{_g(s.error_before, '.4g')} | {_g(s.error_after, '.4g')} |")
+    return lines
+
+
+def _g(x, fmt: str) -> str:
+    """``x`` formatted, or '-' when it is None (binary data have no z statistic)."""
+    return "-" if x is None else format(x, fmt)
+
+
+def write_frf_report(directory: Path, result, poses, effects_state, provenance: dict, model=None,
+                     theta=None) -> None:
+    """Write ``report.md`` and one figure per pose into ``directory`` (an ``OutputDir``'s staging path)."""
+    from .frf import predict
+
+    lines = _summary_lines("tool-tip FRF set", result, provenance)
     lines += _poles_lines(result.extra)
     lines += ["", "## Poses", ""]
     for pd in poses:
@@ -155,3 +166,72 @@ def lobe_figure(directory: Path, model, fits, theta, provenance, n_speeds: int =
     save_figure(fig, directory / "lobes.png", provenance=provenance, dpi=110)
     plt.close(fig)
     return "lobes.png"
+
+
+_TITLES = {"forces": "cutting-force series", "force_stats": "force statistics", "stability": "stability observations"}
+
+
+def _fig_forces(arrays: dict, teeth: int, path, provenance) -> None:
+    """Held-out synchronous average (x, y) measured against the model before and after, and the
+    residual's revolution harmonics before and after against the noise of the average.
+
+    Harmonic k of a residual r_m (M bins): c_k = (1/M) sum_m r_m exp(-2 pi i k m / M); without a
+    residual E|c_k|^2 = sum_m s_m^2 / M^2 (s_m the standard error per bin), plotted as the noise line."""
+    plt = pyplot()
+    meas, before, after, noise = (np.asarray(arrays[k]) for k in
+                                  ("heldout_measured_n", "model_before_n", "model_after_n", "heldout_noise_n"))
+    M = meas.shape[0]
+    angle_deg = np.arange(M) * 360.0 / M
+    k = np.arange(1, M // 2)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5))
+    for a, name in enumerate(("x", "y")):
+        ax = axes[0, a]
+        ax.plot(angle_deg, meas[:, a], "k.", ms=2, label="measured (held out)")
+        ax.plot(angle_deg, before[:, a], ":", lw=1, label="model before")
+        ax.plot(angle_deg, after[:, a], "-", lw=1, label="model after")
+        ax.set_title(f"F{name} (workpiece, cut frame), one revolution")
+        ax.set_xlabel("spindle angle (deg)")
+        ax.set_ylabel("force (N)")
+        ax.legend(fontsize=7)
+        ax = axes[1, a]
+        for model, style, lab in ((before, ":", "residual before"), (after, "-", "residual after")):
+            c = np.abs(np.fft.rfft(model[:, a] - meas[:, a]) / M)[1:M // 2]
+            ax.semilogy(k, c, style, marker=".", ms=3, lw=1, label=lab)
+        ax.axhline(math.sqrt(np.sum(noise[:, a] ** 2)) / M, color="k", lw=0.8, label="noise of the average")
+        for j in range(teeth, M // 2, teeth):
+            ax.axvline(j, color="0.85", lw=0.5, zorder=0)
+        ax.set_xlim(0.5, min(M // 2, 12 * teeth) + 0.5)
+        ax.set_xlabel("revolution harmonic k (grey: tooth-passing harmonics)")
+        ax.set_ylabel("|c_k| (N)")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, path, provenance=provenance, dpi=110)
+    plt.close(fig)
+
+
+def _stability_lines(extra: dict) -> list[str]:
+    rows = extra.get("verdicts_before") or []
+    if not rows:
+        return []
+    keys = [k for k in rows[0] if not isinstance(rows[0][k], (dict, list)) and k != "verdict_reason"]
+    out = ["## Observations and the model's verdicts before", "", "| " + " | ".join(keys) + " |",
+           "|" + "---|" * len(keys)]
+    for r in rows:
+        out.append("| " + " | ".join(f"{r[k]:.6g}" if isinstance(r[k], float) else str(r[k]) for k in keys) + " |")
+    return out + [""]
+
+
+def write_report(directory: Path, result, provenance: dict, teeth: int = 2) -> None:
+    """``report.md`` (and, for a force series, ``forces.png``) for a force, force-statistics or
+    stability identification, into ``directory`` (an ``OutputDir``'s staging path)."""
+    lines = _summary_lines(_TITLES[result.kind], result, provenance)
+    if result.kind == "forces" and result.arrays:
+        _fig_forces(result.arrays, teeth, directory / "forces.png", provenance)
+        lines += ["", "## Held-out synchronous average and residual spectra, before and after", "",
+                  "![forces](forces.png)", ""]
+    if result.kind == "stability":
+        lines += [""] + _stability_lines(result.extra)
+    lines += ["## Model (case TOML)", "", "```toml", result.model_toml.rstrip(), "```", ""]
+    lines += ["", f"<!-- robolobes_version {provenance.get('robolobes_version')} inputs_sha256 "
+                  f"{provenance.get('inputs_sha256')} -->"]
+    write_text(directory / "report.md", "\n".join(lines))

@@ -75,6 +75,11 @@ class Identification:
         The updated case / robot TOML (loads under the strict key check).
     extra : dict
         Kind-specific numbers (per-pose errors, FRAC, poles...).
+    arrays : dict
+        Arrays for ``--report``, not written to the JSON. Force series: ``heldout_measured_n``,
+        ``model_before_n``, ``model_after_n`` (M, 3) N, the held-out synchronous average and the model's
+        (aligned) over the M bins of one revolution, and ``heldout_noise_n`` (M, 3) N, its standard
+        error per bin.
     """
 
     kind: str
@@ -86,6 +91,7 @@ class Identification:
     steps: tuple = ()
     model_toml: str = ""
     extra: dict = field(default_factory=dict)
+    arrays: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_json(self) -> dict:
         return {"kind": self.kind, "effects": [e.to_json() for e in self.effects],

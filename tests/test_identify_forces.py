@@ -188,3 +188,21 @@ def test_effect_five_draws(base, tmp_path, capsys, name):
         for r in results:
             print(name, r)
     assert sum(ok for ok, _, _ in results) >= 4, results
+
+
+def test_report_for_a_force_series(base, tmp_path, capsys):
+    """``--report DIR`` on a force set (undeclared 2.5 kHz sensor): report.md states the numbers the
+    JSON gives (same run, same formatting rule), names the effect found, and links forces.png (the
+    held-out synchronous average before and after and the residual spectra), which is written."""
+    case, t, f = base
+    d = tmp_path / "dyn"
+    _write(d, t, _dynamometer(t, f, 2500.0, 0.04), 5)
+    rep = tmp_path / "rep"
+    capsys.readouterr()
+    assert main(["identify", "--measured", str(d), "--json", "--quiet", "--report", str(rep)]) == 0
+    js = json.loads(capsys.readouterr().out)
+    text = (rep / "report.md").read_text()
+    assert text.startswith("# robolobes identify: cutting-force series")
+    assert f"error before: {js['error_before']:.4g}; after: {js['error_after']:.4g}" in text
+    assert js["effects"] and f"| {js['effects'][0]['name']} |" in text
+    assert "![forces](forces.png)" in text and (rep / "forces.png").stat().st_size > 10_000

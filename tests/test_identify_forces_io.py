@@ -215,3 +215,22 @@ def test_force_effects_write_a_case_toml_that_loads(tmp_path):
     # (the aluminium tool's pitch is 170/190 deg)
     assert c.tool.runout_m == pytest.approx((5e-6, 5e-6 * math.cos(math.radians(170.0))))
     assert "dynamometer" not in p.read_text().split("[tool]")[1]
+
+
+def test_report_for_stability_observations(tmp_path, capsys):
+    """``--report DIR`` on stability observations: report.md with the verdicts table, one row per
+    observation (two cuts far below the steel limit of 0.64 mm, observed stable: the model agrees,
+    so no effect)."""
+    from robolobes.main import main
+
+    p = tmp_path / "stability.csv"
+    p.write_text("case,rpm,depth_mm,observed,path_s_m\ntx200-steel,3100,0.2,stable,0.0\n"
+                 "tx200-steel,3100,0.3,stable,0.0\n")
+    rep = tmp_path / "rep"
+    assert main(["identify", "--measured", str(p), "--quiet", "--report", str(rep)]) == 0
+    text = (rep / "report.md").read_text()
+    assert text.startswith("# robolobes identify: stability observations")
+    assert "`effects: []`" in text
+    head = next(ln for ln in text.splitlines() if ln.startswith("| rpm | depth_mm | observed | verdict"))
+    rows = text.split(head, 1)[1].splitlines()[2:4]
+    assert [r.split(" | ")[1:4] for r in rows] == [["0.2", "stable", "stable"], ["0.3", "stable", "stable"]], rows
