@@ -48,6 +48,10 @@ def run_identify_cli(args) -> int:
 
     with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
         measurement = read_measurement(args.measured)
+    if args.effects and measurement.kind == "stability":
+        from robolobes.core.errors import BadInput
+        raise BadInput("--effects is not used with stability observations: both candidates (joint_damping, "
+                       "process_damping) are always tried; drop --effects")
     state, notes = model_state(measurement, args.case, args.variant)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)

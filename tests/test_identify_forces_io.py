@@ -234,3 +234,14 @@ def test_report_for_stability_observations(tmp_path, capsys):
     head = next(ln for ln in text.splitlines() if ln.startswith("| rpm | depth_mm | observed | verdict"))
     rows = text.split(head, 1)[1].splitlines()[2:4]
     assert [r.split(" | ")[1:4] for r in rows] == [["0.2", "stable", "stable"], ["0.3", "stable", "stable"]], rows
+
+
+def test_effects_flag_refused_for_stability_observations(tmp_path, capsys):
+    """A flag that would have no effect is an error (one line, exit 2, before any work)."""
+    from robolobes.main import main
+
+    p = tmp_path / "stability.csv"
+    p.write_text("case,rpm,depth_mm,observed,path_s_m\ntx200-steel,3100,0.2,stable,0.0\n")
+    assert main(["identify", "--measured", str(p), "--effects", "process_damping"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--effects is not used with stability observations" in err[0], err
