@@ -190,11 +190,23 @@ def heldout_error(model: np.ndarray, measured: SyncAverage, axes=(0, 1)) -> tupl
     return err, floor
 
 
+def revolution_harmonics(avg: np.ndarray) -> np.ndarray:
+    """Harmonics of a revolution average (M, a): ``c_k = (1/M) sum_m x_m exp(-2 pi i k m / M)``,
+    (M // 2 + 1, a) complex, N (``c_0`` the mean; a line of amplitude A at k > 0 has |c_k| = A / 2)."""
+    return np.fft.rfft(avg, axis=0) / avg.shape[0]
+
+
+def harmonic_noise(noise: np.ndarray) -> np.ndarray:
+    """RMS of |c_k| (:func:`revolution_harmonics`) of an average that is noise only, per axis (a,) N:
+    ``E|c_k|^2 = sum_m s_m^2 / M^2`` for independent bins of standard error ``s_m`` (``noise`` (M, a))."""
+    return np.sqrt(np.sum(noise ** 2, axis=0)) / noise.shape[0]
+
+
 def spectrum_lines(avg: np.ndarray, teeth: int, *, axes=(0, 1)) -> dict:
     """Signatures of a periodic average (M, a): mean offsets, tooth-passing harmonics, once-per-revolution
     lines (revolution harmonics that are not multiples of the tooth count: runout, pitch), and the
     content above the 5th tooth-passing harmonic (ringing after each entry). Amplitudes in N."""
-    spec = np.fft.rfft(avg, axis=0) / avg.shape[0]
+    spec = revolution_harmonics(avg)
     amp = 2 * np.abs(spec)
     amp[0] = np.abs(spec[0])
     k = np.arange(amp.shape[0])

@@ -173,10 +173,11 @@ _TITLES = {"forces": "cutting-force series", "force_stats": "force statistics", 
 
 def _fig_forces(arrays: dict, teeth: int, path, provenance) -> None:
     """Held-out synchronous average (x, y) measured against the model before and after, and the
-    residual's revolution harmonics before and after against the noise of the average.
+    residual's revolution harmonics before and after against the noise of the average
+    (:func:`force_signals.revolution_harmonics`; :func:`force_signals.harmonic_noise`, the RMS |c_k| of
+    a residual that is noise only)."""
+    from .force_signals import harmonic_noise, revolution_harmonics
 
-    Harmonic k of a residual r_m (M bins): c_k = (1/M) sum_m r_m exp(-2 pi i k m / M); without a
-    residual E|c_k|^2 = sum_m s_m^2 / M^2 (s_m the standard error per bin), plotted as the noise line."""
     plt = pyplot()
     meas, before, after, noise = (np.asarray(arrays[k]) for k in
                                   ("heldout_measured_n", "model_before_n", "model_after_n", "heldout_noise_n"))
@@ -195,9 +196,9 @@ def _fig_forces(arrays: dict, teeth: int, path, provenance) -> None:
         ax.legend(fontsize=7)
         ax = axes[1, a]
         for model, style, lab in ((before, ":", "residual before"), (after, "-", "residual after")):
-            c = np.abs(np.fft.rfft(model[:, a] - meas[:, a]) / M)[1:M // 2]
+            c = np.abs(revolution_harmonics(model[:, a] - meas[:, a]))[1:M // 2]
             ax.semilogy(k, c, style, marker=".", ms=3, lw=1, label=lab)
-        ax.axhline(math.sqrt(np.sum(noise[:, a] ** 2)) / M, color="k", lw=0.8, label="noise of the average")
+        ax.axhline(harmonic_noise(noise[:, a]), color="k", lw=0.8, label="noise of the average")
         for j in range(teeth, M // 2, teeth):
             ax.axvline(j, color="0.85", lw=0.5, zorder=0)
         ax.set_xlim(0.5, min(M // 2, 12 * teeth) + 0.5)

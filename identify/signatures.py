@@ -64,6 +64,7 @@ import numpy as np
 from scipy.stats import chi2, norm
 
 from .effects import SIGNATURES
+from .force_signals import harmonic_noise, revolution_harmonics
 
 __all__ = ["Signature", "PoseResidual", "force_signatures", "frf_signatures", "frf_pose_residual", "rank_candidates", "annotate", "ALPHA",
            "FORCE_SIGNATURES", "FRF_SIGNATURES", "diagnosis_markdown"]
@@ -126,10 +127,10 @@ def force_signatures(measured: np.ndarray, model: np.ndarray, noise: np.ndarray,
     """
     ax = list(axes)
     m = measured.shape[0]
-    cm = np.fft.rfft(measured[:, ax], axis=0) / m
-    cr = np.fft.rfft((measured - model)[:, ax], axis=0) / m
-    cmod = np.fft.rfft(model[:, ax], axis=0) / m
-    s2 = np.maximum(np.sum(noise[:, ax] ** 2, axis=0) / m ** 2, 1e-300)   # (a,) E|n_k|^2 per axis
+    cm = revolution_harmonics(measured[:, ax])
+    cr = revolution_harmonics((measured - model)[:, ax])
+    cmod = revolution_harmonics(model[:, ax])
+    s2 = np.maximum(harmonic_noise(noise[:, ax]) ** 2, 1e-300)   # (a,) E|n_k|^2 per axis
     s_det = alpha / len(FORCE_SIGNATURES)
     k = np.arange(cr.shape[0])
     out = {}
