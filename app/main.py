@@ -71,12 +71,14 @@ def main(argv: list[str] | None = None) -> int:
     of memory (one line). Any other exception is an internal error and keeps its traceback.
     """
     from robolobes.core.errors import BadInput
+    from robolobes.core.warnonce import each_warning_once
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.run(args) or 0)
+        with each_warning_once():  # the same warning reached from several steps is shown once
+            return int(args.run(args) or 0)
     except KeyboardInterrupt:
         print("\nrobolobes: interrupted", file=sys.stderr)
         return 130

@@ -8,7 +8,8 @@
 * :mod:`robolobes.core.numerics` -- the one Richardson extrapolation and its error bound;
 * :mod:`robolobes.core.threads`  -- BLAS thread limits of the heavy library entry points;
 * :mod:`robolobes.core.io`       -- atomic output files, JSON, headless pyplot, progress, provenance;
-* :mod:`robolobes.core.outdir`   -- output directories checked before any work.
+* :mod:`robolobes.core.outdir`   -- output directories checked before any work;
+* :mod:`robolobes.core.warnonce` -- each warning once per run.
 """
 
 from .errors import BadInput

@@ -1,6 +1,6 @@
 """Readers of force-side measurements: cutting-force series, force statistics, stability observations.
 
-Three kinds of set (issue 10, section 1), each recognised from its files:
+Three kinds of set, each recognised from its files:
 
 * **cutting-force set** (``kind = "forces"``): a directory with ``forces.csv`` (header
   ``t_s,fx_n,fy_n,fz_n``: forces on the workpiece in the cut frame, the convention of

@@ -4,7 +4,7 @@ Generic over the measurement kind: the pipeline supplies ``trial(state, effect)`
 ``effect`` on the training part of every fold and returns the residuals on the held-out part
 (:class:`Trial`); ``trial(state, None)`` returns the held-out residuals of ``state`` itself.
 
-The metric (the issue's): ``e = RMS_heldout |model - measured| / RMS_heldout |measured|``, not squared.
+The metric: ``e = RMS_heldout |model - measured| / RMS_heldout |measured|``, not squared.
 
 The significance rule (derived once, from the noise model, not tuned)
 ---------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""Why do the lobes and the time domain give different steel damping scales? (issue 9 section 2)
+"""Why do the lobes and the time domain give different steel damping scales?
 
 Experiment, not a test: prints, for joint-damping scales around the two methods' answers,
 

@@ -132,7 +132,7 @@ def _tab10_section(res: StudyResult) -> list[str]:
 def _facts_section(res: StudyResult) -> list[str]:
     from robolobes.identify.force_facts import facts_markdown
 
-    out = ["\n## The seed's facts, confronted with identification (issue 10)\n"]
+    out = ["\n## The seed's facts, confronted with identification\n"]
     f = res.identify_facts or {}
     a, b = f.get("tab10"), f.get("steel")
     if a is None:

@@ -1,5 +1,5 @@
 """The time-domain stability verdict: a statistical statement about the growth of the
-non-synchronous motion of the tool (issue 9 section 1). The rule is stated here once.
+non-synchronous motion of the tool. The rule is stated here once.
 
 Physics
 -------

@@ -63,7 +63,7 @@ class MapProblem:
         Tool-tip modes (cut frame, e.g. a measured tool-holder mode), in series with the robot at
         every pose.
     model_file : str or None
-        An identified model TOML (identification issue), added to the robot at every pose.
+        An identified model TOML (the ``model`` output of ``robolobes identify``), added to the robot at every pose.
     """
 
     case: MillingCase
