@@ -253,14 +253,20 @@ class OutputDir:
     replace : allow replacing a robolobes output written from other inputs
     name : the option named in messages
 
-    Attributes (after construction)
-    -------------------------------
-    target : Path, the final directory
-    provenance : ``{"robolobes_version", "inputs_sha256"}`` of ``inputs``; record it in every JSON
-    path : Path, the staging directory to write into (valid inside ``with``)
+    Attributes
+    ----------
+    target : Path
+        The final directory.
+    provenance : dict
+        ``{"robolobes_version", "inputs_sha256"}`` of ``inputs``; record it in every JSON.
+    path : Path
+        The staging directory to write into (valid inside ``with``).
     resumed : bool
 
-    Raises :class:`OutputRefused` (exit 2) from the constructor when the target may not be written.
+    Raises
+    ------
+    OutputRefused
+        (exit 2) From the constructor, when the target may not be written.
     """
 
     def __init__(self, path: str | os.PathLike, command: str, inputs, *, resume: bool = False,

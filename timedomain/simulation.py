@@ -64,6 +64,9 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
              progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True) -> SimulationResult:
     """Simulate the pass of ``problem`` with ``method`` (:mod:`timedomain.equations` for the equations).
 
+    BLAS runs on one thread inside (:mod:`core.threads`: the matrices are 6-18 DOF), unless the user
+    set a thread variable.
+
     Parameters
     ----------
     problem : SimulationProblem
@@ -74,9 +77,6 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
     verdict_companion : bool
         For a tool with runout whose principal period is the tooth period, decide stability on a
         companion run without runout (:mod:`timedomain.runout`, the summary's ``verdict_basis``).
-
-    BLAS runs on one thread inside (:mod:`core.threads`: the matrices are 6-18 DOF), unless the user
-    set a thread variable.
 
     Returns
     -------
