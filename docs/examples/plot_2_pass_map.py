@@ -27,7 +27,8 @@ print(ds["depth_limit_m"].sizes)
 print("limit at the operating speed per pose (mm):", np.round(ds["op_depth_limit_m"].values * 1e3, 3))
 
 # %%
-# Depth limit against speed, one line per pose along the pass:
+# Depth limit against speed, one line per pose along the pass (a gap: no limit below the
+# searched 10 mm at those speeds, stored as ``inf``):
 
 fig, ax = plt.subplots(figsize=(7, 4))
 s_mm = ds["s_m"].values * 1e3
