@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import tomllib
-import warnings
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -232,7 +231,7 @@ def _elements(path: Path, data: dict) -> tuple[ElementSpec, ...]:
     if "elements" not in data:
         return ()
     out = []
-    for i, er in enumerate(_Reader(path, data).tables("elements")):
+    for er in _Reader(path, data).tables("elements"):
         kind = er.text("type")
         params = {}
         for k, v in er.t.items():
@@ -277,7 +276,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         raise CaseError(f"{path}: {len(links)} [[links]] need {len(links) - 1} [[joints]], got {len(joints)}")
     pr = r.table("payload")
     rot = np.eye(3)
-    for k, item in enumerate(pr._get("tcp_rotation_deg", [])):
+    for item in pr._get("tcp_rotation_deg", []):
         if (not isinstance(item, list) or len(item) != 2 or item[0] not in _ROT
                 or isinstance(item[1], bool) or not isinstance(item[1], (int, float))):
             raise pr._err("tcp_rotation_deg", 'a list of ["x"|"y"|"z", angle_deg] pairs', item)

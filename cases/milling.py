@@ -39,7 +39,7 @@ thickness is ``h = h_static + n(phi) . (r(t) - r(t - tau))`` with ``n = (sin phi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 from typing import Literal
 

@@ -429,7 +429,7 @@ def _engaged_nn(tool, cut) -> np.ndarray:
     from robolobes.cases.milling import engagement_rad
 
     a, b = engagement_rad(tool, cut)
-    s2 = lambda p: np.sin(2 * p)  # noqa: E731
+    s2 = lambda p: np.sin(2 * p)
     ss = 0.5 * (b - a) - 0.25 * (s2(b) - s2(a))           # int sin^2
     cc = 0.5 * (b - a) + 0.25 * (s2(b) - s2(a))           # int cos^2
     sc = 0.5 * (np.sin(b) ** 2 - np.sin(a) ** 2)           # int sin cos

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 
 import numpy as np
 
@@ -12,7 +11,7 @@ from robolobes.cases import DEFAULT_CASE, load_case
 from robolobes.core.errors import BadInput
 from robolobes.core.io import provenance, to_jsonable
 from robolobes.core.outdir import check_output_file, cli_inputs, user_path_errors
-from .model import VARIANTS, FlexibleRobot, build_model
+from .model import VARIANTS, build_model
 from .summary import modes_summary
 
 __all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "MAX_FRF_POINTS"]

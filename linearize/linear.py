@@ -20,8 +20,7 @@ Its static limit is the compliance ``J K^-1 J^T``. The modal form uses the state
 from __future__ import annotations
 
 import math
-import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 from typing import Literal
 

@@ -22,7 +22,7 @@ Elements are added by :func:`build_model` from a variant name, or passed explici
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Literal, Sequence
 
 import numpy as np

@@ -139,7 +139,7 @@ class LobeResult:
     def __post_init__(self) -> None:
         for k in ("spindle_rpm", "depth_limit_m", "chatter_freq_hz", "depth_error_m"):
             object.__setattr__(self, k, readonly(getattr(self, k), float))
-        object.__setattr__(self, "bifurcation", readonly(getattr(self, "bifurcation"), "<U4"))
+        object.__setattr__(self, "bifurcation", readonly(self.bifurcation, "<U4"))
 
     def evaluate(self, spindle_rpm: float, depth_m: float, **kw) -> StabilityPoint:
         """Stability at ``(spindle_rpm, depth_m)`` with this result's problem and method."""

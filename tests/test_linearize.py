@@ -259,7 +259,6 @@ def test_singular_stiffness_reports_clearly():
 
 
 def test_control_interop():
-    import control
     lin = L.linearize(L.build_model(SPEC, "basic"), TAB7)
     w = 2 * np.pi * np.array([5.0, 25.0, 60.0])
     frd = lin.frf(w).to_control()

@@ -62,8 +62,8 @@ def test_profile_continuity_and_jerk_bound(pas):
     # continuity of s, v, a at every switching time (one-sided values 1e-12 s apart: jumps would be
     # O(1) x a quantity; continuity gives O(1e-12) x its derivative)
     for ts in (T / 2, T, te - T, te - T / 2):
-        l, r = prof.state(ts - 1e-12), prof.state(ts + 1e-12)
-        for x0, x1, scale in zip(l[:3], r[:3], (V * 1e-12, J * 1e-12, J * 1e-12)):
+        left, right = prof.state(ts - 1e-12), prof.state(ts + 1e-12)
+        for x0, x1, scale in zip(left[:3], right[:3], (V * 1e-12, J * 1e-12, J * 1e-12)):
             assert abs(x1 - x0) <= 2 * scale + 1e-15
     # jerk piecewise constant in {-J, 0, +J}; a is its integral, v of a, s of v (finite differences,
     # dt = 1e-5 s: central differences of cubics are exact up to dt^2 J ~ 1e-8 of the scale)

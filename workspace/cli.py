@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -366,7 +365,6 @@ def optimum_case_toml(case_ref: str, res) -> str:
     start pose (and, for the MRR objective, its speed at the case's feed per tooth), so that
     ``robolobes lobes --case THIS --q-deg WORST`` checks the optimum's limit in the optimum's cut
     frame (a yawed part feeds along another base direction)."""
-    from pathlib import Path
 
     from robolobes.cases.loader import _resolve
     from robolobes.identify.model_toml import dumps
