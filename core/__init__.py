@@ -11,6 +11,9 @@
 * :mod:`robolobes.core.outdir`   -- output directories checked before any work.
 """
 
+if __name__ != "robolobes.core":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.core package: import robolobes.core instead")
+
 from .errors import BadInput
 from .frf import FRF
 from .verdict import Verdict

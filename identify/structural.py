@@ -71,22 +71,23 @@ def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
     import pinocchio as pin
 
     from robolobes.linearize import linearize
-    from robolobes.linearize.model import VirtualJoints
+    from robolobes.linearize.base_elements import VirtualJoints, virtual_dofs
 
     lin = linearize(robot, theta)
+    data = robot.create_data()
     spec = robot.spec
     vj = [e for e in robot.elements if isinstance(e, VirtualJoints)]
     # payload centre of mass: flange frame origin + R_flange com (point velocity v + w x r)
-    pin.computeJointJacobians(robot.model, robot.data, np.asarray(lin.q))
-    pin.framesForwardKinematics(robot.model, robot.data, np.asarray(lin.q))
-    Jf = pin.getFrameJacobian(robot.model, robot.data, robot.flange_frame, pin.LOCAL_WORLD_ALIGNED)
-    Rf = robot.data.oMf[robot.flange_frame].rotation
+    pin.computeJointJacobians(robot.model, data, np.asarray(lin.q))
+    pin.framesForwardKinematics(robot.model, data, np.asarray(lin.q))
+    Jf = pin.getFrameJacobian(robot.model, data, robot.flange_frame, pin.LOCAL_WORLD_ALIGNED)
+    Rf = data.oMf[robot.flange_frame].rotation
     r = Rf @ np.asarray(spec.payload.com_m)
     skew = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
     J_payload = Jf[:3] - skew @ Jf[3:]
     return PoseMatrices(M=np.asarray(lin.M), C=np.asarray(lin.C), K=np.asarray(lin.K), J=np.asarray(lin.J),
                         R_tcp=np.asarray(lin.R_tcp), motion_dofs=np.asarray(robot.motion_dofs),
-                        virtual_dofs=np.asarray(vj[0]._idx) if vj else np.zeros(0, dtype=int),
+                        virtual_dofs=virtual_dofs(robot.model) if vj else np.zeros(0, dtype=int),
                         joint_k=spec.joint_stiffness, joint_d=spec.joint_damping,
                         virtual_k=vj[0].stiffness if vj else 0.0, virtual_d=vj[0].damping if vj else 0.0,
                         J_payload=J_payload, payload_mass_kg=spec.payload.mass_kg)

@@ -135,3 +135,15 @@ def test_the_ast_scan_can_fail(tmp_path):
     f.write_text("from .cli import run\nimport robolobes.lobes.cli\nfrom robolobes.linearize import cli\n")
     found = [m for m in _imports(f, "robolobes.lobes") if _is_cli(m)]
     assert found.count("robolobes.lobes.cli") == 2 and "robolobes.linearize.cli" in found
+
+
+@pytest.mark.parametrize("folder,package", [(p, f"robolobes.{p}") for p in PACKAGES] + [("app", "robolobes")])
+def test_root_folder_does_not_load_a_second_copy(folder, package):
+    """From the repository root, where the design's folders are on sys.path, ``import lobes`` must
+    not give a second copy of robolobes.lobes: an ImportError naming the package to import."""
+    r = _run([sys.executable, "-c", f"import {folder}"], cwd=ROOT)
+    assert r.returncode != 0
+    last = r.stderr.strip().splitlines()[-1]
+    assert last.startswith("ImportError") and f"import {package} instead" in last, last
+    r = _run([sys.executable, "-c", f"import {package}"], cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-2000:]
