@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Any, Literal, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -36,6 +36,7 @@ from robolobes.core.validate import finite_array
 from .base_elements import Gravity, GravityCompensation, MotionSprings, Payload, VirtualJoints
 from .element import Element, ModelBuilder, dead_zone
 from .extra_elements import element_from_spec
+from .variants import VARIANTS, Variant
 
 __all__ = [
     "Variant",
@@ -56,10 +57,6 @@ __all__ = [
     "tcp_jacobian",
     "dead_zone",
 ]
-
-Variant = Literal["basic", "gravity", "orthogonal", "backlash"]
-VARIANTS: tuple[str, ...] = ("basic", "gravity", "orthogonal", "backlash")
-
 
 @dataclass(frozen=True)
 class FlexibleRobot:
