@@ -263,7 +263,7 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
     """FRF signatures over the poses (module docstring). Returns dict name -> :class:`Signature`."""
     s_det = alpha / len(FRF_SIGNATURES)
     out = {}
-    # static compliance: below half the lowest model mode
+    # static compliance: below QUASI_STATIC (a quarter) of the lowest model mode
     f_low = min(f for pr in poses for f, _ in pr.modes) if any(pr.modes for pr in poses) else None
     low = [pr.f_hz < QUASI_STATIC * f_low if f_low else pr.f_hz <= np.quantile(pr.f_hz, 0.1) for pr in poses]
     q = np.concatenate([_band_q(pr, m) for pr, m in zip(poses, low)])

@@ -12,7 +12,7 @@ Example: the motion springs pull a link that runs ahead of its motor back.
 >>> q = np.zeros(robot.nq); q[robot.motion_dofs[0]] = 1e-3   # link 1 one milliradian ahead
 >>> tau = element_forces(robot, q, np.zeros(robot.nv), np.zeros(6))
 >>> round(float(tau[robot.motion_dofs[0]]) / -1e-3)  # N m/rad: axis 1 of the paper's Tab. 6
-1600000
+2030000
 """
 
 from __future__ import annotations

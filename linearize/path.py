@@ -37,7 +37,7 @@ from robolobes.core.errors import BadInput
 from .kinematics import (BRANCHES, arm_geometry, branch_of, check_limits, fk, ik_batch,
                          jacobian)
 
-__all__ = ["PassError", "FeedProfile", "Pass", "make_pass", "FEED_PERPENDICULAR_TOL", "MAX_TABLE_STEP_RAD"]
+__all__ = ["PassError", "FeedProfile", "Pass", "FEED_PERPENDICULAR_TOL", "MAX_TABLE_STEP_RAD"]
 
 #: |cos| between the feed direction and the tool axis above which the pass is refused (as
 #: :func:`cases.milling.cut_frame`: 2.5-axis milling needs the feed in the plane of the tool).
@@ -183,7 +183,7 @@ class FeedProfile:
 class Pass:
     """A straight milling pass of a robot: TCP line, feed profile, motor angles.
 
-    Build it with :meth:`Pass.from_case` (or :func:`make_pass`). All methods are vectorized over
+    Build it with :meth:`Pass.from_case`. All methods are vectorized over
     arrays of t (s) or s (m).
 
     Attributes
@@ -443,8 +443,3 @@ class Pass:
             raise PassError(f"theta_table needs n >= 2 samples, got {n}")
         t = np.linspace(0.0, self.duration_s, int(n))
         return t, self.theta(t)
-
-
-def make_pass(case: MillingCase, **kw) -> Pass:
-    """Shortcut for :meth:`Pass.from_case`."""
-    return Pass.from_case(case, **kw)

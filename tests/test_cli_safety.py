@@ -13,7 +13,7 @@ from robolobes.core.io import provenance
 from robolobes.core.outdir import cli_inputs, read_provenance
 from robolobes.main import build_parser, main as robolobes_main
 
-from test_lobes_cli import MODAL, TOOLARGS as TOOL  # the symmetric 2-DOF benchmark modal file
+from lobes_benchmark import MODAL, TOOLARGS as TOOL  # the symmetric 2-DOF benchmark modal file
 
 
 def run(capsys, *argv):

@@ -23,9 +23,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import minimize_scalar
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from test_lobes import limit, problem, radius
+from lobes_benchmark import limit, problem, radius
 
 from robolobes.core.numerics import richardson
 from robolobes.lobes import SemiDiscretization, solve
