@@ -21,7 +21,8 @@ from robolobes.core.errors import BadInput
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
 from .spec import Assumption, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
-__all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE"]
+__all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE",
+           "case_table"]
 
 DEFAULT_CASE = "tx200-aluminium"
 
@@ -82,6 +83,17 @@ def _resolve(name_or_path: str | Path, kind: str, relative_to: Path | None = Non
     if got != kind:
         raise CaseError(f"{path}: key 'kind' must be {kind!r} for a {kind} file, got {got!r}")
     return path, data
+
+
+def case_table(name_or_path: str | Path) -> tuple[Path, dict]:
+    """The file of a case (built-in name or path of a case TOML) and its raw TOML table, unchecked
+    beyond ``kind = "cut"``: for writing a modified copy of the case (:func:`load_case` checks it).
+
+    >>> path, table = case_table("tx200-aluminium")
+    >>> path.name, table["kind"]
+    ('tx200-aluminium.toml', 'cut')
+    """
+    return _resolve(name_or_path, "cut")
 
 
 class _Reader:
