@@ -12,14 +12,14 @@ import math
 import tomllib
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from robolobes.core.errors import BadInput
 
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
-from .spec import Assumption, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
+from .spec import Assumption, Axis, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
 __all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE",
            "case_table"]
@@ -279,7 +279,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         if rng[0] >= rng[1]:
             raise jr._err("range_deg", "[lower, upper] with lower < upper", np.degrees(rng).tolist())
         joints.append(JointSpec(
-            name=jr.text("name"), axis=jr.text("axis", choices=("x", "y", "z")),
+            name=jr.text("name"), axis=cast(Axis, jr.text("axis", choices=("x", "y", "z"))),
             stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True),
             damping_n_m_s_per_rad=jr.num("damping_n_m_s_per_rad", nonneg=True),
             range_rad=rng, gravity_compensation=jr.boolean("gravity_compensation", False)))
@@ -288,7 +288,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         raise CaseError(f"{path}: {len(links)} [[links]] need {len(links) - 1} [[joints]], got {len(joints)}")
     pr = r.table("payload")
     rot = np.eye(3)
-    for item in pr._get("tcp_rotation_deg", []):
+    for item in pr._get("tcp_rotation_deg", []) or []:
         if (not isinstance(item, list) or len(item) != 2 or item[0] not in _ROT
                 or isinstance(item[1], bool) or not isinstance(item[1], (int, float))):
             raise pr._err("tcp_rotation_deg", 'a list of ["x"|"y"|"z", angle_deg] pairs', item)

@@ -38,7 +38,12 @@ _HOME = {name: module for module, names in {
     "summary": ("modes_summary",),
 }.items() for name in names}
 
-__all__ = list(_HOME)
+__all__ = ["VARIANTS", "Element", "FlexibleRobot", "Gravity", "GravityCompensation", "MotionSprings", "Payload",
+           "VirtualJoints", "build_model", "element_forces", "element_tangents", "rigid_q", "tcp_jacobian",
+           "tcp_pose", "FRF", "Equilibrium", "LinearModel", "Modes", "SingularConfigurationError", "equilibrium",
+           "frf_direct", "frf_modal", "linearize", "modal_analysis", "state_space", "LinearBatch", "linearize_many",
+           "JointLimitError", "JointLimitWarning", "KinematicsError", "SingularityError", "UnreachableError",
+           "check_limits", "fk", "ik", "ik_all", "Pass", "PoseMap", "grid_map", "pass_map", "modes_summary"]
 
 
 def __getattr__(name: str):

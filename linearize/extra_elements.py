@@ -136,7 +136,7 @@ class TcpMode(Element):
     def damping_n_s_per_m(self) -> float:
         return 2 * self.damping_ratio * math.sqrt(self.stiffness_n_per_m * self.mass_kg)
 
-    def finish(self, b: ModelBuilder) -> None:
+    def finish(self, b: ModelBuilder) -> str:
         parent = b.tail if b.tcp_parent is None else b.tcp_parent
         placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
         name = f"tcp_mode_{b.model.njoints}"
@@ -280,7 +280,7 @@ class ServoDrive(Element):
         _positive("servo_drive kp_n_m_per_rad", self.kp_n_m_per_rad)
         _positive("servo_drive kd_n_m_s_per_rad", self.kd_n_m_s_per_rad, zero_ok=True)
 
-    def finish(self, b: ModelBuilder) -> None:
+    def finish(self, b: ModelBuilder) -> str:
         name = f"servo_rotor_{self.joint}_{b.model.njoints}"
         jid = b.model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), name)
         J = self.rotor_inertia_kg_m2
@@ -396,7 +396,7 @@ def element_table(element: Element) -> dict:
     """The ``[[elements]]`` table of an extra element (inverse of :func:`element_from_spec`)."""
     for t, cls in ELEMENT_TYPES.items():
         if type(element) is cls:
-            out = {"type": t}
+            out: dict[str, Any] = {"type": t}
             for k in _keys(cls):
                 v = getattr(element, k)
                 out[k] = [float(x) for x in v] if isinstance(v, tuple) else v

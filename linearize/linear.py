@@ -230,7 +230,7 @@ def modal_analysis(M: np.ndarray, C: np.ndarray, K: np.ndarray, J: np.ndarray) -
     n = M.shape[-1]
     A, Minv = _state_matrix(M, C, K)
     lam, V = np.linalg.eig(A)
-    order = np.argsort(np.where(lam.imag >= 0, 0, 1) * 1e30 + np.abs(lam), axis=-1)
+    order = np.argsort(np.where(np.imag(lam) >= 0, 0, 1) * 1e30 + np.abs(lam), axis=-1)
     lam = np.take_along_axis(lam, order, -1)
     V = np.take_along_axis(V, order[..., None, :], -1)
     W = np.linalg.inv(V)  # rows: left eigenvectors, W V = I
@@ -239,14 +239,14 @@ def modal_analysis(M: np.ndarray, C: np.ndarray, K: np.ndarray, J: np.ndarray) -
     in_r = W[..., :, n:] @ (Minv @ np.swapaxes(J, -1, -2))     # (..., 2n, 3)
     residues = np.einsum("...ir,...rj->...rij", out_r, in_r)
     # modes: poles with Im > 0 (one per underdamped pair) plus real poles (overdamped)
-    pos = (lam.imag > 1e-9 * np.abs(lam)) | (np.abs(lam.imag) <= 1e-9 * np.abs(lam))
+    pos = (np.imag(lam) > 1e-9 * np.abs(lam)) | (np.abs(np.imag(lam)) <= 1e-9 * np.abs(lam))
     # with the ordering above, underdamped positive poles come first; count per batch must agree
     n_modes = int(np.min(np.sum(pos, axis=-1)))
     sel = slice(0, n_modes)
     lm = lam[..., sel]
     wn = np.abs(lm)
-    wd = np.abs(lm.imag)
-    zeta = -lm.real / np.where(wn > 0, wn, 1)
+    wd = np.abs(np.imag(lm))
+    zeta = -np.real(lm) / np.where(wn > 0, wn, 1)
     shapes = V[..., :n, sel]
     k = np.argmax(np.abs(shapes), axis=-2)[..., None, :]
     shapes = shapes / np.take_along_axis(shapes, k, -2)

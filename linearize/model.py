@@ -279,7 +279,8 @@ def tcp_pose(robot: FlexibleRobot, q: np.ndarray, data: pin.Data | None = None) 
     >>> p.shape, R.shape
     ((3,), (3, 3))
     """
-    data = robot.create_data() if data is None else data
+    if data is None:
+        data = robot.create_data()
     pin.framesForwardKinematics(robot.model, data, q)
     m = data.oMf[robot.tcp_frame]
     return m.translation.copy(), m.rotation.copy()

@@ -220,8 +220,8 @@ class Pass:
     contact_exit_s: float
     branch: int
     n_reference: int = 0
-    _ref_s: np.ndarray = field(default=None, repr=False)
-    _ref_theta: np.ndarray = field(default=None, repr=False)
+    _ref_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)  # set by _build_reference
+    _ref_theta: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)), repr=False)
 
     # --------------------------------------------------------------------------- construction
     @classmethod
@@ -268,7 +268,7 @@ class Pass:
         obj = cls(robot=spec, start_q=q0, start_position=p0, rotation=R0, direction=d, profile=profile,
                   part_entry_s=ps.approach_m, part_exit_s=ps.approach_m + tool.diameter_m + ps.part_length_m,
                   contact_entry_s=ps.approach_m + R - w, contact_exit_s=ps.approach_m + R + ps.part_length_m + w,
-                  branch=branch_of(spec, q0), n_reference=n_ref)
+                  branch=int(branch_of(spec, q0)), n_reference=n_ref)
         obj._build_reference()
         return obj
 
@@ -324,22 +324,22 @@ class Pass:
     @property
     def part_entry_t(self) -> float:
         """Time at which the tool envelope reaches the part, s."""
-        return self.profile.time_at(self.part_entry_s)
+        return float(self.profile.time_at(self.part_entry_s))
 
     @property
     def part_exit_t(self) -> float:
         """Time at which the tool envelope clears the part, s."""
-        return self.profile.time_at(self.part_exit_s)
+        return float(self.profile.time_at(self.part_exit_s))
 
     @property
     def contact_entry_t(self) -> float:
         """Time of the first edge-material contact, s."""
-        return self.profile.time_at(self.contact_entry_s)
+        return float(self.profile.time_at(self.contact_entry_s))
 
     @property
     def contact_exit_t(self) -> float:
         """Time of the last edge-material contact, s."""
-        return self.profile.time_at(self.contact_exit_s)
+        return float(self.profile.time_at(self.contact_exit_s))
 
     def s(self, t):
         """Path coordinate at time t (s, clipped to [0, duration]), m."""

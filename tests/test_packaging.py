@@ -189,3 +189,12 @@ def test_no_import_cycles():
     for m in graph:
         visit(m, [m])
     assert not cycles, [" -> ".join(c) for c in cycles]
+
+
+def test_linearize_lazy_names_resolve():
+    """robolobes.linearize loads its names on first use: each listed name has a home and resolves."""
+    import robolobes.linearize as L
+
+    assert set(L.__all__) == set(L._HOME)
+    for name in L.__all__:
+        assert getattr(L, name) is getattr(importlib.import_module(f"robolobes.linearize.{L._HOME[name]}"), name)
