@@ -21,18 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-MODAL = """[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [1, 0]
-
-[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [0, 1]
-"""
+# the symmetric 2-DOF benchmark of the lobe tests
+MODAL_FILE = Path(__file__).resolve().parents[1] / "tests" / "data" / "two_dof_benchmark_modes.toml"
 TOOL = ["--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5", "--down", "--ktc-mpa", "600", "--krc-mpa", "200"]
 
 
@@ -51,7 +41,7 @@ def main() -> int:
     py = sys.executable
     cli = [py, "-m", "robolobes"]
     with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "m.toml").write_text(MODAL)
+        Path(tmp, "m.toml").write_text(MODAL_FILE.read_text())
         runs = {
             "import numpy, scipy.linalg": [py, "-c", "import numpy, scipy.linalg"],
             "robolobes --help": cli + ["--help"],

@@ -329,6 +329,10 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
     """Load a milling case: a built-in name (``"tx200-aluminium"``, ``"tx200-steel"``) or a path.
 
     The case's ``robot`` key is a built-in robot name or a path relative to the case file.
+
+    >>> case = load_case("tx200-steel")
+    >>> case.cut.spindle_rpm, case.cut.ap_m   # rpm, m
+    (3100.0, 0.0016)
     """
     path, data = _resolve(name_or_path, "cut")
     r = _Reader(path, data)

@@ -93,6 +93,16 @@ def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
                         J_payload=J_payload, payload_mass_kg=spec.payload.mass_kg)
 
 
+def _bordered(A: np.ndarray, corner: float) -> np.ndarray:
+    """``A`` (n, n) grown by one coordinate: (n + 1, n + 1), zeros in the new row and column except
+    ``corner`` on the diagonal."""
+    n = A.shape[0]
+    out = np.zeros((n + 1, n + 1))
+    out[:n, :n] = A
+    out[n, n] = corner
+    return out
+
+
 class StructuralEffect(Effect):
     """An element effect with a fast perturbation of the linearized matrices."""
 
@@ -144,16 +154,9 @@ class TcpModeEffect(StructuralEffect):
         d = pm.R_tcp @ _direction(params["polar_rad"], params["azimuth_rad"])
         n = pm.M.shape[0]
         Jd = pm.J.T @ d
-        M = np.zeros((n + 1, n + 1))
-        M[:n, :n] = pm.M                     # + m J^T J (mode body) - m J^T J (taken from the payload)
+        M = _bordered(pm.M, m)               # + m J^T J (mode body) - m J^T J (taken from the payload)
         M[:n, n] = M[n, :n] = m * Jd
-        M[n, n] = m
-        C = np.zeros((n + 1, n + 1))
-        C[:n, :n] = pm.C
-        C[n, n] = c
-        K = np.zeros((n + 1, n + 1))
-        K[:n, :n] = pm.K
-        K[n, n] = k
+        C, K = _bordered(pm.C, c), _bordered(pm.K, k)
         return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, d[:, None]]),
                        J_payload=np.hstack([pm.J_payload, np.zeros((3, 1))]))
 
@@ -340,16 +343,8 @@ class ServoEffect(StructuralEffect):
         i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
         k = pm.joint_k[self.joint - 1]
         J, kp, kd = self.physical(k, params)
-        M = np.zeros((n + 1, n + 1))
-        M[:n, :n] = pm.M
-        M[n, n] = J
-        C = np.zeros((n + 1, n + 1))
-        C[:n, :n] = pm.C
-        C[n, n] = kd
-        K = np.zeros((n + 1, n + 1))
-        K[:n, :n] = pm.K
+        M, C, K = _bordered(pm.M, J), _bordered(pm.C, kd), _bordered(pm.K, k + kp)
         K[i, n] = K[n, i] = -k
-        K[n, n] = k + kp
         z = np.zeros((3, 1))
         return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, z]), J_payload=np.hstack([pm.J_payload, z]))
 

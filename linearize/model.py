@@ -204,6 +204,11 @@ def build_model(spec: RobotSpec, variant: str = "basic", *, damping_scale: float
         Factor on the motion-axis damping (1: the paper's Tab. 6).
     extra_elements : sequence of Element
         Effects added on top of the variant (e.g. by :mod:`identify`).
+
+    >>> from robolobes.cases import load_robot
+    >>> robot = build_model(load_robot("tx200"), "orthogonal")
+    >>> robot.nv, [e.name for e in robot.elements]
+    (18, ['payload', 'motion springs', 'gravity', 'gravity compensation', 'virtual joints'])
     """
     els = variant_elements(spec, variant, damping_scale) + tuple(extra_elements)
     name = variant if not extra_elements and damping_scale == 1.0 else f"{variant}+"

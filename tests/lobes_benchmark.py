@@ -8,6 +8,7 @@ a 2-tooth 10 mm tool, Kt = 600 MPa, Kr = 200 MPa.
 """
 
 import math
+from pathlib import Path
 
 from robolobes.cases.milling import Cut, CuttingLaw, Tool
 from robolobes.lobes import LobeProblem, Mode, ModalStructure, solve
@@ -21,19 +22,7 @@ TOOL = Tool(diameter_m=DIAM, teeth=2)
 LAW = CuttingLaw(ktc_pa=6e8, krc_pa=2e8)
 
 # the same structure and tool as a ``robolobes lobes --modal`` file and its command-line options
-MODAL = """
-[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [1, 0]
-
-[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [0, 1]
-"""
+MODAL = (Path(__file__).resolve().parent / "data" / "two_dof_benchmark_modes.toml").read_text()
 
 TOOLARGS = ["--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5", "--down", "--ktc-mpa", "600", "--krc-mpa", "200"]
 
