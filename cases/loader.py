@@ -352,8 +352,8 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
         tool = Tool(
             diameter_m=tr.num("diameter_mm", positive=True) * 1e-3, teeth=teeth,
             helix_rad=math.radians(tr.num("helix_deg", 0.0)),
-            pitch_rad=tuple(np.radians(tr.vec("pitch_deg"))) if tr.has("pitch_deg") else None,
-            runout_m=tuple(tr.vec("runout_um") * 1e-6) if tr.has("runout_um") else None)
+            pitch_rad=tuple(np.radians(tr.vec("pitch_deg"))) if tr.has("pitch_deg") else (),
+            runout_m=tuple(tr.vec("runout_um") * 1e-6) if tr.has("runout_um") else ())
     except MillingError as e:
         raise CaseError(f"{path}: [tool]: {e}") from None
     tr.finish()

@@ -449,11 +449,11 @@ def regeneration(tool: Tool, cut: Cut) -> list[ToothRegeneration]:
     fz = cut.feed_per_tooth_m
     out = []
     for j in range(n):
-        best = None
+        best = (math.inf, 0.0)  # (chip, delay) of the previous tooth that cuts deepest
         for k in range(1, n + 1):
             ang = sum(tool.pitch_rad[(j - i) % n] for i in range(1, k + 1))
             h = fz * n * ang / (2 * math.pi) + tool.runout_m[j] - tool.runout_m[(j - k) % n]
-            if best is None or h < best[0] - 1e-15:
+            if h < best[0] - 1e-15:
                 best = (h, ang)
         # A tie (h == 0: no feed, no runout difference) counts as cutting: the linear model with
         # zero feed still regenerates on every tooth.

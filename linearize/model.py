@@ -284,10 +284,9 @@ def tcp_pose(robot: FlexibleRobot, q: np.ndarray, data: pin.Data | None = None) 
     >>> p.shape, R.shape
     ((3,), (3, 3))
     """
-    if data is None:
-        data = robot.create_data()
-    pin.framesForwardKinematics(robot.model, data, q)
-    m = data.oMf[robot.tcp_frame]
+    work = robot.create_data() if data is None else data
+    pin.framesForwardKinematics(robot.model, work, q)
+    m = work.oMf[robot.tcp_frame]
     return m.translation.copy(), m.rotation.copy()
 
 

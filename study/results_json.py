@@ -18,7 +18,8 @@ SOURCE = ("computed by robolobes (robolobes study); only the entries named 'pape
 
 def _plain(obj, skip=()) -> dict:
     """A dataclass's fields as a dict, without ``skip``; nested dataclasses as dicts."""
-    return {f.name: (asdict(v) if is_dataclass(v) else v) for f in fields(obj) if f.name not in skip
+    return {f.name: (asdict(v) if is_dataclass(v) and not isinstance(v, type) else v) for f in fields(obj)
+            if f.name not in skip
             for v in (getattr(obj, f.name),)}
 
 
@@ -67,7 +68,7 @@ def to_json(res: StudyResult) -> dict:
     runs = {r.key: _run_json(r) for r in res.time_domain if r.damping_scale == 1.0}
     damped = [_run_json(r) for r in res.time_domain if r.damping_scale != 1.0]
     al, st = res.facts["aluminium"], res.facts["steel"]
-    explanation = {mat: facts_json(f) for mat, f in res.facts.items()}
+    explanation: dict[str, object] = {mat: facts_json(f) for mat, f in res.facts.items()}
     explanation.update(
         ktc_ratio_steel_over_aluminium=res.ktc_ratio_steel_over_aluminium,
         absolute_limit_ratio_aluminium_over_steel=al.absolute_limit_zoa_m / st.absolute_limit_zoa_m,
