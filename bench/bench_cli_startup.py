@@ -35,7 +35,7 @@ def child_cpu(cmd: list[str], cwd: str) -> float:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
     py = sys.executable

@@ -10,7 +10,7 @@ a 2-tooth 10 mm tool, Kt = 600 MPa, Kr = 200 MPa.
 import math
 from pathlib import Path
 
-from robolobes.cases.milling import Cut, CuttingLaw, Tool
+from robolobes.cases.milling import Cut, CuttingLaw, MillingMode, Tool
 from robolobes.lobes import LobeProblem, Mode, ModalStructure, solve
 from robolobes.lobes.sdm import SDMEngine
 
@@ -27,7 +27,7 @@ MODAL = (Path(__file__).resolve().parent / "data" / "two_dof_benchmark_modes.tom
 TOOLARGS = ["--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5", "--down", "--ktc-mpa", "600", "--krc-mpa", "200"]
 
 
-def problem(aD, directions=((1.0, 0.0),), mode="down", rpm=10000.0, depth=1e-3, tool=TOOL, law=LAW, **cutkw):
+def problem(aD, directions=((1.0, 0.0),), mode: MillingMode = "down", rpm=10000.0, depth=1e-3, tool=TOOL, law=LAW, **cutkw):
     """The benchmark at radial immersion ``aD`` (ae / D), one mode per direction (unit, cut frame)."""
     s = ModalStructure(tuple(Mode(FN, ZETA, K, d) for d in directions))
     return LobeProblem(s, tool, Cut(ae_m=aD * DIAM, ap_m=depth, spindle_rpm=rpm, mode=mode, **cutkw), law)

@@ -60,6 +60,8 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
         t_end = min(t_end_s, prob.pass_duration_s)
         run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
     s = run.summary
+    if s is None:
+        raise RuntimeError("the time-domain check's simulation returned no summary")
     return {**s.verdict.to_json(), "chatter_freq_hz": s.chatter_freq_hz, "t_end_s": t_end,
             "depth_m": case.cut.ap_m, "rpm": rpm, "note": getattr(s, "note", None)}
 
