@@ -14,6 +14,9 @@ Subpackages, in data-flow order (each imports only those before it)::
 The command line is :func:`robolobes.main.main` (``robolobes ...`` or ``python -m robolobes ...``).
 """
 
+if __name__ != "robolobes":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes package: import robolobes instead")
+
 from importlib.metadata import PackageNotFoundError, version as _version
 
 try:

@@ -1,7 +1,7 @@
 """The ``robolobes`` command line: one entry point, one subcommand per job.
 
 Each package owns its subcommands (``register(subparsers)`` and ``run(args)`` in its ``cli``
-module); this module only dispatches, importing a package when its subcommand runs.
+module); this module only dispatches, importing the one CLI module of the subcommand it runs.
 
     robolobes study     the main job: aluminium vs steel on the TX200, report + numbers
     robolobes modes     modes and TCP stiffness at a pose
@@ -25,33 +25,43 @@ import warnings
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-# subcommand -> module that registers it (imported lazily, in data-flow order)
+# subcommand -> (module that registers it, one-line help). Only the module of the subcommand being
+# run is imported: ``robolobes --help`` imports nothing, ``robolobes lobes ...`` only the lobes CLI.
 _COMMANDS = {
-    "study": "robolobes.study.cli",
-    "modes": "robolobes.linearize.cli",
-    "frf": "robolobes.linearize.cli",
-    "lobes": "robolobes.lobes.cli",
-    "simulate": "robolobes.timedomain.cli",
-    "identify": "robolobes.identify.cli",
-    "map": "robolobes.workspace.cli",
-    "optimize": "robolobes.workspace.cli",
+    "study": ("robolobes.study.cli", "the main job: why aluminium is stable and steel is not (TX200)"),
+    "modes": ("robolobes.linearize.cli", "modes and TCP stiffness at a pose"),
+    "frf": ("robolobes.linearize.cli", "tool-tip FRF at a pose (CSV or UFF58 + Bode PNG)"),
+    "lobes": ("robolobes.lobes.cli", "stability lobe diagram (semi-discretization or zero-order)"),
+    "simulate": ("robolobes.timedomain.cli", "time-domain simulation of a milling pass"),
+    "identify": ("robolobes.identify.cli", "fit the model to measured data: find the missing effect, report the error before and after"),
+    "map": ("robolobes.workspace.cli", "lobe maps across the workspace"),
+    "optimize": ("robolobes.workspace.cli", "placement and tool rotation that maximize the minimum stable depth over the pass"),
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _chosen_command(argv: list[str]) -> str | None:
+    """The subcommand named in ``argv`` (the first argument that is not an option), or None."""
+    for a in argv:
+        if not a.startswith("-"):
+            return a if a in _COMMANDS else None
+    return None
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The ``robolobes`` parser. Full subparsers for the subcommand named in ``argv`` (every
+    subcommand when ``argv`` is None); the others are listed with their help line only."""
     parser = argparse.ArgumentParser(prog="robolobes", description="Dynamics of robotic milling.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    seen = set()
-    for module in dict.fromkeys(_COMMANDS.values()):
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as e:  # a package without a CLI yet
-            if e.name != module:
-                raise
-            continue
-        mod.register(sub)
-        seen.add(module)
+    chosen = None if argv is None else _chosen_command(argv)
+    modules = dict.fromkeys(m for c, (m, _) in _COMMANDS.items() if argv is None or c == chosen)
+    registered = set(sub.choices)
+    for module in modules:
+        importlib.import_module(module).register(sub)
+        registered = set(sub.choices)
+    for command, (_, help_line) in _COMMANDS.items():
+        if command not in registered:
+            sub.add_parser(command, help=help_line)
     return parser
 
 
@@ -74,7 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     from robolobes.core.warnonce import each_warning_once
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         with each_warning_once():  # the same warning reached from several steps is shown once

@@ -36,9 +36,10 @@ def main(n_poses: int = 6, n_lines: int = 1200):
                           rel_noise=0.02, add_noise=0.02, seed=0)
         robot = build_model(case.robot, "basic")
         q = rigid_q(robot, case.path.start_q_rad)
+        data = robot.create_data()
         t0 = time.perf_counter()
         for _ in range(1000):
-            pin.crba(robot.model, robot.data, q)
+            pin.crba(robot.model, data, q)
         t_crba = (time.perf_counter() - t0) / 1000
         for poles in (False, True):
             t0 = time.perf_counter()

@@ -25,10 +25,11 @@ def main(n_poses: int = 1000, n_freq: int = 500):
     w = 2 * math.pi * np.linspace(1.0, 500.0, n_freq)
 
     q = L.rigid_q(robot, thetas[0])
+    data = robot.create_data()
     t0 = time.perf_counter()
     for th in thetas:
         q[robot.motion_dofs] = th
-        pin.crba(robot.model, robot.data, q)
+        pin.crba(robot.model, data, q)
     t_ref = time.perf_counter() - t0
 
     t0 = time.perf_counter()

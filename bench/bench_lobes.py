@@ -19,17 +19,16 @@ The process is pinned to one BLAS thread (set before numpy is imported).
 
 from __future__ import annotations
 
-import os
-
-for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_v] = "1"
-
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_v] = "1"
+
+import numpy as np  # noqa: E402  (after the BLAS thread count is set)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 

@@ -71,7 +71,7 @@ def _first_call_s(cache_dir: str) -> float:
 
 def _reference_s(S: PassSetup, n: int = 1000, repeat: int = 5) -> float:
     """Median time of ``n`` pinocchio rnea calls on the setup's model, s."""
-    model, data = S.robot.model, S.robot.data
+    model, data = S.robot.model, S.robot.create_data()
     q = S.q_eq.copy()
     v = np.full(model.nv, 0.01)
     a = np.full(model.nv, 0.1)

@@ -11,6 +11,9 @@ in the same TOML format and load it by path.
 18700
 """
 
+if __name__ != "robolobes.cases":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.cases package: import robolobes.cases instead")
+
 from .loader import DEFAULT_CASE, CaseError, builtin_cases, builtin_robots, load_case, load_reference, load_robot
 from .milling import (Cut, CuttingLaw, MillingError, Tool, check_cut, cut_frame, directional_matrix,
                       edge_forces, engagement_rad, in_cut, regeneration, tool_force_cut_frame)

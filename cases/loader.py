@@ -10,19 +10,19 @@ from __future__ import annotations
 
 import math
 import tomllib
-import warnings
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from robolobes.core.errors import BadInput
 
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
-from .spec import Assumption, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
+from .spec import Assumption, Axis, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
 
-__all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE"]
+__all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE",
+           "case_table"]
 
 DEFAULT_CASE = "tx200-aluminium"
 
@@ -83,6 +83,17 @@ def _resolve(name_or_path: str | Path, kind: str, relative_to: Path | None = Non
     if got != kind:
         raise CaseError(f"{path}: key 'kind' must be {kind!r} for a {kind} file, got {got!r}")
     return path, data
+
+
+def case_table(name_or_path: str | Path) -> tuple[Path, dict]:
+    """The file of a case (built-in name or path of a case TOML) and its raw TOML table, unchecked
+    beyond ``kind = "cut"``: for writing a modified copy of the case (:func:`load_case` checks it).
+
+    >>> path, table = case_table("tx200-aluminium")
+    >>> path.name, table["kind"]
+    ('tx200-aluminium.toml', 'cut')
+    """
+    return _resolve(name_or_path, "cut")
 
 
 class _Reader:
@@ -232,7 +243,7 @@ def _elements(path: Path, data: dict) -> tuple[ElementSpec, ...]:
     if "elements" not in data:
         return ()
     out = []
-    for i, er in enumerate(_Reader(path, data).tables("elements")):
+    for er in _Reader(path, data).tables("elements"):
         kind = er.text("type")
         params = {}
         for k, v in er.t.items():
@@ -268,7 +279,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         if rng[0] >= rng[1]:
             raise jr._err("range_deg", "[lower, upper] with lower < upper", np.degrees(rng).tolist())
         joints.append(JointSpec(
-            name=jr.text("name"), axis=jr.text("axis", choices=("x", "y", "z")),
+            name=jr.text("name"), axis=cast(Axis, jr.text("axis", choices=("x", "y", "z"))),
             stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True),
             damping_n_m_s_per_rad=jr.num("damping_n_m_s_per_rad", nonneg=True),
             range_rad=rng, gravity_compensation=jr.boolean("gravity_compensation", False)))
@@ -277,7 +288,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
         raise CaseError(f"{path}: {len(links)} [[links]] need {len(links) - 1} [[joints]], got {len(joints)}")
     pr = r.table("payload")
     rot = np.eye(3)
-    for k, item in enumerate(pr._get("tcp_rotation_deg", [])):
+    for item in pr._get("tcp_rotation_deg", []) or []:
         if (not isinstance(item, list) or len(item) != 2 or item[0] not in _ROT
                 or isinstance(item[1], bool) or not isinstance(item[1], (int, float))):
             raise pr._err("tcp_rotation_deg", 'a list of ["x"|"y"|"z", angle_deg] pairs', item)
@@ -318,6 +329,10 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
     """Load a milling case: a built-in name (``"tx200-aluminium"``, ``"tx200-steel"``) or a path.
 
     The case's ``robot`` key is a built-in robot name or a path relative to the case file.
+
+    >>> case = load_case("tx200-steel")
+    >>> case.cut.spindle_rpm, case.cut.ap_m   # rpm, m
+    (3100.0, 0.0016)
     """
     path, data = _resolve(name_or_path, "cut")
     r = _Reader(path, data)
@@ -337,8 +352,8 @@ def load_case(name_or_path: str | Path = DEFAULT_CASE) -> MillingCase:
         tool = Tool(
             diameter_m=tr.num("diameter_mm", positive=True) * 1e-3, teeth=teeth,
             helix_rad=math.radians(tr.num("helix_deg", 0.0)),
-            pitch_rad=tuple(np.radians(tr.vec("pitch_deg"))) if tr.has("pitch_deg") else None,
-            runout_m=tuple(tr.vec("runout_um") * 1e-6) if tr.has("runout_um") else None)
+            pitch_rad=tuple(np.radians(tr.vec("pitch_deg"))) if tr.has("pitch_deg") else (),
+            runout_m=tuple(tr.vec("runout_um") * 1e-6) if tr.has("runout_um") else ())
     except MillingError as e:
         raise CaseError(f"{path}: [tool]: {e}") from None
     tr.finish()

@@ -39,7 +39,7 @@ thickness is ``h = h_static + n(phi) . (r(t) - r(t - tau))`` with ``n = (sin phi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 from typing import Literal
 
@@ -113,8 +113,8 @@ class Tool:
     diameter_m: float
     teeth: int
     helix_rad: float = 0.0
-    pitch_rad: tuple[float, ...] | None = None
-    runout_m: tuple[float, ...] | None = None
+    pitch_rad: tuple[float, ...] = ()  # () or None: equal pitch
+    runout_m: tuple[float, ...] = ()   # () or None: no runout
 
     def __post_init__(self) -> None:
         d = _finite("tool diameter_m", self.diameter_m, positive=True)
@@ -124,7 +124,7 @@ class Tool:
             raise MillingError(
                 f"tool helix angle must be in [0, 90) deg, got {math.degrees(helix):.6g} deg"
             )
-        if self.pitch_rad is None:
+        if self.pitch_rad is None or len(self.pitch_rad) == 0:
             pitch = (2 * math.pi / n,) * n
         else:
             pitch = tuple(_finite("tool pitch angle", p, positive=True) for p in self.pitch_rad)
@@ -139,7 +139,7 @@ class Tool:
                     f"tool pitch angles {np.degrees(pitch).round(6).tolist()} deg sum to {total:.6g} deg;"
                     f" they must sum to 360 deg"
                 )
-        if self.runout_m is None:
+        if self.runout_m is None or len(self.runout_m) == 0:
             runout = (0.0,) * n
         else:
             runout = tuple(_finite("tool runout_m", r) for r in self.runout_m)
@@ -449,11 +449,11 @@ def regeneration(tool: Tool, cut: Cut) -> list[ToothRegeneration]:
     fz = cut.feed_per_tooth_m
     out = []
     for j in range(n):
-        best = None
+        best = (math.inf, 0.0)  # (chip, delay) of the previous tooth that cuts deepest
         for k in range(1, n + 1):
             ang = sum(tool.pitch_rad[(j - i) % n] for i in range(1, k + 1))
             h = fz * n * ang / (2 * math.pi) + tool.runout_m[j] - tool.runout_m[(j - k) % n]
-            if best is None or h < best[0] - 1e-15:
+            if h < best[0] - 1e-15:
                 best = (h, ang)
         # A tie (h == 0: no feed, no runout difference) counts as cutting: the linear model with
         # zero feed still regenerates on every tooth.

@@ -6,7 +6,6 @@ in the key (``_mm``, ``_deg``, ``_mpa``); :mod:`cases.loader` converts.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Literal
 

@@ -12,6 +12,9 @@
 * :mod:`robolobes.core.warnonce` -- each warning once per run.
 """
 
+if __name__ != "robolobes.core":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.core package: import robolobes.core instead")
+
 from .errors import BadInput
 from .frf import FRF
 from .verdict import Verdict

@@ -160,7 +160,7 @@ def check_output_file(path: str | os.PathLike, suffixes: Iterable[str], inputs, 
     return p
 
 
-def _chained(e: BaseException, kinds) -> BaseException | None:
+def _chained(e: BaseException | None, kinds) -> BaseException | None:
     """The first exception of type ``kinds`` in ``e``'s cause/context chain (``e`` included)."""
     seen = set()
     while e is not None and id(e) not in seen:
@@ -379,6 +379,7 @@ class OutputDir:
         """Drop the staging directory (kept, marked incomplete, with ``resume``); the target is untouched."""
         if not self._open:
             return
+        assert self.path is not None  # open() set it
         self._open = False
         if self.resume:
             with contextlib.suppress(OSError):
@@ -390,6 +391,7 @@ class OutputDir:
         """Write the marker, re-check the target and swap the staging directory in; ``path`` becomes the target."""
         if not self._open:
             raise RuntimeError("OutputDir.commit() without open()")
+        assert self.path is not None  # open() set it
         try:
             with user_path_errors(self.target):
                 self._write_marker(self.path, complete=True)

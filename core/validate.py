@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+from typing import Any
+
 import numpy as np
 
 from .errors import BadInput
@@ -15,7 +17,7 @@ from .errors import BadInput
 __all__ = ["readonly", "finite", "finite_array", "integer"]
 
 
-def readonly(a, dtype=float, shape: tuple | None = None, name: str = "array", error=BadInput) -> np.ndarray:
+def readonly(a, dtype: Any = float, shape: tuple | None = None, name: str = "array", error=BadInput) -> np.ndarray:
     """A read-only copy of ``a`` as ``dtype`` (``None`` keeps the dtype); ``shape`` is checked if given."""
     arr = np.array(a, dtype=dtype, copy=True)
     if shape is not None and arr.shape != tuple(shape):

@@ -54,4 +54,5 @@ class Verdict:
     @classmethod
     def from_stable(cls, stable: bool | None, reason: str = "") -> "Verdict":
         """From True / False / None."""
-        return cls({True: "stable", False: "unstable", None: "undetermined"}[stable], reason)
+        status: dict[bool | None, Status] = {True: "stable", False: "unstable", None: "undetermined"}
+        return cls(status[stable], reason)

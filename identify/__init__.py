@@ -7,3 +7,6 @@ stiffness and damping corrections, a payload mass error, cutting-law effects), a
 and reports the held-out error before and after (:mod:`identify.selection`). The study
 (``robolobes study``) lives in :mod:`robolobes.study`, above identify in the data flow.
 """
+
+if __name__ != "robolobes.identify":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.identify package: import robolobes.identify instead")

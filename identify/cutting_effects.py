@@ -39,9 +39,9 @@ runout of 3.4 um changes the average by 3.8 times the noise floor, and was found
   (:mod:`identify.force_stability`); process damping is :class:`ProcessDamping` (parameter
   ``Ksp L^2``, the ``tip_damper`` element per cut), joint damping a scale on every joint damper.
 
-Each effect says which measurement kinds observe it (``observed_by``) and which case-TOML keys it
-writes (``toml``); measurement-chain effects are not part of the cut model and are written as a
-comment block (the case TOML keeps loading under the strict key check).
+Each effect says which measurement kinds observe it (``observed_by``); measurement-chain effects
+are not part of the cut model and are written as a comment block (the case TOML keeps loading
+under the strict key check).
 """
 
 from __future__ import annotations
@@ -67,8 +67,6 @@ class ForceEffect(Effect):
     cutting-force set; ``observed_by`` names the kinds that observe the effect, with the threshold
     in words.
     """
-
-    toml = ""
 
     @property
     def chain(self) -> bool:
@@ -133,7 +131,6 @@ class EdgeCoefficients(ForceEffect):
                    "force_stats": "means and RMS shifted (fitted with at most 3 parameters in all)"}
     signatures = ("mean_offset",)
     doc = "edge (ploughing) forces Kte db, Kre db of an engaged edge element (Altintas)"
-    toml = "[material] kte_n_per_mm, kre_n_per_mm"
     #: Edge coefficients of the basis runs, N/m (any value works: the forces are linear in them).
     BASIS = 2e4
 
@@ -185,7 +182,6 @@ class Runout(ForceEffect):
                    "force_stats": "extremes of one tooth raised, of the other lowered"}
     signatures = ("once_per_rev",)
     doc = "tool axis offset e at angle phi: tooth-tip radii R + e cos(theta_j - phi)"
-    toml = "[tool] runout_um"
     #: Grid of a = e cos phi, m, for the family of a tool where only a shows (cubic spline).
     GRID = tuple(np.linspace(-3e-5, 3e-5, 5))
     #: Grid of b = e sin phi, m, for tools where it enters: the change b makes is added to the cubic
@@ -294,8 +290,6 @@ class Dynamometer(ChainEffect):
                    "force_stats": "extremes overshoot (min below, max above the model), mean unchanged"}
     signatures = ("entry_ringing",)
     doc = "one lightly damped sensor mode per axis, unit static gain"
-    toml = "measurement chain (not written into the case)"
-
     def transfer(self, values):
         return _dynamometer_h(*values)
 
@@ -313,8 +307,6 @@ class Lowpass(ChainEffect):
                    "force_stats": "extremes reduced, mean unchanged"}
     signatures = ("harmonic_rolloff",)
     doc = "acquisition anti-aliasing filter"
-    toml = "measurement chain (not written into the case)"
-
     def transfer(self, values):
         return _butterworth_h(float(values[0]))
 
@@ -354,7 +346,6 @@ class Backlash(ForceEffect):
                              ">= 3e-5 rad (6 arcsec) on the aluminium pass"}
     signatures = ("harmonic_rolloff",)
     doc = "the paper's eq. 12 dead zone on every motion axis (element 'backlash', any variant)"
-    toml = "[[elements]] type = \"backlash\", half_width_rad"
     RESOLUTION = 2e-6
     SCAN_STEP = 2e-5
     TOP = 2
@@ -429,7 +420,7 @@ def _engaged_nn(tool, cut) -> np.ndarray:
     from robolobes.cases.milling import engagement_rad
 
     a, b = engagement_rad(tool, cut)
-    s2 = lambda p: np.sin(2 * p)  # noqa: E731
+    s2 = lambda p: np.sin(2 * p)
     ss = 0.5 * (b - a) - 0.25 * (s2(b) - s2(a))           # int sin^2
     cc = 0.5 * (b - a) + 0.25 * (s2(b) - s2(a))           # int cos^2
     sc = 0.5 * (np.sin(b) ** 2 - np.sin(a) ** 2)           # int sin cos

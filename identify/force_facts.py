@@ -68,10 +68,9 @@ def steel_fact(variant: str = "basic", progress=None) -> dict:
     cannot stabilize the cut, the value it would need (searched up to 1e12 N/m) is added to
     ``effects`` with ``"within_bounds": False`` and ``credible`` False."""
     import math
-    from dataclasses import replace
 
     from robolobes.cases import load_case
-    from robolobes.lobes import LobeProblem, stability
+    from robolobes.lobes import stability
 
     from .effects import ModelState
     from .force_data import StabilityObservation, StabilityObservations

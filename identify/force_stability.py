@@ -150,7 +150,7 @@ def critical_value(om: ObservationModel, cand: Candidate, m: int = M_VERDICT) ->
     lower bound, ``+inf`` when unstable at the upper bound."""
     from scipy.optimize import brentq
 
-    g = lambda v: om.radius(cand.name, v, m) - 1.0  # noqa: E731
+    g = lambda v: om.radius(cand.name, v, m) - 1.0
     if g(cand.neutral) < 0:
         lo_v = cand.lower if cand.lower > 0 else None
         if lo_v is None or g(lo_v) < 0:
@@ -334,7 +334,7 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
     rows load theirs."""
     cases_ = _cases(obs, state)
     models = []
-    for i, o in enumerate(obs.rows):
+    for o in obs.rows:
         models.append(ObservationModel.build(state, cases_[o.case], o))
     chatter = [o.chatter for o in obs.rows]
     n = len(obs.rows)

@@ -126,7 +126,6 @@ def force_signatures(measured: np.ndarray, model: np.ndarray, noise: np.ndarray,
     dict name -> :class:`Signature`
     """
     ax = list(axes)
-    m = measured.shape[0]
     cm = revolution_harmonics(measured[:, ax])
     cr = revolution_harmonics((measured - model)[:, ax])
     cmod = revolution_harmonics(model[:, ax])
@@ -157,7 +156,7 @@ def force_signatures(measured: np.ndarray, model: np.ndarray, noise: np.ndarray,
     zmax = float(z.max()) if z.size else 0.0
     zmin = float(z.min()) if z.size else 0.0
     ringing = zmax > zthr
-    freq = lambda idx: int(tooth[np.unravel_index(idx, z.shape)[0]] // teeth)  # noqa: E731
+    freq = lambda idx: int(tooth[np.unravel_index(idx, z.shape)[0]] // teeth)
     out["entry_ringing"] = Signature("entry_ringing", ringing, zmax, zthr,
                                      "largest z of (|measured| - |model|) over the tooth harmonics i >= 2",
                                      {"at_tooth_harmonic": freq(int(np.argmax(z))) if z.size else None})
@@ -198,7 +197,7 @@ def frf_pose_residual(pd, model_h: np.ndarray, modes) -> PoseResidual:
     f = pd.omega[idx0] / (2 * math.pi)
     inner = slice(EDGE_LINES, len(f) - EDGE_LINES) if len(f) > 4 * EDGE_LINES else slice(None)
     f = f[inner]
-    rows = lambda x: np.array([x[pd.pair == k][inner] for k in keep])  # noqa: E731
+    rows = lambda x: np.array([x[pd.pair == k][inner] for k in keep])
     fr, zr = modes
     in_band = tuple((float(a), float(b)) for a, b in zip(fr, zr) if f[0] < a < f[-1])
     return PoseResidual(name=pd.name, f_hz=f, measured=rows(pd.H), model=rows(model_h), sigma=rows(pd.sigma),
@@ -264,7 +263,7 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
     """FRF signatures over the poses (module docstring). Returns dict name -> :class:`Signature`."""
     s_det = alpha / len(FRF_SIGNATURES)
     out = {}
-    # static compliance: below half the lowest model mode
+    # static compliance: below QUASI_STATIC (a quarter) of the lowest model mode
     f_low = min(f for pr in poses for f, _ in pr.modes) if any(pr.modes for pr in poses) else None
     low = [pr.f_hz < QUASI_STATIC * f_low if f_low else pr.f_hz <= np.quantile(pr.f_hz, 0.1) for pr in poses]
     q = np.concatenate([_band_q(pr, m) for pr, m in zip(poses, low)])

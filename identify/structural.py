@@ -71,25 +71,36 @@ def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
     import pinocchio as pin
 
     from robolobes.linearize import linearize
-    from robolobes.linearize.model import VirtualJoints
+    from robolobes.linearize.base_elements import VirtualJoints, virtual_dofs
 
     lin = linearize(robot, theta)
+    data = robot.create_data()
     spec = robot.spec
     vj = [e for e in robot.elements if isinstance(e, VirtualJoints)]
     # payload centre of mass: flange frame origin + R_flange com (point velocity v + w x r)
-    pin.computeJointJacobians(robot.model, robot.data, np.asarray(lin.q))
-    pin.framesForwardKinematics(robot.model, robot.data, np.asarray(lin.q))
-    Jf = pin.getFrameJacobian(robot.model, robot.data, robot.flange_frame, pin.LOCAL_WORLD_ALIGNED)
-    Rf = robot.data.oMf[robot.flange_frame].rotation
+    pin.computeJointJacobians(robot.model, data, np.asarray(lin.q))
+    pin.framesForwardKinematics(robot.model, data, np.asarray(lin.q))
+    Jf = pin.getFrameJacobian(robot.model, data, robot.flange_frame, pin.LOCAL_WORLD_ALIGNED)
+    Rf = data.oMf[robot.flange_frame].rotation
     r = Rf @ np.asarray(spec.payload.com_m)
     skew = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
     J_payload = Jf[:3] - skew @ Jf[3:]
     return PoseMatrices(M=np.asarray(lin.M), C=np.asarray(lin.C), K=np.asarray(lin.K), J=np.asarray(lin.J),
                         R_tcp=np.asarray(lin.R_tcp), motion_dofs=np.asarray(robot.motion_dofs),
-                        virtual_dofs=np.asarray(vj[0]._idx) if vj else np.zeros(0, dtype=int),
+                        virtual_dofs=virtual_dofs(robot.model) if vj else np.zeros(0, dtype=int),
                         joint_k=spec.joint_stiffness, joint_d=spec.joint_damping,
                         virtual_k=vj[0].stiffness if vj else 0.0, virtual_d=vj[0].damping if vj else 0.0,
                         J_payload=J_payload, payload_mass_kg=spec.payload.mass_kg)
+
+
+def _bordered(A: np.ndarray, corner: float) -> np.ndarray:
+    """``A`` (n, n) grown by one coordinate: (n + 1, n + 1), zeros in the new row and column except
+    ``corner`` on the diagonal."""
+    n = A.shape[0]
+    out = np.zeros((n + 1, n + 1))
+    out[:n, :n] = A
+    out[n, n] = corner
+    return out
 
 
 class StructuralEffect(Effect):
@@ -143,12 +154,9 @@ class TcpModeEffect(StructuralEffect):
         d = pm.R_tcp @ _direction(params["polar_rad"], params["azimuth_rad"])
         n = pm.M.shape[0]
         Jd = pm.J.T @ d
-        M = np.zeros((n + 1, n + 1))
-        M[:n, :n] = pm.M                     # + m J^T J (mode body) - m J^T J (taken from the payload)
+        M = _bordered(pm.M, m)               # + m J^T J (mode body) - m J^T J (taken from the payload)
         M[:n, n] = M[n, :n] = m * Jd
-        M[n, n] = m
-        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = c
-        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K; K[n, n] = k
+        C, K = _bordered(pm.C, c), _bordered(pm.K, k)
         return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, d[:, None]]),
                        J_payload=np.hstack([pm.J_payload, np.zeros((3, 1))]))
 
@@ -335,11 +343,8 @@ class ServoEffect(StructuralEffect):
         i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
         k = pm.joint_k[self.joint - 1]
         J, kp, kd = self.physical(k, params)
-        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = J
-        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = kd
-        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K
+        M, C, K = _bordered(pm.M, J), _bordered(pm.C, kd), _bordered(pm.K, k + kp)
         K[i, n] = K[n, i] = -k
-        K[n, n] = k + kp
         z = np.zeros((3, 1))
         return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, z]), J_payload=np.hstack([pm.J_payload, z]))
 

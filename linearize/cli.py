@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 
 import numpy as np
 
@@ -12,8 +11,8 @@ from robolobes.cases import DEFAULT_CASE, load_case
 from robolobes.core.errors import BadInput
 from robolobes.core.io import provenance, to_jsonable
 from robolobes.core.outdir import check_output_file, cli_inputs, user_path_errors
-from .model import VARIANTS, FlexibleRobot, build_model
-from .summary import modes_summary
+
+from .variants import VARIANTS
 
 __all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "MAX_FRF_POINTS"]
 
@@ -56,6 +55,7 @@ def resolve_pose(args: argparse.Namespace, case=None):
         Human-readable description of the pose.
     """
     from .kinematics import check_limits
+    from .model import build_model
 
     case = case if case is not None else load_case(args.case)
     robot = build_model(case.robot, args.variant, damping_scale=getattr(args, "damping_scale", 1.0) or 1.0)
@@ -82,6 +82,8 @@ def resolve_pose(args: argparse.Namespace, case=None):
 
 
 def run_modes(args) -> int:
+    from .summary import modes_summary
+
     case, robot, theta, label = resolve_pose(args)
     s = modes_summary(robot, theta, case)
     if args.json:

@@ -45,15 +45,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import MISSING, dataclass, fields
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from robolobes.cases.milling import cut_frame
 from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite
 
-from .model import Element, ModelBuilder, VirtualJoints
+from .base_elements import VirtualJoints, diagonal_tangent, virtual_dofs
+from .element import Element, ModelBuilder
 
 __all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
            "ELEMENT_TYPES", "element_from_spec", "element_table"]
@@ -72,18 +75,20 @@ def _positive(name, v, *, zero_ok=False):
     finite(name, v, positive=not zero_ok, nonneg=zero_ok)
 
 
-def _diagonal(robot, idx, k, d, q=None, v=None, rest=0.0):
-    """Force ``-k (q[idx] - rest) - d v[idx]`` (q, v given) or its tangent ``(-k, -d)`` on the
-    diagonal (q None), for springs and dampers acting on single coordinates ``idx``."""
-    if q is not None:
-        tau = np.zeros(robot.nv)
-        tau[idx] = -k * (q[idx] - rest) - d * v[idx]
-        return tau
-    kq = np.zeros((robot.nv, robot.nv))
-    kv = np.zeros((robot.nv, robot.nv))
-    kq[idx, idx] = -k
-    kv[idx, idx] = -d
-    return kq, kv
+def _diagonal_force(nv, idx, k, d, q, v, rest=0.0):
+    """Force ``-k (q[idx] - rest) - d v[idx]`` (nv,) of springs and dampers on single coordinates ``idx``."""
+    tau = np.zeros(nv)
+    tau[idx] = -k * (q[idx] - rest) - d * v[idx]
+    return tau
+
+
+@dataclass(frozen=True)
+class _Diagonal:
+    """Indices of a diagonal spring-damper element: coordinates ``iv`` with gains ``dk``, ``dd``."""
+
+    iv: Any
+    dk: Any
+    dd: Any
 
 
 @dataclass(frozen=True)
@@ -131,7 +136,7 @@ class TcpMode(Element):
     def damping_n_s_per_m(self) -> float:
         return 2 * self.damping_ratio * math.sqrt(self.stiffness_n_per_m * self.mass_kg)
 
-    def finish(self, b: ModelBuilder) -> None:
+    def finish(self, b: ModelBuilder) -> str:
         parent = b.tail if b.tcp_parent is None else b.tcp_parent
         placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
         name = f"tcp_mode_{b.model.njoints}"
@@ -140,17 +145,17 @@ class TcpMode(Element):
         jid = b.model.addJoint(parent, pin.JointModelPrismaticUnaligned(np.asarray(self.direction)), placement, name)
         b.model.appendBodyToJoint(jid, pin.Inertia(self.mass_kg, np.zeros(3), np.zeros((3, 3))), pin.SE3.Identity())
         b.tcp_parent, b.tcp_placement = jid, pin.SE3.Identity()
-        object.__setattr__(self, "_joint_name", name)
+        return name
 
-    def bind(self, robot):
-        jid = robot.model.getJointId(self._joint_name)
-        object.__setattr__(self, "_iv", robot.model.joints[jid].idx_v)
+    def bind(self, robot, built=None):
+        """Index in v of the mode's prismatic joint (``built``: its name)."""
+        return robot.model.joints[robot.model.getJointId(built)].idx_v
 
-    def force(self, robot, q, v, theta):
-        return _diagonal(robot, self._iv, self.stiffness_n_per_m, self.damping_n_s_per_m, q, v)
+    def force(self, robot, ix, data, q, v, theta):
+        return _diagonal_force(robot.nv, ix, self.stiffness_n_per_m, self.damping_n_s_per_m, q, v)
 
-    def tangent(self, robot, q, v, theta, engaged=False):
-        return _diagonal(robot, self._iv, self.stiffness_n_per_m, self.damping_n_s_per_m)
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        return diagonal_tangent(robot.nv, ix, self.stiffness_n_per_m, self.damping_n_s_per_m)
 
 
 @dataclass(frozen=True)
@@ -173,20 +178,20 @@ class JointCorrection(Element):
         _positive("joint_correction stiffness_scale", self.stiffness_scale)
         _positive("joint_correction damping_scale", self.damping_scale, zero_ok=True)
 
-    def bind(self, robot):
+    def bind(self, robot, built=None):
         n = robot.spec.n_joints
         if self.joint > n:
             raise BadInput(f"joint_correction joint = {self.joint}: the robot has axes 1..{n}")
         j = self.joint - 1
-        object.__setattr__(self, "_iv", int(robot.motion_dofs[j]))
-        object.__setattr__(self, "_dk", (self.stiffness_scale - 1) * robot.spec.joints[j].stiffness_n_m_per_rad)
-        object.__setattr__(self, "_dd", (self.damping_scale - 1) * robot.spec.joints[j].damping_n_m_s_per_rad)
+        return _Diagonal(iv=int(robot.motion_dofs[j]),
+                         dk=(self.stiffness_scale - 1) * robot.spec.joints[j].stiffness_n_m_per_rad,
+                         dd=(self.damping_scale - 1) * robot.spec.joints[j].damping_n_m_s_per_rad)
 
-    def force(self, robot, q, v, theta):
-        return _diagonal(robot, self._iv, self._dk, self._dd, q, v, rest=theta[self.joint - 1])
+    def force(self, robot, ix, data, q, v, theta):
+        return _diagonal_force(robot.nv, ix.iv, ix.dk, ix.dd, q, v, rest=theta[self.joint - 1])
 
-    def tangent(self, robot, q, v, theta, engaged=False):
-        return _diagonal(robot, self._iv, self._dk, self._dd)
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        return diagonal_tangent(robot.nv, ix.iv, ix.dk, ix.dd)
 
 
 @dataclass(frozen=True)
@@ -201,19 +206,18 @@ class OrthogonalCorrection(Element):
         _positive("orthogonal_correction stiffness_scale", self.stiffness_scale)
         _positive("orthogonal_correction damping_scale", self.damping_scale, zero_ok=True)
 
-    def bind(self, robot):
+    def bind(self, robot, built=None):
         vj = [e for e in robot.elements if isinstance(e, VirtualJoints)]
         if not vj:
             raise BadInput("orthogonal_correction needs virtual joints: use variant 'orthogonal' or 'backlash'")
-        object.__setattr__(self, "_idx", vj[0]._idx)
-        object.__setattr__(self, "_dk", (self.stiffness_scale - 1) * vj[0].stiffness)
-        object.__setattr__(self, "_dd", (self.damping_scale - 1) * vj[0].damping)
+        return _Diagonal(iv=virtual_dofs(robot.model), dk=(self.stiffness_scale - 1) * vj[0].stiffness,
+                         dd=(self.damping_scale - 1) * vj[0].damping)
 
-    def force(self, robot, q, v, theta):
-        return _diagonal(robot, self._idx, self._dk, self._dd, q, v)
+    def force(self, robot, ix, data, q, v, theta):
+        return _diagonal_force(robot.nv, ix.iv, ix.dk, ix.dd, q, v)
 
-    def tangent(self, robot, q, v, theta, engaged=False):
-        return _diagonal(robot, self._idx, self._dk, self._dd)
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        return diagonal_tangent(robot.nv, ix.iv, ix.dk, ix.dd)
 
 
 @dataclass(frozen=True)
@@ -276,36 +280,48 @@ class ServoDrive(Element):
         _positive("servo_drive kp_n_m_per_rad", self.kp_n_m_per_rad)
         _positive("servo_drive kd_n_m_s_per_rad", self.kd_n_m_s_per_rad, zero_ok=True)
 
-    def finish(self, b: ModelBuilder) -> None:
+    def finish(self, b: ModelBuilder) -> str:
         name = f"servo_rotor_{self.joint}_{b.model.njoints}"
         jid = b.model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), name)
         J = self.rotor_inertia_kg_m2
         b.model.appendBodyToJoint(jid, pin.Inertia(1e-9, np.zeros(3), np.diag([J, J, J])), pin.SE3.Identity())
-        object.__setattr__(self, "_joint_name", name)
+        return name
 
-    def bind(self, robot):
+    def bind(self, robot, built=None):
+        """The rotor's and the link's dof and the joint spring (``built``: the rotor joint's name)."""
         n = robot.spec.n_joints
         if self.joint > n:
             raise BadInput(f"servo_drive joint = {self.joint}: the robot has axes 1..{n}")
-        object.__setattr__(self, "_im", robot.model.joints[robot.model.getJointId(self._joint_name)].idx_v)
-        object.__setattr__(self, "_iq", int(robot.motion_dofs[self.joint - 1]))
-        object.__setattr__(self, "_k", robot.spec.joints[self.joint - 1].stiffness_n_m_per_rad)
+        return _ServoIndices(im=robot.model.joints[robot.model.getJointId(built)].idx_v,
+                             iq=int(robot.motion_dofs[self.joint - 1]),
+                             k=robot.spec.joints[self.joint - 1].stiffness_n_m_per_rad)
 
-    def force(self, robot, q, v, theta):
+    def force(self, robot, ix, data, q, v, theta):
+        im, iq, k = ix.im, ix.iq, ix.k
         tau = np.zeros(robot.nv)
-        phi, th = q[self._im], theta[self.joint - 1]
-        tau[self._iq] = self._k * phi
-        tau[self._im] = -self._k * (phi + th - q[self._iq]) - self.kp_n_m_per_rad * phi - self.kd_n_m_s_per_rad * v[self._im]
+        phi, th = q[im], theta[self.joint - 1]
+        tau[iq] = k * phi
+        tau[im] = -k * (phi + th - q[iq]) - self.kp_n_m_per_rad * phi - self.kd_n_m_s_per_rad * v[im]
         return tau
 
-    def tangent(self, robot, q, v, theta, engaged=False):
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        im, iq, k = ix.im, ix.iq, ix.k
         kq = np.zeros((robot.nv, robot.nv))
         kv = np.zeros((robot.nv, robot.nv))
-        kq[self._iq, self._im] = self._k
-        kq[self._im, self._iq] = self._k
-        kq[self._im, self._im] = -(self._k + self.kp_n_m_per_rad)
-        kv[self._im, self._im] = -self.kd_n_m_s_per_rad
+        kq[iq, im] = k
+        kq[im, iq] = k
+        kq[im, im] = -(k + self.kp_n_m_per_rad)
+        kv[im, im] = -self.kd_n_m_s_per_rad
         return kq, kv
+
+
+@dataclass(frozen=True)
+class _ServoIndices:
+    """A servo drive's indices in one robot: rotor dof ``im``, link dof ``iq``, joint spring ``k`` (N m/rad)."""
+
+    im: int
+    iq: int
+    k: float
 
 
 @dataclass(frozen=True)
@@ -380,7 +396,7 @@ def element_table(element: Element) -> dict:
     """The ``[[elements]]`` table of an extra element (inverse of :func:`element_from_spec`)."""
     for t, cls in ELEMENT_TYPES.items():
         if type(element) is cls:
-            out = {"type": t}
+            out: dict[str, Any] = {"type": t}
             for k in _keys(cls):
                 v = getattr(element, k)
                 out[k] = [float(x) for x in v] if isinstance(v, tuple) else v
@@ -426,14 +442,8 @@ class TipDamper(Element):
         """``Cc`` (2, 2), N s/m, in ``(x_c, y_c)``."""
         return np.array([[self.cxx_n_s_per_m, self.cxy_n_s_per_m], [self.cxy_n_s_per_m, self.cyy_n_s_per_m]])
 
-    def bind(self, robot):
-        object.__setattr__(self, "_data", robot.model.createData())  # own workspace: never clobbers robot.data
-
-    def _velocity_map(self, robot, q) -> np.ndarray:
-        """``(J^T R2^T Cc R2 J)`` (nv, nv) at q."""
-        from robolobes.cases.milling import cut_frame
-
-        d = self._data
+    def _velocity_map(self, robot, d, q) -> np.ndarray:
+        """``(J^T R2^T Cc R2 J)`` (nv, nv) at q, computed in the ``pin.Data`` ``d``."""
         J = np.asarray(pin.computeFrameJacobian(robot.model, d, q, robot.tcp_frame, pin.LOCAL_WORLD_ALIGNED))
         J = J.reshape(6, robot.nv)[:3]
         pin.updateFramePlacement(robot.model, d, robot.tcp_frame)
@@ -441,11 +451,11 @@ class TipDamper(Element):
         T = R2 @ J
         return T.T @ self.matrix_cut @ T
 
-    def force(self, robot, q, v, theta):
-        return -self._velocity_map(robot, q) @ v
+    def force(self, robot, ix, data, q, v, theta):
+        return -self._velocity_map(robot, data, q) @ v
 
-    def tangent(self, robot, q, v, theta, engaged=False):
-        return np.zeros((robot.nv, robot.nv)), -self._velocity_map(robot, q)
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        return np.zeros((robot.nv, robot.nv)), -self._velocity_map(robot, data, q)
 
 
 ELEMENT_TYPES["tip_damper"] = TipDamper

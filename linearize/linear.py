@@ -20,8 +20,7 @@ Its static limit is the compliance ``J K^-1 J^T``. The modal form uses the state
 from __future__ import annotations
 
 import math
-import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 from typing import Literal
 
@@ -92,26 +91,26 @@ class Equilibrium:
     iterations: int
 
 
-def _newton_equilibrium(robot, q, theta, f, tol, max_iter):
+def _newton_equilibrium(robot, q, theta, f, tol, max_iter, data):
     v0 = np.zeros(robot.nv)
     loaded = robot.has_gravity or np.any(f != 0)
     res = 0.0
     for it in range(1, max_iter + 1):
-        g = pin.computeGeneralizedGravity(robot.model, robot.data, q) if robot.has_gravity else 0.0
-        r = g - element_forces(robot, q, v0, theta)
+        g = pin.computeGeneralizedGravity(robot.model, data, q) if robot.has_gravity else 0.0
+        r = g - element_forces(robot, q, v0, theta, data)
         if np.any(f != 0):
-            r = r - tcp_jacobian(robot, q)[:3].T @ f
+            r = r - tcp_jacobian(robot, q, data)[:3].T @ f
         res = float(np.max(np.abs(r)))
         if res < tol or not loaded:
             return q, res, it
-        kq, _ = element_tangents(robot, q, v0, theta, engaged=True)
-        dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.data, q) if robot.has_gravity else 0.0
+        kq, _ = element_tangents(robot, q, v0, theta, engaged=True, data=data)
+        dg = pin.computeGeneralizedGravityDerivatives(robot.model, data, q) if robot.has_gravity else 0.0
         q = q - np.linalg.solve(dg - kq, r)
     raise RuntimeError(f"static equilibrium did not converge in {max_iter} iterations (residual {res:.3g} N m)")
 
 
 def equilibrium(robot: FlexibleRobot, theta: np.ndarray, f_tcp: np.ndarray | None = None, *,
-                tol: float = 1e-9, max_iter: int = 50) -> Equilibrium:
+                tol: float = 1e-9, max_iter: int = 50, data: pin.Data | None = None) -> Equilibrium:
     """Static equilibrium ``g(q) = sum tau_e(q, 0, theta) + J(q)^T f_tcp`` by Newton's method.
 
     Parameters
@@ -122,6 +121,8 @@ def equilibrium(robot: FlexibleRobot, theta: np.ndarray, f_tcp: np.ndarray | Non
         Constant force on the TCP, base frame (a dead load, fixed in the world).
     tol : float
         Convergence on the generalized force imbalance, N m.
+    data : pin.Data, optional
+        Workspace for pinocchio's algorithms (default: a new one; the robot is never written).
 
     Notes
     -----
@@ -138,29 +139,30 @@ def equilibrium(robot: FlexibleRobot, theta: np.ndarray, f_tcp: np.ndarray | Non
     """
     q_r = rigid_q(robot, theta)
     theta = q_r[robot.motion_dofs]
+    data = robot.create_data() if data is None else data
     f = np.zeros(3) if f_tcp is None else np.asarray(f_tcp, dtype=float)
     if f.shape != (3,) or not np.all(np.isfinite(f)):
         raise BadInput(f"f_tcp must be a finite force (3,) in N, got {f_tcp!r}")
     s = robot.backlash_rad
     if s > 0:
         twin = robot.engaged_twin()
-        q, _, it1 = _newton_equilibrium(twin, q_r.copy(), theta, f, tol, max_iter)
+        q, _, it1 = _newton_equilibrium(twin, q_r.copy(), theta, f, tol, max_iter, data)
         delta = q[robot.motion_dofs] - theta
         k = robot.spec.joint_stiffness
         loaded = np.abs(k * delta) > 1e3 * tol
         shifted = theta + np.where(loaded, s * np.sign(delta), 0.0)
-        q, _, it2 = _newton_equilibrium(twin, q, shifted, f, tol, max_iter)
-        g = pin.computeGeneralizedGravity(robot.model, robot.data, q) if robot.has_gravity else 0.0
-        r = g - element_forces(robot, q, np.zeros(robot.nv), theta)
+        q, _, it2 = _newton_equilibrium(twin, q, shifted, f, tol, max_iter, data)
+        g = pin.computeGeneralizedGravity(robot.model, data, q) if robot.has_gravity else 0.0
+        r = g - element_forces(robot, q, np.zeros(robot.nv), theta, data)
         if np.any(f != 0):
-            r = r - tcp_jacobian(robot, q)[:3].T @ f
+            r = r - tcp_jacobian(robot, q, data)[:3].T @ f
         res, it = float(np.max(np.abs(r))), it1 + it2
         if res > 10 * tol:
             raise RuntimeError(f"backlash equilibrium inconsistent: residual {res:.3g} N m with the dead zone")
     else:
-        q, res, it = _newton_equilibrium(robot, q_r.copy(), theta, f, tol, max_iter)
-    p, _ = tcp_pose(robot, q)
-    p0, _ = tcp_pose(robot, q_r)
+        q, res, it = _newton_equilibrium(robot, q_r.copy(), theta, f, tol, max_iter, data)
+    p, _ = tcp_pose(robot, q, data)
+    p0, _ = tcp_pose(robot, q_r, data)
     return Equilibrium(theta=_ro(theta), q=_ro(q), deflection=_ro(q - q_r), tcp_position=_ro(p),
                        tcp_deflection=_ro(p - p0), f_tcp=_ro(f), residual=res, iterations=it)
 
@@ -228,7 +230,7 @@ def modal_analysis(M: np.ndarray, C: np.ndarray, K: np.ndarray, J: np.ndarray) -
     n = M.shape[-1]
     A, Minv = _state_matrix(M, C, K)
     lam, V = np.linalg.eig(A)
-    order = np.argsort(np.where(lam.imag >= 0, 0, 1) * 1e30 + np.abs(lam), axis=-1)
+    order = np.argsort(np.where(np.imag(lam) >= 0, 0, 1) * 1e30 + np.abs(lam), axis=-1)
     lam = np.take_along_axis(lam, order, -1)
     V = np.take_along_axis(V, order[..., None, :], -1)
     W = np.linalg.inv(V)  # rows: left eigenvectors, W V = I
@@ -237,14 +239,14 @@ def modal_analysis(M: np.ndarray, C: np.ndarray, K: np.ndarray, J: np.ndarray) -
     in_r = W[..., :, n:] @ (Minv @ np.swapaxes(J, -1, -2))     # (..., 2n, 3)
     residues = np.einsum("...ir,...rj->...rij", out_r, in_r)
     # modes: poles with Im > 0 (one per underdamped pair) plus real poles (overdamped)
-    pos = (lam.imag > 1e-9 * np.abs(lam)) | (np.abs(lam.imag) <= 1e-9 * np.abs(lam))
+    pos = (np.imag(lam) > 1e-9 * np.abs(lam)) | (np.abs(np.imag(lam)) <= 1e-9 * np.abs(lam))
     # with the ordering above, underdamped positive poles come first; count per batch must agree
     n_modes = int(np.min(np.sum(pos, axis=-1)))
     sel = slice(0, n_modes)
     lm = lam[..., sel]
     wn = np.abs(lm)
-    wd = np.abs(lm.imag)
-    zeta = -lm.real / np.where(wn > 0, wn, 1)
+    wd = np.abs(np.imag(lm))
+    zeta = -np.real(lm) / np.where(wn > 0, wn, 1)
     shapes = V[..., :n, sel]
     k = np.argmax(np.abs(shapes), axis=-2)[..., None, :]
     shapes = shapes / np.take_along_axis(shapes, k, -2)
@@ -463,8 +465,9 @@ def linearize_many(robot: FlexibleRobot, thetas: np.ndarray, progress=None) -> L
     P, n = len(thetas), robot.nv
     out = {k: np.empty((P,) + sh) for k, sh in
            (("q", (n,)), ("M", (n, n)), ("C", (n, n)), ("K", (n, n)), ("J", (3, n)), ("p_tcp", (3,)), ("R_tcp", (3, 3)))}
+    data = robot.create_data()
     for i, th in enumerate(thetas):
-        lin = linearize(robot, th)
+        lin = linearize(robot, th, data=data)
         for k in out:
             out[k][i] = getattr(lin, k)
         if progress is not None:
@@ -473,7 +476,7 @@ def linearize_many(robot: FlexibleRobot, thetas: np.ndarray, progress=None) -> L
 
 
 def linearize(robot: FlexibleRobot, theta: np.ndarray, *, q: np.ndarray | None = None,
-              f_tcp: np.ndarray | None = None) -> LinearModel:
+              f_tcp: np.ndarray | None = None, data: pin.Data | None = None) -> LinearModel:
     """Linearize the robot at the static equilibrium for motor angles ``theta``.
 
     Parameters
@@ -486,14 +489,27 @@ def linearize(robot: FlexibleRobot, theta: np.ndarray, *, q: np.ndarray | None =
         variant has gravity) and ``f_tcp``.
     f_tcp : array (3,), N, optional
         Constant TCP force for the equilibrium (its load stiffness is not included in K).
+    data : pin.Data, optional
+        Workspace for pinocchio's algorithms (default: a new one; the robot is never written, so
+        threads may share it, each with its own ``data``).
 
     Returns
     -------
     LinearModel
+
+    Example: the first mode of the TX200 at the paper's Tab. 7 pose (basic model).
+
+    >>> from robolobes.cases import load_robot
+    >>> from robolobes.linearize import build_model
+    >>> robot = build_model(load_robot("tx200"), "basic")
+    >>> lin = linearize(robot, np.radians([0.0, 30.0, 100.0, 0.0, -40.0, 0.0]))
+    >>> lin.M.shape, lin.J.shape
+    ((6, 6), (3, 6))
     """
     notes = []
+    data = robot.create_data() if data is None else data
     if q is None:
-        eq = equilibrium(robot, theta, f_tcp)
+        eq = equilibrium(robot, theta, f_tcp, data=data)
         q, theta = eq.q, eq.theta
     else:
         theta = rigid_q(robot, theta)[robot.motion_dofs]
@@ -501,15 +517,15 @@ def linearize(robot: FlexibleRobot, theta: np.ndarray, *, q: np.ndarray | None =
         if q.shape != (robot.nq,):
             raise BadInput(f"q must have shape ({robot.nq},), got {q.shape}")
     v0 = np.zeros(robot.nv)
-    M = pin.crba(robot.model, robot.data, q)
+    M = pin.crba(robot.model, data, q)
     M = 0.5 * (M + M.T)
-    kq, kv = element_tangents(robot, q, v0, theta, engaged=True)
+    kq, kv = element_tangents(robot, q, v0, theta, engaged=True, data=data)
     K = -kq
     if robot.has_gravity:
-        K = K + pin.computeGeneralizedGravityDerivatives(robot.model, robot.data, q)
+        K = K + pin.computeGeneralizedGravityDerivatives(robot.model, data, q)
     if robot.backlash_rad > 0:
         notes.append(f"backlash (half-width {robot.backlash_rad:.3g} rad) linearized with the gears engaged")
-    J = tcp_jacobian(robot, q)[:3]
-    p, R = tcp_pose(robot, q)
+    J = tcp_jacobian(robot, q, data)[:3]
+    p, R = tcp_pose(robot, q, data)
     return LinearModel(robot=robot, theta=_ro(theta), q=_ro(q), M=_ro(M), C=_ro(-kv), K=_ro(K), J=_ro(J),
                        p_tcp=_ro(p), R_tcp=_ro(R), notes=tuple(notes))

@@ -22,15 +22,21 @@ Elements are added by :func:`build_model` from a variant name, or passed explici
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Literal, Sequence
+from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Any, Sequence
 
 import numpy as np
 import pinocchio as pin
 
-from robolobes.cases.spec import PayloadSpec, RobotSpec
+from robolobes.cases.spec import RobotSpec
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite_array
+
+from .base_elements import Gravity, GravityCompensation, MotionSprings, Payload, VirtualJoints
+from .element import Element, ModelBuilder, dead_zone
+from .extra_elements import element_from_spec
+from .variants import VARIANTS, Variant
 
 __all__ = [
     "Variant",
@@ -52,243 +58,42 @@ __all__ = [
     "dead_zone",
 ]
 
-Variant = Literal["basic", "gravity", "orthogonal", "backlash"]
-VARIANTS: tuple[str, ...] = ("basic", "gravity", "orthogonal", "backlash")
-
-_JOINT = {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}
-# Orthogonal (virtual) axes inserted after a motion axis, in order: cyclic, as eq. 11 (rotz, rotx, roty).
-_ORTHO = {"z": ("x", "y"), "y": ("z", "x"), "x": ("y", "z")}
-
-
-class ModelBuilder:
-    """Assembles a pinocchio model link by link; elements hook into the assembly.
-
-    Attributes
-    ----------
-    model : pin.Model
-        The model under construction.
-    spec : RobotSpec
-    motion_joints : list of int
-        pinocchio joint id of each motion joint, in chain order.
-    tail : int
-        Joint id that carries the flange (the last joint of the chain so far).
-    flange_placement : pin.SE3
-        Flange face in the frame of ``tail``.
-    tcp_parent : int, tcp_placement : pin.SE3
-        Where the TCP frame goes (set by the payload element; defaults to the flange).
-    """
-
-    def __init__(self, spec: RobotSpec):
-        self.spec = spec
-        self.model = pin.Model()
-        self.model.name = spec.name
-        self.model.gravity = pin.Motion.Zero()
-        self.motion_joints: list[int] = []
-        self.tail = 0
-        self.flange_placement = pin.SE3.Identity()
-        self.tcp_parent: int | None = None
-        self.tcp_placement: pin.SE3 | None = None
-
-    def add_joint(self, parent: int, axis: str, placement: pin.SE3, name: str) -> int:
-        """Add a revolute joint about ``axis`` of the parent frame, at ``placement``. Returns its id."""
-        return self.model.addJoint(parent, _JOINT[axis](), placement, name)
-
-
-class Element:
-    """Base class of model elements. Subclasses override what they need; defaults do nothing."""
-
-    name: str = "element"
-
-    def after_motion_joint(self, b: ModelBuilder, index: int, joint_id: int) -> int:
-        """Called after motion joint ``index`` is added; may add joints. Returns the new tail joint."""
-        return joint_id
-
-    def finish(self, b: ModelBuilder) -> None:
-        """Called once the chain up to the flange exists."""
-
-    def bind(self, robot: "FlexibleRobot") -> None:
-        """Called once the model is complete; cache indices here."""
-
-    def force(self, robot: "FlexibleRobot", q: np.ndarray, v: np.ndarray, theta: np.ndarray) -> np.ndarray | None:
-        """Generalized force, shape (nv,), N m or N; None when the element applies none."""
-        return None
-
-    def tangent(self, robot: "FlexibleRobot", q: np.ndarray, v: np.ndarray, theta: np.ndarray,
-                engaged: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(d force/d q, d force/d v)``, each (nv, nv); None when the element applies no force.
-
-        ``engaged=True`` asks piecewise elements (backlash) for the tangent with contact closed.
-        """
-        return None
-
-
-def dead_zone(delta: np.ndarray, s: np.ndarray | float) -> np.ndarray:
-    """Backlash dead zone of eq. 12: ``delta - s`` above ``s``, ``delta + s`` below ``-s``, 0 inside."""
-    return np.where(delta >= s, delta - s, np.where(delta <= -s, delta + s, 0.0))
-
-
-@dataclass(frozen=True)
-class Payload(Element):
-    """The spindle body fixed to the flange, and the TCP frame (paper Tab. 3)."""
-
-    spec: PayloadSpec
-    name: str = "payload"
-
-    def finish(self, b: ModelBuilder) -> None:
-        p = self.spec
-        at_com = b.flange_placement * pin.SE3(np.eye(3), p.com_m)
-        b.model.appendBodyToJoint(b.tail, pin.Inertia(p.mass_kg, at_com.translation,
-                                                      at_com.rotation @ p.inertia_kg_m2 @ at_com.rotation.T),
-                                  pin.SE3.Identity())
-        b.tcp_parent = b.tail
-        b.tcp_placement = b.flange_placement * pin.SE3(np.asarray(p.tcp_rotation), p.tcp_m)
-
-
-@dataclass(frozen=True)
-class MotionSprings(Element):
-    """Torsional spring and damper on each motion axis (eq. 7), optionally with backlash (eq. 12).
-
-    ``tau_i = -k_i dz(q_i - theta_i) - d_i qd_i`` with ``dz`` the identity, or the dead zone of
-    half-width ``backlash_rad``. As in the paper the damper acts on the absolute link velocity.
-
-    Parameters
-    ----------
-    stiffness : array (n_joints,), N m/rad
-    damping : array (n_joints,), N m s/rad
-    backlash_rad : float, half-width s of the dead zone (0: none)
-    """
-
-    stiffness: tuple[float, ...]
-    damping: tuple[float, ...]
-    backlash_rad: float = 0.0
-    name: str = "motion springs"
-
-    def bind(self, robot):
-        object.__setattr__(self, "_idx", np.asarray(robot.motion_dofs))
-
-    def _delta(self, q, theta):
-        return q[self._idx] - theta
-
-    def force(self, robot, q, v, theta):
-        k, d = np.asarray(self.stiffness), np.asarray(self.damping)
-        delta = self._delta(q, theta)
-        spring = dead_zone(delta, self.backlash_rad) if self.backlash_rad > 0 else delta
-        tau = np.zeros(robot.nv)
-        tau[self._idx] = -k * spring - d * v[self._idx]
-        return tau
-
-    def tangent(self, robot, q, v, theta, engaged=False):
-        k, d = np.asarray(self.stiffness), np.asarray(self.damping)
-        if self.backlash_rad > 0 and not engaged:
-            k = np.where(np.abs(self._delta(q, theta)) >= self.backlash_rad, k, 0.0)
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._idx, self._idx] = -k
-        kv[self._idx, self._idx] = -d
-        return kq, kv
-
-
-@dataclass(frozen=True)
-class VirtualJoints(Element):
-    """Orthogonal compliance (virtual joint method, eq. 10-11): two rotations per motion joint,
-    about the axes orthogonal to it, inserted right after it, with springs and dampers to rest angle 0.
-    """
-
-    stiffness: float
-    damping: float
-    name: str = "virtual joints"
-
-    def after_motion_joint(self, b, index, joint_id):
-        axis = b.spec.joints[index].axis
-        tail = joint_id
-        for a in _ORTHO[axis]:
-            tail = b.add_joint(tail, a, pin.SE3.Identity(), f"{b.spec.joints[index].name}_v{a}")
-        return tail
-
-    def bind(self, robot):
-        names = [robot.model.names[j] for j in range(1, robot.model.njoints)]
-        idx = [robot.model.joints[robot.model.getJointId(n)].idx_v for n in names if "_v" in n]
-        object.__setattr__(self, "_idx", np.asarray(idx, dtype=int))
-
-    def force(self, robot, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[self._idx] = -self.stiffness * q[self._idx] - self.damping * v[self._idx]
-        return tau
-
-    def tangent(self, robot, q, v, theta, engaged=False):
-        kq = np.zeros((robot.nv, robot.nv))
-        kv = np.zeros((robot.nv, robot.nv))
-        kq[self._idx, self._idx] = -self.stiffness
-        kv[self._idx, self._idx] = -self.damping
-        return kq, kv
-
-
-@dataclass(frozen=True)
-class Gravity(Element):
-    """Gravity field ``-g_m_per_s2`` along base z, applied through pinocchio's dynamics."""
-
-    g_m_per_s2: float
-    name: str = "gravity"
-
-    def finish(self, b):
-        b.model.gravity = pin.Motion(np.array([0.0, 0.0, -self.g_m_per_s2]), np.zeros(3))
-
-
-@dataclass(frozen=True)
-class GravityCompensation(Element):
-    """Torques that cancel the gravity load on the given motion axes (paper section 2.1.1, eq. 9).
-
-    ``tau_i = g_i(q)`` for each compensated motion axis i, evaluated at the current link angles q.
-    Its tangent is the corresponding rows of ``dg/dq``: a torque that cancels gravity on some axes
-    only does not derive from a potential, so the linearized stiffness is slightly non-symmetric.
-
-    Parameters
-    ----------
-    axes : tuple of int
-        0-based motion joint indices (TX200: axes 2, 3, 5 -> (1, 2, 4)).
-    """
-
-    axes: tuple[int, ...]
-    name: str = "gravity compensation"
-
-    def bind(self, robot):
-        object.__setattr__(self, "_rows", np.asarray([robot.motion_dofs[i] for i in self.axes], dtype=int))
-
-    def force(self, robot, q, v, theta):
-        g = pin.computeGeneralizedGravity(robot.model, robot.data, q)
-        tau = np.zeros(robot.nv)
-        tau[self._rows] = g[self._rows]
-        return tau
-
-    def tangent(self, robot, q, v, theta, engaged=False):
-        dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.data, q)
-        kq = np.zeros((robot.nv, robot.nv))
-        kq[self._rows] = dg[self._rows]
-        return kq, np.zeros((robot.nv, robot.nv))
-
-
 @dataclass(frozen=True)
 class FlexibleRobot:
-    """A flexible robot model: pinocchio model and data, its elements and index maps.
+    """A flexible robot model: the constant pinocchio model, its elements and their indices.
+
+    Nothing here changes after :func:`assemble` (as pinocchio's ``Model``): the algorithms take a
+    ``pin.Data`` workspace per call (:meth:`create_data`, or one the caller passes in), so one
+    robot can be shared by threads, processes and maps. Elements are specifications; what an
+    element needs to know about this robot (its dof indices) is in ``element_indices``.
 
     Attributes
     ----------
     spec : RobotSpec
     variant : str
         Variant name, or ``"custom"``.
-    model, data : pin.Model, pin.Data
+    model : pin.Model
     elements : tuple of Element
+    element_indices : tuple
+        ``element_indices[i]``: what ``elements[i].bind`` returned for this robot.
     motion_dofs : array (n_joints,) of int
         Index in q (and v) of each motion joint.
     tcp_frame, flange_frame : int
         pinocchio frame ids.
+
+    Example
+
+    >>> from robolobes.cases import load_robot
+    >>> robot = build_model(load_robot("tx200"), "orthogonal")
+    >>> robot.nv, robot.motion_dofs.tolist()
+    (18, [0, 3, 6, 9, 12, 15])
     """
 
     spec: RobotSpec
     variant: str
     model: pin.Model
-    data: pin.Data
     elements: tuple[Element, ...]
+    element_indices: tuple[Any, ...]
     motion_dofs: np.ndarray
     tcp_frame: int
     flange_frame: int
@@ -309,18 +114,18 @@ class FlexibleRobot:
     def backlash_rad(self) -> float:
         return max((e.backlash_rad for e in self.elements if isinstance(e, MotionSprings)), default=0.0)
 
-    def engaged_twin(self) -> "FlexibleRobot":
-        """The same robot with every backlash dead zone closed (cached). Same coordinates."""
-        twin = self.__dict__.get("_engaged")
-        if twin is None:
-            els = tuple(replace(e, backlash_rad=0.0) if isinstance(e, MotionSprings) else e for e in self.elements)
-            twin = assemble(self.spec, els, variant=self.variant + " (engaged)")
-            object.__setattr__(self, "_engaged", twin)
-        return twin
+    def create_data(self) -> pin.Data:
+        """A new ``pin.Data`` workspace for this robot's model (one per thread or call)."""
+        return self.model.createData()
 
-    def with_elements(self, *extra: Element, variant: str = "custom") -> "FlexibleRobot":
-        """A new robot with the same elements plus ``extra`` (the model is rebuilt)."""
-        return assemble(self.spec, tuple(self.elements) + tuple(extra), variant=variant)
+    @cached_property
+    def _engaged(self) -> FlexibleRobot:
+        els = tuple(replace(e, backlash_rad=0.0) if isinstance(e, MotionSprings) else e for e in self.elements)
+        return assemble(self.spec, els, variant=self.variant + " (engaged)")
+
+    def engaged_twin(self) -> FlexibleRobot:
+        """The same robot with every backlash dead zone closed (built once). Same coordinates."""
+        return self._engaged
 
     def describe(self) -> str:
         return f"{self.spec.name} [{self.variant}]: {self.nv} DOF; elements: " + ", ".join(e.name for e in self.elements)
@@ -351,7 +156,6 @@ def variant_elements(spec: RobotSpec, variant: str, damping_scale: float = 1.0) 
     if variant in ("orthogonal", "backlash"):
         els.append(VirtualJoints(spec.orthogonal_stiffness_n_m_per_rad, spec.orthogonal_damping_n_m_s_per_rad))
     if spec.elements:  # [[elements]] of the robot/case TOML (tool modes, identified corrections)
-        from .extra_elements import element_from_spec
         els += [element_from_spec(e, f"elements[{i}]") for i, e in enumerate(spec.elements)]
     return tuple(els)
 
@@ -374,19 +178,18 @@ def assemble(spec: RobotSpec, elements: Sequence[Element], variant: str = "custo
         parent = tail
     b.tail = parent
     b.flange_placement = placement
-    for e in elements:
-        e.finish(b)
+    built = [e.finish(b) for e in elements]
     flange = b.model.addFrame(pin.Frame("flange", b.tail, placement, pin.FrameType.OP_FRAME))
     if b.tcp_parent is None:
         b.tcp_parent, b.tcp_placement = b.tail, placement
     tcp = b.model.addFrame(pin.Frame("tcp", b.tcp_parent, b.tcp_placement, pin.FrameType.OP_FRAME))
     motion_dofs = np.array([b.model.joints[j].idx_v for j in b.motion_joints], dtype=int)
     motion_dofs.setflags(write=False)
-    robot = FlexibleRobot(spec=spec, variant=variant, model=b.model, data=b.model.createData(),
-                          elements=tuple(elements), motion_dofs=motion_dofs, tcp_frame=tcp, flange_frame=flange)
-    for e in elements:
-        e.bind(robot)
-    return robot
+    robot = FlexibleRobot(spec=spec, variant=variant, model=b.model, elements=tuple(elements),
+                          element_indices=(None,) * len(elements), motion_dofs=motion_dofs, tcp_frame=tcp,
+                          flange_frame=flange)
+    indices = tuple(e.bind(robot, x) for e, x in zip(elements, built))
+    return replace(robot, element_indices=indices)
 
 
 def build_model(spec: RobotSpec, variant: str = "basic", *, damping_scale: float = 1.0,
@@ -401,6 +204,11 @@ def build_model(spec: RobotSpec, variant: str = "basic", *, damping_scale: float
         Factor on the motion-axis damping (1: the paper's Tab. 6).
     extra_elements : sequence of Element
         Effects added on top of the variant (e.g. by :mod:`identify`).
+
+    >>> from robolobes.cases import load_robot
+    >>> robot = build_model(load_robot("tx200"), "orthogonal")
+    >>> robot.nv, [e.name for e in robot.elements]
+    (18, ['payload', 'motion springs', 'gravity', 'gravity compensation', 'virtual joints'])
     """
     els = variant_elements(spec, variant, damping_scale) + tuple(extra_elements)
     name = variant if not extra_elements and damping_scale == 1.0 else f"{variant}+"
@@ -434,41 +242,60 @@ def rigid_q(robot: FlexibleRobot, theta: np.ndarray) -> np.ndarray:
     return q
 
 
-def element_forces(robot: FlexibleRobot, q: np.ndarray, v: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """Sum of the elements' generalized forces, shape (nv,), at configuration q, velocity v, motor angles theta."""
+def element_forces(robot: FlexibleRobot, q: np.ndarray, v: np.ndarray, theta: np.ndarray,
+                   data: pin.Data | None = None) -> np.ndarray:
+    """Sum of the elements' generalized forces, shape (nv,), at configuration q (nq,), velocity v
+    (nv,), motor angles theta (n_joints,) in SI. ``data``: a ``pin.Data`` workspace (default: a new one)."""
+    data = robot.create_data() if data is None else data
     tau = np.zeros(robot.nv)
-    for e in robot.elements:
-        f = e.force(robot, q, v, theta)
+    for e, ix in zip(robot.elements, robot.element_indices):
+        f = e.force(robot, ix, data, q, v, theta)
         if f is not None:
             tau += f
     return tau
 
 
 def element_tangents(robot: FlexibleRobot, q: np.ndarray, v: np.ndarray, theta: np.ndarray,
-                     engaged: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                     engaged: bool = False, data: pin.Data | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(d tau/d q, d tau/d v)`` of the summed element forces, each (nv, nv).
 
     ``engaged=True`` treats backlash gears as in contact (the linearization's assumption).
+    ``data``: a ``pin.Data`` workspace (default: a new one).
     """
+    data = robot.create_data() if data is None else data
     kq = np.zeros((robot.nv, robot.nv))
     kv = np.zeros((robot.nv, robot.nv))
-    for e in robot.elements:
-        t = e.tangent(robot, q, v, theta, engaged)
+    for e, ix in zip(robot.elements, robot.element_indices):
+        t = e.tangent(robot, ix, data, q, v, theta, engaged)
         if t is not None:
             kq += t[0]
             kv += t[1]
     return kq, kv
 
 
-def tcp_pose(robot: FlexibleRobot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """TCP position (3,) in m and orientation (3, 3) in the base frame; ``R[:, 2]`` is the tool axis."""
-    pin.framesForwardKinematics(robot.model, robot.data, q)
-    m = robot.data.oMf[robot.tcp_frame]
+def tcp_pose(robot: FlexibleRobot, q: np.ndarray, data: pin.Data | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """TCP position (3,) in m and orientation (3, 3) in the base frame; ``R[:, 2]`` is the tool axis.
+
+    ``data``: a ``pin.Data`` workspace (default: a new one).
+
+    >>> from robolobes.cases import load_robot
+    >>> robot = build_model(load_robot("tx200"))
+    >>> p, R = tcp_pose(robot, rigid_q(robot, np.zeros(6)))
+    >>> p.shape, R.shape
+    ((3,), (3, 3))
+    """
+    work = robot.create_data() if data is None else data
+    pin.framesForwardKinematics(robot.model, work, q)
+    m = work.oMf[robot.tcp_frame]
     return m.translation.copy(), m.rotation.copy()
 
 
-def tcp_jacobian(robot: FlexibleRobot, q: np.ndarray) -> np.ndarray:
+def tcp_jacobian(robot: FlexibleRobot, q: np.ndarray, data: pin.Data | None = None) -> np.ndarray:
     """TCP Jacobian, shape (6, nv): rows 0-2 linear velocity of the TCP point (m/s per rad/s),
-    rows 3-5 angular velocity, both in base-frame axes (pinocchio ``LOCAL_WORLD_ALIGNED``)."""
-    J = pin.computeFrameJacobian(robot.model, robot.data, q, robot.tcp_frame, pin.LOCAL_WORLD_ALIGNED)
+    rows 3-5 angular velocity, both in base-frame axes (pinocchio ``LOCAL_WORLD_ALIGNED``).
+
+    ``data``: a ``pin.Data`` workspace (default: a new one).
+    """
+    data = robot.create_data() if data is None else data
+    J = pin.computeFrameJacobian(robot.model, data, q, robot.tcp_frame, pin.LOCAL_WORLD_ALIGNED)
     return np.asarray(J).reshape(6, robot.nv)  # eigenpy returns a vector when nv == 1

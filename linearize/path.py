@@ -37,7 +37,7 @@ from robolobes.core.errors import BadInput
 from .kinematics import (BRANCHES, arm_geometry, branch_of, check_limits, fk, ik_batch,
                          jacobian)
 
-__all__ = ["PassError", "FeedProfile", "Pass", "make_pass", "FEED_PERPENDICULAR_TOL", "MAX_TABLE_STEP_RAD"]
+__all__ = ["PassError", "FeedProfile", "Pass", "FEED_PERPENDICULAR_TOL", "MAX_TABLE_STEP_RAD"]
 
 #: |cos| between the feed direction and the tool axis above which the pass is refused (as
 #: :func:`cases.milling.cut_frame`: 2.5-axis milling needs the feed in the plane of the tool).
@@ -183,7 +183,7 @@ class FeedProfile:
 class Pass:
     """A straight milling pass of a robot: TCP line, feed profile, motor angles.
 
-    Build it with :meth:`Pass.from_case` (or :func:`make_pass`). All methods are vectorized over
+    Build it with :meth:`Pass.from_case`. All methods are vectorized over
     arrays of t (s) or s (m).
 
     Attributes
@@ -220,8 +220,8 @@ class Pass:
     contact_exit_s: float
     branch: int
     n_reference: int = 0
-    _ref_s: np.ndarray = field(default=None, repr=False)
-    _ref_theta: np.ndarray = field(default=None, repr=False)
+    _ref_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)  # set by _build_reference
+    _ref_theta: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)), repr=False)
 
     # --------------------------------------------------------------------------- construction
     @classmethod
@@ -268,7 +268,7 @@ class Pass:
         obj = cls(robot=spec, start_q=q0, start_position=p0, rotation=R0, direction=d, profile=profile,
                   part_entry_s=ps.approach_m, part_exit_s=ps.approach_m + tool.diameter_m + ps.part_length_m,
                   contact_entry_s=ps.approach_m + R - w, contact_exit_s=ps.approach_m + R + ps.part_length_m + w,
-                  branch=branch_of(spec, q0), n_reference=n_ref)
+                  branch=int(branch_of(spec, q0)), n_reference=n_ref)
         obj._build_reference()
         return obj
 
@@ -324,22 +324,22 @@ class Pass:
     @property
     def part_entry_t(self) -> float:
         """Time at which the tool envelope reaches the part, s."""
-        return self.profile.time_at(self.part_entry_s)
+        return float(self.profile.time_at(self.part_entry_s))
 
     @property
     def part_exit_t(self) -> float:
         """Time at which the tool envelope clears the part, s."""
-        return self.profile.time_at(self.part_exit_s)
+        return float(self.profile.time_at(self.part_exit_s))
 
     @property
     def contact_entry_t(self) -> float:
         """Time of the first edge-material contact, s."""
-        return self.profile.time_at(self.contact_entry_s)
+        return float(self.profile.time_at(self.contact_entry_s))
 
     @property
     def contact_exit_t(self) -> float:
         """Time of the last edge-material contact, s."""
-        return self.profile.time_at(self.contact_exit_s)
+        return float(self.profile.time_at(self.contact_exit_s))
 
     def s(self, t):
         """Path coordinate at time t (s, clipped to [0, duration]), m."""
@@ -443,8 +443,3 @@ class Pass:
             raise PassError(f"theta_table needs n >= 2 samples, got {n}")
         t = np.linspace(0.0, self.duration_s, int(n))
         return t, self.theta(t)
-
-
-def make_pass(case: MillingCase, **kw) -> Pass:
-    """Shortcut for :meth:`Pass.from_case`."""
-    return Pass.from_case(case, **kw)

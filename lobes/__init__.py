@@ -13,6 +13,9 @@ with :meth:`PhysicalStructure.from_linear`), a :class:`ModalStructure` (hammer-t
 :class:`ZeroOrder` (Altintas-Budak). Conventions: :mod:`cases.milling`.
 """
 
+if __name__ != "robolobes.lobes":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.lobes package: import robolobes.lobes instead")
+
 from ._errors import LobeError
 from .directional import DirectionalPlan, average_directional_matrix
 from .problem import LobeProblem

@@ -20,7 +20,6 @@ import time
 import warnings
 from dataclasses import replace
 
-import numpy as np
 
 from robolobes import cases
 from robolobes.linearize.kinematics import JointLimitWarning

@@ -7,6 +7,9 @@ render it; :mod:`findings` and :mod:`prose` put its comparisons into words compu
 numbers; :mod:`readme` regenerates the README's block from a ``results.json``.
 """
 
+if __name__ != "robolobes.study":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.study package: import robolobes.study instead")
+
 from .compute import compute_study
 from .result import StudyResult
 from .run import run_study

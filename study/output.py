@@ -1,93 +1,19 @@
-"""Render a :class:`StudyResult`: ``results.json`` (:func:`to_json`), the report, the figures and
-the FRF files, written into one directory."""
+"""Write a :class:`StudyResult` into one directory: ``results.json`` (:func:`to_json`), the
+report, the figures and the FRF files."""
 
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, fields, is_dataclass
 from pathlib import Path
 
-from robolobes.core.io import to_jsonable, write_json, write_text
+from robolobes.core.io import write_json, write_text
 
-from .result import DampingSearch, MaterialFacts, StudyResult
+from .figures import write_figures
+from .report import render_report
+from .result import StudyResult
+from .results_json import SOURCE, damping_json, facts_json, to_json
 
 __all__ = ["to_json", "write_study", "damping_json", "facts_json", "SOURCE"]
-
-#: What ``results.json`` is: computed here, except the entries that say they are the paper's.
-SOURCE = ("computed by robolobes (robolobes study); only the entries named 'paper ...' and "
-          "steel_damping.paper_scale are the paper's published values")
-
-
-def _plain(obj, skip=()) -> dict:
-    """A dataclass's fields as a dict, without ``skip``; nested dataclasses as dicts."""
-    return {f.name: (asdict(v) if is_dataclass(v) else v) for f in fields(obj) if f.name not in skip
-            for v in (getattr(obj, f.name),)}
-
-
-def damping_json(d: DampingSearch) -> dict:
-    """A damping search as JSON: the bracket, its resolution and every probe's verdict."""
-    return {"method": d.method, "variant": d.variant, "largest_unstable_scale": d.largest_unstable,
-            "smallest_stable_scale": d.smallest_stable, "resolution": d.resolution,
-            "probes": {f"{p.scale:g}": {**p.verdict.to_json(), **p.info} for p in d.probes}}
-
-
-def facts_json(f: MaterialFacts) -> dict:
-    """The explanation's numbers of one material (plain values; verdict strings)."""
-    out = _plain(f, skip=("lobes_verdict", "time_domain_verdict_basic"))
-    out.update(lobes_verdict=f.lobes_verdict.status, time_domain_verdict_basic=f.time_domain_verdict_basic.status,
-               tooth_passing_over_lowest_mode=f.tooth_passing_over_lowest_mode, krc_over_ktc=f.krc_over_ktc,
-               local_over_absolute=f.local_over_absolute)
-    return out
-
-
-def _operating_point_json(o) -> dict:
-    return {**o.verdict.to_json(), **_plain(o, skip=("point", "verdict", "material", "variant", "pose"))}
-
-
-def _run_json(r) -> dict:
-    return {**r.summary, **r.verdict.to_json(), "damping_scale": r.damping_scale, "t_end_s": r.t_end_s,
-            "wall_s": r.wall_s, "steps": r.steps}
-
-
-def to_json(res: StudyResult) -> dict:
-    """``results.json``: every number of the study, JSON-ready (SI; NaN and inf become null)."""
-    modes: dict = {}
-    for m in res.modes:
-        modes.setdefault(m.variant, {})[m.pose] = {**m.summary, "frf_peak_um_per_n": m.frf_peak_um_per_n,
-                                                   "frf_file": m.frf_file}
-    lobes: dict = {}
-    for o in res.operating_points:
-        point = {"operating_point": _operating_point_json(o)}
-        lobes.setdefault(o.material, {}).setdefault(o.variant, {})[o.pose] = point
-    for d in res.diagrams:
-        lobes[d.material][d.variant][d.pose]["diagram"] = {
-            "rpm": d.spindle_rpm, "depth_limit_m": d.depth_limit_m, "chatter_freq_hz": d.chatter_freq_hz,
-            "bifurcation": list(d.bifurcation), "wall_s": d.wall_s, "figure": d.figure}
-    for a in res.absolute_limits:
-        lobes[a.material]["absolute_limit_zoa"] = {"depth_m": a.depth_m, "at_rpm": a.at_rpm, "variant": a.variant,
-                                                   "pose": a.pose}
-    runs = {r.key: _run_json(r) for r in res.time_domain if r.damping_scale == 1.0}
-    damped = [_run_json(r) for r in res.time_domain if r.damping_scale != 1.0]
-    al, st = res.facts["aluminium"], res.facts["steel"]
-    explanation = {mat: facts_json(f) for mat, f in res.facts.items()}
-    explanation.update(
-        ktc_ratio_steel_over_aluminium=res.ktc_ratio_steel_over_aluminium,
-        absolute_limit_ratio_aluminium_over_steel=al.absolute_limit_zoa_m / st.absolute_limit_zoa_m,
-        local_limit_ratio_aluminium_over_steel=al.local_limit_m / st.local_limit_m)
-    return to_jsonable({
-        "source": SOURCE, "provenance": res.provenance, "settings": _plain(res.settings), "cases": res.cases,
-        "notes": list(res.notes),
-        "modes": modes, "lobes": lobes,
-        "time_domain": {"linearized": res.td_linearized, "runs": runs, "steel_damped": damped},
-        "steel_damping": {"lobes": damping_json(res.damping_lobes),
-                          "time_domain": damping_json(res.damping_time_domain),
-                          "paper_scale": res.paper_damping_scale},
-        "tab10": {r.name: r.values for r in res.tab10},
-        "roughness": {r.name: {"Ra": r.Ra, "Rq": r.Rq, "Rt": r.Rt} for r in res.roughness},
-        "explanation": explanation,
-        "identify_facts": res.identify_facts,
-        "wall_s": res.wall_s, "generated": res.generated, "linearize_calls": res.linearize_calls,
-    })
 
 
 def _write_frfs(res: StudyResult, work: Path) -> None:
@@ -101,9 +27,6 @@ def write_study(res: StudyResult, directory: str | os.PathLike) -> Path:
     """Write ``report.md``, ``results.json``, the figures and the FRF CSVs into ``directory``
     (which must exist; :func:`robolobes.study.run.run_study` gives it a staging directory that
     replaces the target only when complete)."""
-    from .figures import write_figures
-    from .report import render_report
-
     work = Path(directory)
     _write_frfs(res, work)
     write_figures(res, work)

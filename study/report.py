@@ -10,7 +10,7 @@ from robolobes.linearize.model import VARIANTS
 
 from . import prose
 from .findings import findings, summary_table
-from .output import to_json
+from .results_json import to_json
 from .result import StudyResult
 from .settings import MATERIALS, POSES
 

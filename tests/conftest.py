@@ -1,4 +1,4 @@
-"""Test configuration: single-threaded BLAS (see robolobes/main.py), set before numpy is imported."""
+"""Test configuration: single-threaded BLAS (see app/main.py, robolobes.main), set before numpy is imported."""
 
 import os
 

@@ -1,7 +1,6 @@
 """Case files: the TX200 numbers as the paper gives them, and clear errors for malformed files."""
 
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,7 @@ def test_tx200_numbers_from_the_paper():
     assert_allclose(r.joint_stiffness, [2.03e6, 6.02e6, 1.91e6, 0.45e6, 0.22e6, 0.07e6])
     assert_allclose(r.joint_damping, [383.3, 660, 371.7, 180.5, 126.2, 71.2])
     # Tab. 4 masses; payload 44.4 kg
-    assert_allclose([l.mass_kg for l in r.links], [226, 364, 256, 99, 41, 14, 0.6])
+    assert_allclose([link.mass_kg for link in r.links], [226, 364, 256, 99, 41, 14, 0.6])
     assert r.payload.mass_kg == 44.4
     # eq. 10-12: orthogonal 5e6 / 1000, backlash 15 arcsec = 7.3e-5 rad
     assert r.orthogonal_stiffness_n_m_per_rad == 5e6 and r.orthogonal_damping_n_m_s_per_rad == 1000
@@ -37,7 +36,7 @@ def test_tx200_numbers_from_the_paper():
 def test_tx200_kinematic_sums_match_dh_table():
     # NOTES.md: the assumed GB z splits must keep d1 = 0.642, a2 = 0.95, d4 = 0.8 and the flange
     # face 0.194 beyond the wrist centre; x/y offsets close (0.25 shoulder offset, y sum 0).
-    L = [l.com_m + l.next_joint_m for l in load_robot("tx200").links]
+    L = [link.com_m + link.next_joint_m for link in load_robot("tx200").links]
     assert_allclose(L[0][2] + L[1][2], 0.642, atol=1e-12)
     assert_allclose(L[2][2], 0.95, atol=1e-12)
     assert_allclose(L[3][2] + L[4][2], 0.8, atol=1e-12)

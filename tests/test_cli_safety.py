@@ -6,16 +6,14 @@ on stderr naming the value, exit 2 (130 for Ctrl-C), before any work, nothing of
 """
 
 import json
-import math
 
-import numpy as np
 import pytest
 
 from robolobes.core.io import provenance
-from robolobes.core.outdir import MARKER, cli_inputs, read_provenance
+from robolobes.core.outdir import cli_inputs, read_provenance
 from robolobes.main import build_parser, main as robolobes_main
 
-from test_lobes_cli import MODAL, TOOLARGS as TOOL  # the symmetric 2-DOF benchmark modal file
+from lobes_benchmark import MODAL, TOOLARGS as TOOL  # the symmetric 2-DOF benchmark modal file
 
 
 def run(capsys, *argv):
@@ -255,7 +253,6 @@ def test_lobes_and_modes_json_record_provenance(capsys, modal):
     rc, out, err = run(capsys, "lobes", "--modal", modal, *TOOL, "--n-rpm", "3", "--json", "--quiet")
     d = json.loads(out)
     ns = build_parser().parse_args(["lobes", "--modal", str(modal), *TOOL, "--n-rpm", "3", "--json", "--quiet"])
-    from robolobes.core.outdir import file_sha256
     assert d["provenance"]["inputs_sha256"] == provenance(cli_inputs(ns, files={"modal": modal}))["inputs_sha256"]
     modal.write_text(MODAL.replace("922", "923"))  # the file's content is an input
     rc, out2, _ = run(capsys, "lobes", "--modal", modal, *TOOL, "--n-rpm", "3", "--json", "--quiet")

@@ -55,7 +55,7 @@ def test_one_joint_gravity_stiffness_closed_form():
     robot = L.build_model(spec, "gravity")
     # no compensation on this joint (gravity_compensation False): K = k + dg/dq
     q = np.zeros(1)
-    dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.data, q)
+    dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.create_data(), q)
     # inverted pendulum: link com 0.2 m above the joint (20 kg), payload com at flange z 0.3 + 0.1
     # and x 0.2: dg/dq = -g (sum m z) at q = 0
     expected = -9.81 * (20 * 0.2 + 5 * 0.4)
@@ -69,14 +69,14 @@ def test_gravity_stiffness_matches_finite_differences(variant):
     # error O(h^2 |g'''|) ~ 1e-9 of the entries, round-off ~ 1e-10 |g| / h: 1e-6 relative is safe.
     robot = L.build_model(SPEC, variant)
     q = L.equilibrium(robot, TAB7).q
-    dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.data, q)
+    dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.create_data(), q)
     h = 1e-6
     fd = np.zeros_like(dg)
     for j in range(robot.nv):
         e = np.zeros(robot.nv)
         e[j] = h
-        fd[:, j] = (pin.computeGeneralizedGravity(robot.model, robot.data, q + e)
-                    - pin.computeGeneralizedGravity(robot.model, robot.data, q - e)) / (2 * h)
+        fd[:, j] = (pin.computeGeneralizedGravity(robot.model, robot.create_data(), q + e)
+                    - pin.computeGeneralizedGravity(robot.model, robot.create_data(), q - e)) / (2 * h)
     assert_allclose(dg, fd, atol=1e-6 * np.max(np.abs(dg)))
 
 
@@ -102,7 +102,7 @@ def test_gravity_torque_matches_independent_potential_energy():
     robot = L.build_model(SPEC, "gravity")
     rng = np.random.default_rng(1)
     for q in [TAB7] + [rng.uniform(-2, 2, 6) for _ in range(3)]:
-        g = pin.computeGeneralizedGravity(robot.model, robot.data, q)
+        g = pin.computeGeneralizedGravity(robot.model, robot.create_data(), q)
         h = 1e-6
         grad = np.array([(_potential_energy_numpy(SPEC, q + h * e) - _potential_energy_numpy(SPEC, q - h * e)) / (2 * h)
                          for e in np.eye(6)])
@@ -259,7 +259,6 @@ def test_singular_stiffness_reports_clearly():
 
 
 def test_control_interop():
-    import control
     lin = L.linearize(L.build_model(SPEC, "basic"), TAB7)
     w = 2 * np.pi * np.array([5.0, 25.0, 60.0])
     frd = lin.frf(w).to_control()

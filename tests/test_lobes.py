@@ -34,33 +34,14 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.linalg import expm
 
-from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, in_cut
+from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, engagement_rad
 from robolobes.core.frf import FRF
 from robolobes.core.numerics import richardson
-from robolobes.lobes import (LobeError, LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
+from robolobes.lobes import (LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
                    ZeroOrder, average_directional_matrix, classify_multiplier, solve, stability)
 from robolobes.lobes.sdm import SDMEngine
 
-FN, ZETA, MT = 922.0, 0.011, 0.03993
-WN = 2 * math.pi * FN
-K = MT * WN**2  # 1.34003e6 N/m
-DIAM = 0.01
-TOOL = Tool(diameter_m=DIAM, teeth=2)
-LAW = CuttingLaw(ktc_pa=6e8, krc_pa=2e8)
-
-
-def problem(aD, directions=((1.0, 0.0),), mode="down", rpm=10000.0, depth=1e-3, tool=TOOL, law=LAW, **cutkw):
-    s = ModalStructure(tuple(Mode(FN, ZETA, K, d) for d in directions))
-    return LobeProblem(s, tool, Cut(ae_m=aD * DIAM, ap_m=depth, spindle_rpm=rpm, mode=mode, **cutkw), law)
-
-
-def radius(p, meth, rpm=10000.0, depth=1e-3):
-    e = SDMEngine(p, meth, 0.01)
-    return float(e.multipliers([rpm], [depth])[0][0])
-
-
-def limit(p, meth, rpm, rtol=1e-10):
-    return float(solve(p, meth, [rpm], rtol=rtol).depth_limit_m[0])
+from lobes_benchmark import DIAM, FN, K, LAW, MT, TOOL, WN, ZETA, limit, problem, radius
 
 
 # ---------------------------------------------------------------------------------------------
@@ -210,6 +191,32 @@ def test_2dof_symmetric_flip_minimum_and_up_down_symmetry():
     assert abs(r1u / r1d - 1) > 0.1
 
 
+def a0_closed_form(tool, cut, law):
+    """Average directional matrix of one tooth, (3, 2) N/m^2, by hand: ``D(phi) = f(phi) n(phi)^T``
+    with ``f = (-kt c - kr s, kt s - kr c, ka)``, ``n = (s, c)`` (cases.milling), integrated over the
+    engagement with ``int s c = s^2 / 2``, ``int s^2 = phi / 2 - sin(2 phi) / 4``,
+    ``int c^2 = phi / 2 + sin(2 phi) / 4``, ``int s = -c``, ``int c = s``; divided by 2 pi."""
+    st, ex = engagement_rad(tool, cut)
+
+    def F(phi):
+        s, c = math.sin(phi), math.cos(phi)
+        sc, s2, c2 = s * s / 2, phi / 2 - math.sin(2 * phi) / 4, phi / 2 + math.sin(2 * phi) / 4
+        kt, kr, ka = law.ktc_pa, law.krc_pa, law.kac_pa
+        return np.array([[-kt * sc - kr * s2, -kt * c2 - kr * sc],
+                         [kt * s2 - kr * sc, kt * sc - kr * c2],
+                         [-ka * c, ka * s]])
+
+    return (F(ex) - F(st)) / (2 * math.pi)
+
+
+@pytest.mark.parametrize("aD, mode", [(1.0, "down"), (0.05, "down"), (0.4, "up"), (0.3, "down")])
+def test_average_directional_matrix_closed_form(aD, mode):
+    law = CuttingLaw(ktc_pa=6e8, krc_pa=2e8, kac_pa=1e8)
+    cut = Cut(ae_m=aD * DIAM, ap_m=1e-3, spindle_rpm=10000, mode=mode)
+    assert_allclose(average_directional_matrix(TOOL, cut, law), a0_closed_form(TOOL, cut, law), rtol=1e-12,
+                    atol=1e-12 * 6e8)
+
+
 @pytest.mark.parametrize("aD, direction", [(1.0, (1.0, 0.0)), (0.05, (1.0, 0.0)), (0.4, (0.6, 0.8))])
 def test_zoa_closed_form_minimum(aD, direction):
     """One mode along unit d, N teeth of uniform pitch, a = d^T a0 d (a0: average directional
@@ -220,7 +227,7 @@ def test_zoa_closed_form_minimum(aD, direction):
     The solver's limit at that speed must be b_min to root-finding accuracy (1e-7)."""
     p = problem(aD, (direction,))
     d = np.array(direction, float)
-    a0 = average_directional_matrix(TOOL, p.cut, LAW)[:2]
+    a0 = a0_closed_form(TOOL, p.cut, LAW)[:2]
     a = float(d @ a0 @ d)
     r = math.sqrt(1 + 2 * ZETA) if a < 0 else math.sqrt(1 - 2 * ZETA)
     bmin = 2 * K * ZETA * (1 + ZETA) / (2 * abs(a)) if a < 0 else 2 * K * ZETA * (1 - ZETA) / (2 * a)
@@ -331,7 +338,7 @@ def test_axial_force_acts_through_tcp_transpose():
     r0 = radius(replace(p, law=replace(law, kac_pa=0.0)), SemiDiscretization(m=40, quadrature=20, rule="midpoint"),
                 12000.0, 1e-3)
     assert abs(r0 - r) > 1e-2
-    a0 = average_directional_matrix(TOOL, p.cut, law)
+    a0 = a0_closed_form(TOOL, p.cut, law)
     a = c * c * a0[0, 0] + s * c * a0[2, 0]
     assert a > 0
     r_ = math.sqrt(1 - 2 * ZETA)

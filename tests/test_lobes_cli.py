@@ -11,21 +11,7 @@ from numpy.testing import assert_allclose
 from robolobes.lobes import LobeError
 from robolobes.lobes.cli import read_modal_toml, register, run
 
-MODAL = """
-[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [1, 0]
-
-[[modes]]
-freq_hz = 922
-damping_ratio = 0.011
-stiffness_n_per_m = 1.34003e6
-direction = [0, 1]
-"""
-
-TOOLARGS = ["--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5", "--down", "--ktc-mpa", "600", "--krc-mpa", "200"]
+from lobes_benchmark import MODAL, TOOLARGS
 
 
 def parser():

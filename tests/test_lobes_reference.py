@@ -15,7 +15,6 @@ Tables (parameters of the Insperger & Stepan 2004 benchmark, SDM with exact step
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -24,12 +23,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import minimize_scalar
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from lobes_benchmark import limit, problem, radius
 
-from test_lobes import limit, problem, radius  # noqa: E402
-
-from robolobes.core.numerics import richardson  # noqa: E402
-from robolobes.lobes import SemiDiscretization, solve  # noqa: E402
+from robolobes.core.numerics import richardson
+from robolobes.lobes import SemiDiscretization, solve
 
 DATA = Path(__file__).resolve().parent / "data" / "lobes_reference.json"
 

@@ -135,3 +135,66 @@ def test_the_ast_scan_can_fail(tmp_path):
     f.write_text("from .cli import run\nimport robolobes.lobes.cli\nfrom robolobes.linearize import cli\n")
     found = [m for m in _imports(f, "robolobes.lobes") if _is_cli(m)]
     assert found.count("robolobes.lobes.cli") == 2 and "robolobes.linearize.cli" in found
+
+
+@pytest.mark.parametrize("folder,package", [(p, f"robolobes.{p}") for p in PACKAGES] + [("app", "robolobes")])
+def test_root_folder_does_not_load_a_second_copy(folder, package):
+    """From the repository root, where the design's folders are on sys.path, ``import lobes`` must
+    not give a second copy of robolobes.lobes: an ImportError naming the package to import."""
+    r = _run([sys.executable, "-c", f"import {folder}"], cwd=ROOT)
+    assert r.returncode != 0
+    last = r.stderr.strip().splitlines()[-1]
+    assert last.startswith("ImportError") and f"import {package} instead" in last, last
+    r = _run([sys.executable, "-c", f"import {package}"], cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
+def _imports_of(path: Path, package: str, modules: set) -> set:
+    """robolobes modules a module imports (anywhere in it, except under ``if TYPE_CHECKING``)."""
+    tree = ast.parse(path.read_text())
+    typing_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
+                   and "TYPE_CHECKING" in ast.unparse(node.test) for n in ast.walk(node)}
+    out = set()
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.ImportFrom):
+            parts = package.split(".")
+            base = ".".join(parts[:len(parts) - node.level + 1] + [node.module or ""]).strip(".") if node.level \
+                else node.module or ""
+            out |= {f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names}
+        elif isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+    return out & modules
+
+
+def test_no_import_cycles():
+    """No chain of imports leads from a module back to itself (a depth-first search of the graph
+    of every robolobes module's imports, read from the source)."""
+    folders = {"app": "robolobes", **{p: f"robolobes.{p}" for p in PACKAGES}}
+    files = {(pkg if f.stem == "__init__" else f"{pkg}.{f.stem}"): (f, pkg)
+             for folder, pkg in folders.items() for f in (ROOT / folder).glob("*.py")}
+    graph = {m: _imports_of(f, pkg, set(files)) - {m} for m, (f, pkg) in files.items()}
+    cycles = []
+
+    def visit(m, path):
+        for t in graph[m]:
+            if t in path:
+                cycles.append(path[path.index(t):] + [t])
+            elif t not in done:
+                done.add(t)
+                visit(t, path + [t])
+
+    done = set()
+    for m in graph:
+        visit(m, [m])
+    assert not cycles, [" -> ".join(c) for c in cycles]
+
+
+def test_linearize_lazy_names_resolve():
+    """robolobes.linearize loads its names on first use: each listed name has a home and resolves."""
+    import robolobes.linearize as L
+
+    assert set(L.__all__) == set(L._HOME)
+    for name in L.__all__:
+        assert getattr(L, name) is getattr(importlib.import_module(f"robolobes.linearize.{L._HOME[name]}"), name)

@@ -14,7 +14,7 @@ import pytest
 
 from robolobes import cases
 from robolobes.linearize.kinematics import JointLimitWarning, UnreachableError, fk, jacobian
-from robolobes.linearize.path import FeedProfile, Pass, PassError, make_pass
+from robolobes.linearize.path import FeedProfile, Pass, PassError
 
 
 def build(case):
@@ -62,8 +62,8 @@ def test_profile_continuity_and_jerk_bound(pas):
     # continuity of s, v, a at every switching time (one-sided values 1e-12 s apart: jumps would be
     # O(1) x a quantity; continuity gives O(1e-12) x its derivative)
     for ts in (T / 2, T, te - T, te - T / 2):
-        l, r = prof.state(ts - 1e-12), prof.state(ts + 1e-12)
-        for x0, x1, scale in zip(l[:3], r[:3], (V * 1e-12, J * 1e-12, J * 1e-12)):
+        left, right = prof.state(ts - 1e-12), prof.state(ts + 1e-12)
+        for x0, x1, scale in zip(left[:3], right[:3], (V * 1e-12, J * 1e-12, J * 1e-12)):
             assert abs(x1 - x0) <= 2 * scale + 1e-15
     # jerk piecewise constant in {-J, 0, +J}; a is its integral, v of a, s of v (finite differences,
     # dt = 1e-5 s: central differences of cubics are exact up to dt^2 J ~ 1e-8 of the scale)
@@ -201,4 +201,3 @@ def test_pass_errors(alu):
     far = dataclasses.replace(alu, path=dataclasses.replace(alu.path, part_length_m=2.0))
     with pytest.raises(UnreachableError, match=r"at s = [0-9.]+ mm of the pass"):
         build(far)
-    assert make_pass is not None

@@ -9,7 +9,6 @@ scale: the two methods sum different (but convergent to double precision) series
 import math
 
 import numpy as np
-import pytest
 from scipy.linalg import expm
 
 from robolobes import cases, linearize

@@ -31,7 +31,8 @@ def _energy(robot, q, v):
     # E = T + V_gravity + springs; pinocchio's potential is -sum m g.c (gravity along -z)
     idx = robot.motion_dofs
     vidx = np.setdiff1d(np.arange(robot.nv), idx)
-    e = pin.computeKineticEnergy(robot.model, robot.data, q, v) + pin.computePotentialEnergy(robot.model, robot.data, q)
+    data = robot.create_data()
+    e = pin.computeKineticEnergy(robot.model, data, q, v) + pin.computePotentialEnergy(robot.model, data, q)
     e += 0.5 * np.sum(SPEC.joint_stiffness * (q[idx] - TAB7) ** 2)
     e += 0.5 * SPEC.orthogonal_stiffness_n_m_per_rad * np.sum(q[vidx] ** 2)
     return e

@@ -10,11 +10,9 @@ A run is causal: the verdict of a run stopped at ``t_end`` equals the verdict on
 durations 0.3-1.0 s are read from one whole-pass run per variant.
 """
 
-import math
 import warnings
 from dataclasses import replace
 
-import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 

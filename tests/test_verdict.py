@@ -95,7 +95,7 @@ def test_neutral_motion_is_undetermined(f_hz):
     # A steady oscillation in the linear regime (rate 0, far below the chip) is neither: at a 95 %
     # level at most 5 % of the draws may be decided; allowed <= 4 of 40.
     decided = 0
-    for r, t, x in _draws(0.0, f_hz, 40, 41):
+    for _r, t, x in _draws(0.0, f_hz, 40, 41):
         v = decide(t, x, TP, BIG_CHIP, t_start_s=0.0, t_end_s=t[-1])
         decided += v.verdict.status != "undetermined"
         if v.verdict.status == "undetermined":

@@ -273,7 +273,9 @@ def test_trial_queries_do_not_modify_the_part():
 def test_default_disc_count_from_the_helix_lag():
     tool = make_tool(helix_deg=30)
     # psi(ap) = 2 ap tan(30 deg) / D = 0.185 rad = 10.59 deg over 1.6 mm -> 22 discs of <= 0.5 deg
-    assert default_disc_count(tool, 1.6e-3) == math.ceil(math.degrees(2 * 1.6e-3 * math.tan(math.radians(30)) / 10e-3) / 0.5)
+    assert default_disc_count(tool, 1.6e-3) == 22
+    # 45 deg over 2 mm: 2 x 2 mm x 1 / 10 mm = 0.4 rad = 22.92 deg -> 46 discs
+    assert default_disc_count(make_tool(helix_deg=45), 2e-3) == 46
     assert default_disc_count(make_tool(), 1.6e-3) == 1
     d = AxialDiscs(1.6e-3, 4)
     assert_allclose(d.z_m, [0.2e-3, 0.6e-3, 1.0e-3, 1.4e-3], rtol=1e-12)

@@ -50,7 +50,7 @@ def test_mean_force_closed_form():
 
 def test_mean_force_against_paper_tab10(alu):
     # Paper Tab. 10, aluminium, model rows: mean Fy = -25.67 N (force on the workpiece along the
-    # paper's y, i.e. the force on the tool along y_c has mean +25.67 N; see timedomain/cutting.py).
+    # paper's y, i.e. the force on the tool along y_c has mean +25.67 N; see cases/milling.py).
     # The paper's mean comes from its simulation with vibration and the real pass; the
     # revolution mean of the static chip agrees to 0.5 %.
     f = mean_force_cut_frame(alu.tool, alu.cut, alu.law)

@@ -140,7 +140,7 @@ def test_time_domain_check_point_lies_between_the_limits_at_the_optimums_speed(s
     # Baseline limits 1 / 2 mm at 2000 / 3000 rpm, optimum best at 3000 rpm with 4 mm: the check
     # runs at 3000 rpm at sqrt(2 x 4) = 2.83 mm (geometric mean, below 1.5 x 2 = 3 mm), between the
     # baseline's 2 mm there and the optimum's 4 mm.
-    from robolobes.workspace.cli import _td_point
+    from robolobes.workspace.verify import check_point as _td_point
 
     opt = _problem(steel, objective="mrr", speeds_rpm=(2000.0, 3000.0))
     s, theta, feed, sp = np.zeros(2), np.zeros((2, 6)), np.array([1.0, 0, 0]), np.array([2000.0, 3000.0])

@@ -19,6 +19,9 @@ shape: ``simulate(SimulationProblem(robot, case), LinearizedNewmark())``.
 * :mod:`timedomain.output` -- series, wall, JSON summary and plots of a run.
 """
 
+if __name__ != "robolobes.timedomain":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.timedomain package: import robolobes.timedomain instead")
+
 from .problem import LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem
 from .result import SimulationResult, SimulationSummary
 from .simulation import simulate

@@ -149,7 +149,7 @@ def robot_equations(robot, theta_of_t: Callable[[float], np.ndarray], tcp_force=
     last : dict
         ``last["F"]``: the TCP force of the last residual evaluation.
     """
-    model, data, tcp = robot.model, robot.data, robot.tcp_frame
+    model, data, tcp = robot.model, robot.create_data(), robot.tcp_frame
     cache = {}
     last = {}
 
@@ -161,7 +161,7 @@ def robot_equations(robot, theta_of_t: Callable[[float], np.ndarray], tcp_force=
         return cache["J"], cache["p"]
 
     def residual(q, v, a, t):
-        r = pin.rnea(model, data, q, v, a) - element_forces(robot, q, v, theta_of_t(t))
+        r = pin.rnea(model, data, q, v, a) - element_forces(robot, q, v, theta_of_t(t), data)
         if tcp_force is not None:
             J, p = kin(q)
             F, _ = tcp_force(t, p)
@@ -171,7 +171,7 @@ def robot_equations(robot, theta_of_t: Callable[[float], np.ndarray], tcp_force=
 
     def tangent(q, v, a, t):
         dq, dv, M = pin.computeRNEADerivatives(model, data, q, v, a)
-        kq, kv = element_tangents(robot, q, v, theta_of_t(t))
+        kq, kv = element_tangents(robot, q, v, theta_of_t(t), data=data)
         dq = dq - kq
         if tcp_force is not None:
             J, p = kin(q)

@@ -170,8 +170,8 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
     n = q_n.shape[0]
     nt, nk = offset.shape
     n_idx = idx.shape[0]
-    ca = 1.0 / (0.25 * h * h)  # 1 / (beta h^2)
-    gh = 0.5 * h  # gamma h
+    ca = 1.0 / (_BETA * h * h)  # 1 / (beta h^2)
+    gh = _GAMMA * h
     ktc, krc, kac, kte, kre, kae = law[0], law[1], law[2], law[3], law[4], law[5]
     dz0 = _dead_zone(d0, backlash)
     q = np.empty(n)
@@ -193,9 +193,9 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
         t0 = k * h
         t1 = (k + 1) * h
         for i in range(n):
-            base_a[i] = (0.5 / 0.25 - 1.0) * a_n[i]
-            vpred[i] = v_n[i] + h * (1.0 - 0.5) * a_n[i]
-            q[i] = q_n[i] + h * v_n[i] + 0.5 * h * h * a_n[i]
+            base_a[i] = (0.5 / _BETA - 1.0) * a_n[i]  # (1 / (2 beta) - 1) a_n
+            vpred[i] = v_n[i] + h * (1.0 - _GAMMA) * a_n[i]
+            q[i] = q_n[i] + h * v_n[i] + 0.5 * h * h * a_n[i]  # predictor: constant acceleration a_n
         ang = omega * t1
         for j in range(nt):
             for kk in range(nk):

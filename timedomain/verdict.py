@@ -406,7 +406,7 @@ def decide(t_s, x, period_s: float, chip: ChipScale, *, t_start_s: float, t_end_
     ratio = regenerative_ratio(t, xx, period_s, chip, t_start_s=tail, t_end_s=hi)
     amp = regenerative_amplitudes(t, xx, period_s, chip, t_start_s=tail, t_end_s=hi)
     loss = max((chip.loss_fraction(a, j) for j, a in enumerate(amp)), default=1.0)
-    out = lambda status, why, need=None: TimeDomainVerdict(Verdict(status, why), g, ratio, loss, need)  # noqa: E731
+    out = lambda status, why, need=None: TimeDomainVerdict(Verdict(status, why), g, ratio, loss, need)
     lo_ci, hi_ci = g.ci_per_s
     pct = f"{100 * rule.confidence:g} %"
     rate = f"growth rate {g.rate_per_s:+.4g} 1/s ({pct} interval {lo_ci:+.3g} to {hi_ci:+.3g})"

@@ -480,8 +480,6 @@ class Workpiece:
         self._pend_w = np.zeros(shape + (cap,))
         self._pend_a = np.zeros(shape + (cap,))
         self._pend_n = np.zeros(shape, dtype=np.int64)
-        self._n_removed_cells = 0
-        self._n_overflow = 0
         self._revision = 0
 
     # ---- geometry -------------------------------------------------------------------------
@@ -672,10 +670,9 @@ class Workpiece:
                 self._pend_i, self._pend_w, self._pend_a, self._pend_n)
 
     def _account_removal(self, commits: int, touched: int, overflow: int) -> None:
-        """Count ``commits`` removal steps (``_remove_kernel`` calls) with ``touched`` column updates,
-        ``overflow`` of them forced by a full pending buffer; bumps :attr:`revision`."""
-        self._n_removed_cells += int(touched)
-        self._n_overflow += int(overflow)
+        """Count ``commits`` removal steps (``_remove_kernel`` calls): bumps :attr:`revision`.
+        ``touched`` (column updates) and ``overflow`` (those forced by a full pending buffer) are
+        what the kernels report; nothing reads them."""
         self._revision += int(commits)
 
     # ---- results ------------------------------------------------------------------------------

@@ -7,6 +7,9 @@ Problem / method / solve, as in :mod:`robolobes.lobes`::
     result.dataset["depth_limit_m"]                                   # xarray, dims (pose, rpm)
 """
 
+if __name__ != "robolobes.workspace":  # this folder imported by itself (from the repository root): a second copy
+    raise ImportError(f"{__name__!r} is the folder of the robolobes.workspace package: import robolobes.workspace instead")
+
 from .compute import BIFURCATIONS, build_robot, compute_chunk, pose_structure
 from .forces import mean_force_cut_frame, static_deflection
 from .poses import REASONS, PoseSolution, PoseTarget, solve_pose, start_pose, target

@@ -10,7 +10,6 @@ each spinning BLAS threads run several times slower.
 from __future__ import annotations
 
 import hashlib
-import math
 import pickle
 from dataclasses import dataclass, replace
 

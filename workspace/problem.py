@@ -13,7 +13,7 @@ SI units), flattened in C order into the ``pose`` dimension. Axis names: ``x_off
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -41,6 +41,8 @@ def _grid_counts(n: int, k: int) -> list[int]:
     per = max(2, int(round(n ** (1.0 / k))))
     return [per] * k
 
+
+_TILT_20_DEG = (-math.radians(20), math.radians(20))  # default tilt range, rad
 
 @dataclass(frozen=True, eq=False)
 class MapProblem:
@@ -107,7 +109,7 @@ class MapProblem:
     @classmethod
     def make(cls, case: MillingCase, variant: str, over: Over, *, n: int = 25,
              x_range_m=(-0.2, 0.2), y_range_m=(-0.2, 0.2), z_range_m=(0.0, 0.0), yaw_range_rad=(0.0, 0.0),
-             rotation_range_rad=(-math.pi, math.pi), tilt_range_rad=(-math.radians(20), math.radians(20)),
+             rotation_range_rad=(-math.pi, math.pi), tilt_range_rad=_TILT_20_DEG,
              lead_range_rad=(0.0, 0.0), speeds_rpm=None, op_rpm: float | None = None, tool_modes=(),
              model_file=None) -> "MapProblem":
         """A map over ``over`` with about ``n`` poses.

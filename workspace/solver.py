@@ -15,7 +15,6 @@ resumed map is bitwise equal to an uninterrupted one.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
