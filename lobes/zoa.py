@@ -38,6 +38,7 @@ from robolobes.core.validate import integer
 
 from ._errors import LobeError
 from .directional import average_directional_matrix
+from .measured import MeasuredStructure
 from .problem import LobeProblem
 
 __all__ = ["ZeroOrder"]
@@ -77,9 +78,22 @@ class ZeroOrder:
 class ZOAEngine:
     def __init__(self, problem: LobeProblem, method: ZeroOrder):
         self.problem, self.method = problem, method
-        ss = problem.structure.state_space()
-        ss.check_stable()
-        self.ss = ss
+        st = problem.structure
+        if isinstance(st, MeasuredStructure):
+            # the measured FRF itself, on its band: the resonances must be resolved
+            pk = st.check_resolution()
+            self._receptance = st.receptance
+            self.measured = st
+            self.pole_f = np.array([p.freq_hz for p in pk])
+            self.pole_zeta = np.array([p.bandwidth_hz / (2 * p.freq_hz) for p in pk])
+        else:
+            ss = st.state_space()
+            ss.check_stable()
+            self._receptance = ss.receptance
+            self.measured = None
+            lam = ss.poles
+            self.pole_f = np.abs(lam.imag) / (2 * np.pi)
+            self.pole_zeta = np.where(np.abs(lam) > 0, -lam.real / np.maximum(np.abs(lam), 1e-300), 1.0)
         k = 3 if problem.law.kac_pa != 0.0 else 2
         self.a0 = average_directional_matrix(problem.tool, problem.cut, problem.law)[:k]  # (k, 2)
         self.k = k
@@ -87,17 +101,23 @@ class ZOAEngine:
         if not regs:
             raise LobeError("no tooth cuts (runout larger than the feed for every tooth)")
         self.delay_rad = np.array([r.delay_rad for r in regs])
-        lam = ss.poles
-        self.pole_f = np.abs(lam.imag) / (2 * np.pi)
-        self.pole_zeta = np.where(np.abs(lam) > 0, -lam.real / np.maximum(np.abs(lam), 1e-300), 1.0)
 
     def _X(self, freq_hz: np.ndarray) -> np.ndarray:
-        H = self.ss.receptance(2 * np.pi * np.asarray(freq_hz, dtype=float))  # (3, 3, F), m/N
+        H = self._receptance(2 * np.pi * np.asarray(freq_hz, dtype=float))  # (3, 3, F), m/N
         return np.einsum("ikf,kj->fij", H[:2, : self.k], self.a0)  # (F, 2, 2)
 
     def grid(self, rpm_min: float) -> np.ndarray:
+        """Chatter frequencies searched (Hz, increasing): uniform plus dense grids around the poles;
+        for a measured FRF, the measured band only, uniform plus the measured lines."""
         osc = self.pole_f[self.pole_f > 0]
-        if self.method.freq_range_hz is not None:
+        if self.measured is not None:
+            lo, hi = self.measured.band_hz
+            if self.method.freq_range_hz is not None:
+                lo, hi = max(lo, self.method.freq_range_hz[0]), min(hi, self.method.freq_range_hz[1])
+                if hi <= lo:
+                    raise LobeError(f"freq_range_hz {self.method.freq_range_hz} lies outside the measured band "
+                                    f"{self.measured.band_hz[0]:g}-{self.measured.band_hz[1]:g} Hz")
+        elif self.method.freq_range_hz is not None:
             lo, hi = self.method.freq_range_hz
         else:
             if len(osc) == 0:
@@ -109,6 +129,9 @@ class ZOAEngine:
         if n > 2_000_000:
             raise LobeError(f"ZOA frequency grid would need {n} points; narrow freq_range_hz or raise the speeds")
         parts = [np.linspace(lo, hi, n)]
+        if self.measured is not None:
+            fm = self.measured.freq_hz
+            parts.append(fm[(fm >= lo) & (fm <= hi)])
         for f, z in zip(self.pole_f, self.pole_zeta):
             if f > 0:
                 bw = max(z, 1e-6) * f
