@@ -43,7 +43,7 @@ from robolobes.core.io import atomic_path, provenance_text, pyplot, save_figure
 from .linear import FRF
 
 __all__ = ["write_frf", "read_frf", "plot_bode", "MeasuredPair", "PoseFRF", "FRFSet", "read_frf_set",
-           "write_frf_set", "G_M_PER_S2", "ToolFRF", "read_tool_frf", "parse_frf_axes"]
+           "write_frf_set", "G_M_PER_S2", "ToolFRF", "read_tool_frf", "parse_frf_axes", "tool_frf_files"]
 
 G_M_PER_S2 = 9.80665  # standard gravity, for accelerances in g
 
@@ -375,7 +375,8 @@ def parse_frf_axes(text: str) -> np.ndarray:
     return T
 
 
-def _tool_files(path: Path) -> list[Path]:
+def tool_frf_files(path: Path) -> list[Path]:
+    """The FRF files of ``path``: the file itself, or every .uff, .unv, .csv file of a directory."""
     if path.is_dir():
         files = sorted(f for f in path.iterdir() if f.suffix.lower() in _FMT)
         if not files:
@@ -403,7 +404,7 @@ def read_tool_frf(path: str | Path, axes: str = "x,y") -> ToolFRF:
     omega = None
     notes = []
     z_pairs = 0
-    for f in _tool_files(src):
+    for f in tool_frf_files(src):
         _, pairs = _read_pairs(f)
         if not pairs:
             raise BadInput(f"{f}: no FRF dataset (UFF58) or column in it")

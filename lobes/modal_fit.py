@@ -28,7 +28,9 @@ single lines averages out), a fit is **not credible** when
   lobe minimum, so a fit error of ``e`` at the resonance moves the limit by about ``e``; beyond 5 %
   the fitted lobes are no longer a copy of the measured ones to the accuracy a lobe chart is read;
 * a mode's driving-point modal constant ``Re(2 i w_d R_ii)`` is negative (a real mode has
-  ``d_i^2 / m > 0``): the mode is not a physical resonance of the tool tip;
+  ``d_i^2 / m > 0``) and the mode's own peak in that driving point, ``|R_ii| / (zeta w_n)``, exceeds
+  three RMS residuals of the entry (below that it is zero within the noise): the mode is not a
+  physical resonance of the tool tip;
 * a driving point is not passive: ``Im H_ii(w) > 0`` somewhere in the band by more than three times
   the RMS residual of that entry (a passive structure dissipates, ``Im H_ii <= 0``; three RMS
   residuals is what noise alone reaches with a probability below 0.3 % per line).
@@ -97,7 +99,7 @@ class ModalFit:
         err = ", ".join(f"{k} {v * 100:.2g} %" for k, v in self.rms_error.items())
         modes = ", ".join(f"{m.freq_hz:.5g} Hz (zeta {m.damping_ratio:.3g})" for m in self.modes)
         verdict = "credible" if self.credible else "NOT CREDIBLE: " + "; ".join(self.problems)
-        return f"modal fit (vector fitting, {len(self.modes)} modes: {modes}); peak error {err}; {verdict}"
+        return f"modal fit (vector fitting, {len(self.modes)} modes: {modes}); RMS error {err}; {verdict}"
 
     def to_json(self) -> dict:
         return {"method": "vector fitting, no direct term", "credible": self.credible, "problems": list(self.problems),
@@ -237,20 +239,27 @@ def _assess(structure: ModalStructure, meas: MeasuredStructure, entries) -> Moda
     if rms[worst] > MAX_RMS_ERROR:
         problems.append(f"H{worst} deviates from the measurement by {rms[worst] * 100:.3g} % RMS "
                         f"(> {MAX_RMS_ERROR * 100:g} %)")
+    noise = [float(np.sqrt(np.mean(np.abs(Hf[i, i] - meas.H[i, i]) ** 2))) for i in range(2)]
     for m in structure.modes:
         for i in range(2):
             c = float(np.real(m.modal_constants[i, i]))
-            if c < 0:
+            # the mode's own peak in H_ii, |R_ii| / (zeta w_n): below 3 RMS residuals it is noise
+            height = abs(m.residue[i, i]) / (-m.pole.real)
+            if c < 0 and height > 3 * noise[i]:
                 problems.append(f"the mode at {m.freq_hz:.5g} Hz has a negative driving-point modal constant "
-                                f"({'xy'[i]}{'xy'[i]}: {c:.3g} 1/kg)")
+                                f"({'xy'[i]}{'xy'[i]}: {c:.3g} 1/kg, peak {height:.3g} m/N > 3 RMS residuals)")
     for i in range(2):
-        noise = np.sqrt(np.mean(np.abs(Hf[i, i] - meas.H[i, i]) ** 2))
         top = float(np.max(Hf[i, i].imag))
-        if top > 3 * noise:
+        if top > 3 * noise[i]:
             k = int(np.argmax(Hf[i, i].imag))
             problems.append(f"the fitted driving point H{'xy'[i]}{'xy'[i]} is not passive: Im H = {top:.3g} m/N > 0 "
-                            f"at {meas.freq_hz[k]:.5g} Hz (3 RMS residuals = {3 * noise:.3g} m/N)")
+                            f"at {meas.freq_hz[k]:.5g} Hz (3 RMS residuals = {3 * noise[i]:.3g} m/N)")
     return ModalFit(structure, meas, tuple(entries), peak, rms, tuple(problems))
+
+
+def _phase_deg(H: np.ndarray) -> np.ndarray:
+    """Phase in (-270, 90] deg: a receptance's -180 deg does not flip to +180 with noise."""
+    return (np.degrees(np.angle(H)) + 270.0) % 360.0 - 270.0
 
 
 def plot_fit(fit: ModalFit, path, title: str = "", provenance: dict | None = None) -> None:
@@ -266,8 +275,8 @@ def plot_fit(fit: ModalFit, path, title: str = "", provenance: dict | None = Non
         a1.semilogy(f, np.abs(Hm[i, j]) * 1e6, ".", ms=1.5, color="0.6")
         a1.semilogy(f, np.abs(Hf[i, j]) * 1e6, "-", lw=1.1, color=col,
                     label=f"H{name} fit (RMS error {fit.rms_error[name] * 100:.2g} %)")
-        a2.plot(f, np.degrees(np.angle(Hm[i, j])), ".", ms=1.5, color="0.6")
-        a2.plot(f, np.degrees(np.angle(Hf[i, j])), "-", lw=1.1, color=col)
+        a2.plot(f, _phase_deg(Hm[i, j]), ".", ms=1.5, color="0.6")
+        a2.plot(f, _phase_deg(Hf[i, j]), "-", lw=1.1, color=col)
     a1.plot([], [], ".", color="0.6", label="measured")
     a1.set_ylabel("|H| (um/N)")
     a1.legend(fontsize=8)

@@ -12,9 +12,9 @@ whole force, including the axial one (``Kac``), acts through ``B``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
-from typing import Sequence, Union
+from typing import Union
 
 import numpy as np
 
