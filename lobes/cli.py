@@ -42,7 +42,7 @@ from robolobes.linearize.cli import add_pose_arguments
 
 from .sdm import SemiDiscretization
 from .solver import solve, stability
-from .structure import ComplexMode, Mode, ModalStructure, PhysicalStructure
+from .structure import ComplexMode, Mode, ModalStructure, PhysicalStructure, in_series
 from .zoa import ZeroOrder
 
 __all__ = ["register", "run", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
@@ -55,7 +55,8 @@ MAX_N_RPM = 5000
 _FRF_ONLY = {"--frf-axes": "frf_axes", "--fit-modes": "fit_modes", "--fit-plot": "fit_plot"}
 _MODAL_ONLY = {"--teeth": "teeth", "--diameter-mm": "diameter_mm", "--ktc-mpa": "ktc_mpa", "--krc-mpa": "krc_mpa",
                "--kac-mpa": "kac_mpa", "--helix-deg": "helix_deg", "--pitch-deg": "pitch_deg"}
-_ROBOT_ONLY = {"--case": "case", "--variant": "variant", "--pose": "pose", "--path-s": "path_s", "--q-deg": "q_deg"}
+_ROBOT_ONLY = {"--case": "case", "--variant": "variant", "--pose": "pose", "--path-s": "path_s", "--q-deg": "q_deg",
+               "--tool-modes": "tool_modes", "--tool-frf": "tool_frf", "--tool-frf-axes": "tool_frf_axes"}
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
@@ -79,6 +80,13 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
     p.add_argument("--out", default=None, metavar="PNG", help="write the lobe diagram to this PNG (or .pdf, .svg)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    t = p.add_argument_group("tool-holder dynamics in series with the robot (robot mode)")
+    t.add_argument("--tool-modes", default=None, metavar="FILE.toml",
+                   help="[[modes]] TOML of tool-tip modes (as --modal), in series with the robot")
+    t.add_argument("--tool-frf", default=None, metavar="FILE|DIR",
+                   help="tool-holder FRF measured on a rigid base (as --frf), fitted, in series with the robot")
+    t.add_argument("--tool-frf-axes", default=None, metavar="FEED,NORMAL",
+                   help="with --tool-frf (required): measured axes along the feed and the cut normal, e.g. x,y")
     g = p.add_argument_group("user's modal model (instead of the robot)")
     g.add_argument("--modal", default=None, metavar="FILE.toml", help="[[modes]] tables: freq_hz, damping_ratio, "
                    "stiffness_n_per_m, direction = [x, y] (unit, cut frame); or freq_hz, damping_ratio, "
@@ -244,9 +252,15 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
     from robolobes import linearize
     from robolobes.linearize.cli import resolve_pose
 
+    from .tooltip import tool_modes_from_files
+
+    tool_modes = tool_modes_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
     case, robot, theta, label = resolve_pose(args)
     lin = linearize.linearize(robot, theta)
     structure = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
+    if tool_modes:
+        structure = in_series(structure.state_space(), ModalStructure(tuple(tool_modes)).state_space())
+        label += f", tool {args.tool_modes or args.tool_frf} in series"
     tool, law, cut = case.tool, case.law, case.cut
     over = {}
     if args.ae_mm is not None:
@@ -311,7 +325,14 @@ def _inputs(args) -> dict:
         from robolobes.linearize.frf_io import tool_frf_files
 
         return cli_inputs(args, files={f"frf:{f.name}": f for f in tool_frf_files(Path(args.frf))})
-    return cli_inputs(args, case=load_case(args.case))
+    files = {}
+    if args.tool_modes is not None:
+        files["tool_modes"] = args.tool_modes
+    if args.tool_frf is not None:
+        from robolobes.linearize.frf_io import tool_frf_files
+
+        files.update({f"tool_frf:{f.name}": f for f in tool_frf_files(Path(args.tool_frf))})
+    return cli_inputs(args, case=load_case(args.case), files=files or None)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -230,3 +230,41 @@ def test_one_command_file_to_lobes_with_fit_figure(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert any("xy = yx = 0" in n for n in out["frf"]["notes"]) and out["frf"]["fit"]["credible"]
     assert png.read_bytes()[:4] == b"\x89PNG" and fitpng.read_bytes()[:4] == b"\x89PNG"
+
+
+# ----------------------------------------------------------------------------------------------- tool on the robot
+
+TOOL_MODES = ((1500.0, 0.03, 3e7, (1.0, 0.0)), (1500.0, 0.03, 3e7, (0.0, 1.0)))
+
+
+def test_in_series_adds_the_receptances():
+    from robolobes.lobes import PhysicalStructure, in_series
+
+    robot = PhysicalStructure(np.diag([2.0, 3.0]), np.diag([40.0, 30.0]), np.diag([2e6, 5e6]),
+                              np.array([[1.0, 0.2], [0.1, 1.0]]))
+    tool = ModalStructure(tuple(Mode(f, z, k, d) for f, z, k, d in TOOL_MODES))
+    f = np.linspace(50.0, 2500.0, 200)
+    w = 2 * math.pi * f
+    # robot: tcp (K - w^2 M + i w C)^-1 tcp^T, by hand
+    Hr = np.array([robot.tcp[:2] @ np.linalg.solve(robot.K - x**2 * robot.M + 1j * x * robot.C, robot.tcp[:2].T)
+                   for x in w]).transpose(1, 2, 0)
+    got = in_series(robot.state_space(), tool.state_space()).receptance(w)[:2, :2]
+    np.testing.assert_allclose(got, Hr + receptance(TOOL_MODES, f), rtol=1e-8, atol=1e-12 * np.abs(Hr).max())
+
+
+def test_tool_frf_on_the_robot_matches_the_tool_modes(tmp_path, capsys):
+    f = np.arange(300.0, 3000.0, 2.0)  # bandwidth 90 Hz: 45 lines
+    H = receptance(TOOL_MODES, f)
+    rng = np.random.default_rng(3)
+    noisy = H * (1 + 0.005 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)))
+    _write_uff(tmp_path / "holder.uff", [((1, 1), f, noisy[0, 0], 8, "m"), ((2, 2), f, noisy[1, 1], 8, "m")])
+    (tmp_path / "holder.toml").write_text("".join(
+        f"[[modes]]\nfreq_hz = {fn}\ndamping_ratio = {z}\nstiffness_n_per_m = {k}\ndirection = {list(d)}\n"
+        for fn, z, k, d in TOOL_MODES))
+    common = ["lobes", "--rpm-min", "8000", "--rpm-max", "25000", "--n-rpm", "18", "--json", "--quiet"]
+    out = []
+    for extra in (["--tool-modes", str(tmp_path / "holder.toml")],
+                  ["--tool-frf", str(tmp_path / "holder.uff"), "--tool-frf-axes=x,y"]):
+        assert main([*common, *extra]) == 0
+        out.append(np.array(json.loads(capsys.readouterr().out)["depth_limit_m"], dtype=float))
+    np.testing.assert_allclose(out[1], out[0], rtol=0.02)
