@@ -260,7 +260,7 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
     structure = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
     if tool_modes:
         structure = in_series(structure.state_space(), ModalStructure(tuple(tool_modes)).state_space())
-        label += f", tool {args.tool_modes or args.tool_frf} in series"
+        label += f", tool {args.tool_modes or args.tool_frf} in series (receptances added, no rotational coupling)"
     tool, law, cut = case.tool, case.law, case.cut
     over = {}
     if args.ae_mm is not None:
