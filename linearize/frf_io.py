@@ -43,7 +43,7 @@ from robolobes.core.io import atomic_path, provenance_text, pyplot, save_figure
 from .linear import FRF
 
 __all__ = ["write_frf", "read_frf", "plot_bode", "MeasuredPair", "PoseFRF", "FRFSet", "read_frf_set",
-           "write_frf_set", "G_M_PER_S2"]
+           "write_frf_set", "G_M_PER_S2", "ToolFRF", "read_tool_frf", "parse_frf_axes", "tool_frf_files"]
 
 G_M_PER_S2 = 9.80665  # standard gravity, for accelerances in g
 
@@ -330,6 +330,121 @@ def _read_pairs(path: Path) -> tuple[str, list[MeasuredPair]]:
     if len(frames) > 1:
         raise BadInput(f"{path}: datasets in different frames {sorted(frames)}")
     return (frames.pop() if frames else "base"), pairs
+
+
+# ----------------------------------------------------------------------------------------------
+# one tool-tip FRF (a hammer test of the tool)
+
+
+@dataclass(frozen=True)
+class ToolFRF:
+    """A tool-tip receptance in the cut plane read from hammer-test files.
+
+    Attributes
+    ----------
+    frf : FRF
+        ``H`` (2, 2, F) m/N, frame ``"cut"`` (rows/columns x_c feed, y_c normal), the file's lines.
+    cross_measured : bool
+        False when the files hold the driving points only (then ``H_xy = H_yx = 0``).
+    notes : tuple of str
+        What was assumed (missing cross terms, reciprocity, ignored z pairs), for the output.
+    source : str
+        The file or directory read.
+    """
+
+    frf: FRF
+    cross_measured: bool
+    notes: tuple
+    source: str
+
+
+_AXES = {"x": (0, 1), "-x": (0, -1), "+x": (0, 1), "y": (1, 1), "-y": (1, -1), "+y": (1, 1)}
+
+
+def parse_frf_axes(text: str) -> np.ndarray:
+    """``"FEED,NORMAL"`` (each ``x``, ``-x``, ``y`` or ``-y``: the measured axis, with its sign, along
+    the feed x_c and the cut normal y_c) -> ``T`` (2, 2) with ``r_cut = T r_measured``."""
+    parts = [p.strip().lower() for p in str(text).split(",")]
+    if len(parts) != 2 or any(p not in _AXES for p in parts) or _AXES[parts[0]][0] == _AXES[parts[1]][0]:
+        raise BadInput(f"FRF axes {text!r}; valid: FEED,NORMAL with each one of x, -x, y, -y and both different axes "
+                       "(e.g. x,y: the measured x along the feed, y along the cut normal; -y,x)")
+    T = np.zeros((2, 2))
+    for c, p in enumerate(parts):
+        axis, sign = _AXES[p]
+        T[c, axis] = sign
+    return T
+
+
+def tool_frf_files(path: Path) -> list[Path]:
+    """The FRF files of ``path``: the file itself, or every .uff, .unv, .csv file of a directory."""
+    if path.is_dir():
+        files = sorted(f for f in path.iterdir() if f.suffix.lower() in _FMT)
+        if not files:
+            raise BadInput(f"{path}: no FRF file (.uff, .unv or .csv) in the directory")
+        return files
+    if not path.exists():
+        raise BadInput(f"{path}: no such FRF file or directory")
+    _fmt(path)
+    return [path]
+
+
+def read_tool_frf(path: str | Path, axes: str = "x,y") -> ToolFRF:
+    """Read a tool-tip FRF (hammer test): a UFF58 or CSV file, or a directory of them.
+
+    Each file is read by the measured-set readers (UFF58 receptance, mobility or accelerance in
+    their units, signed directions; CSV as ``robolobes frf`` writes it). The pairs in the plane of
+    the measured x and y must include xx and yy, on one set of lines; xy and yx are optional (one
+    alone: the other by reciprocity; none: zero); pairs with z are ignored. ``axes`` says which
+    measured axis lies along the feed and which along the cut normal (:func:`parse_frf_axes`):
+    ``H_cut = T H_measured T^T``. Every problem is a :class:`BadInput` naming the file.
+    """
+    T = parse_frf_axes(axes)
+    src = Path(path)
+    got: dict = {}
+    omega = None
+    notes = []
+    z_pairs = 0
+    for f in tool_frf_files(src):
+        _, pairs = _read_pairs(f)
+        if not pairs:
+            raise BadInput(f"{f}: no FRF dataset (UFF58) or column in it")
+        for p in pairs:
+            if p.out_axis > 1 or p.in_axis > 1:
+                z_pairs += 1
+                continue
+            key = (p.out_axis, p.in_axis)
+            if key in got:
+                raise BadInput(f"{f}: the pair {'xy'[key[0]]}{'xy'[key[1]]} is given twice")
+            if omega is None:
+                omega = p.omega
+            elif len(p.omega) != len(omega) or not np.allclose(p.omega, omega, rtol=1e-9, atol=0):
+                raise BadInput(f"{f}: the pair {'xy'[key[0]]}{'xy'[key[1]]} is on other frequency lines than the "
+                               "first pair read; all pairs of a tool FRF must share the lines")
+            got[key] = p.out_sign * p.in_sign * np.asarray(p.H)
+    missing = [f"{'xy'[i]}{'xy'[i]}" for i in (0, 1) if (i, i) not in got]
+    if missing or omega is None:
+        raise BadInput(f"{src}: the driving point(s) {', '.join(missing or ['xx', 'yy'])} are missing; a tool FRF "
+                       "needs xx and yy (x, y the measured axes)")
+    if omega[0] <= 0:
+        keep = omega > 0
+        omega = omega[keep]
+        got = {k: v[keep] for k, v in got.items()}
+        notes.append("the 0 Hz line is dropped")
+    cross = (0, 1) in got or (1, 0) in got
+    if not cross:
+        notes.append("xy = yx = 0 assumed (only the driving points xx, yy were measured)")
+    elif (0, 1) not in got or (1, 0) not in got:
+        have, other = ((0, 1), (1, 0)) if (0, 1) in got else ((1, 0), (0, 1))
+        got[other] = got[have]
+        notes.append(f"H{'xy'[other[0]]}{'xy'[other[1]]} = H{'xy'[have[0]]}{'xy'[have[1]]} assumed (reciprocity)")
+    if z_pairs:
+        notes.append(f"{z_pairs} pair(s) with z ignored (the chip sees the cut plane)")
+    Hm = np.zeros((2, 2, len(omega)), complex)
+    for (i, j), h in got.items():
+        Hm[i, j] = h
+    H = np.einsum("ai,ijf,bj->abf", T, Hm, T)
+    frf = FRF(omega=omega, H=H, frame="cut", labels=("feed", "normal"))
+    return ToolFRF(frf=frf, cross_measured=cross, notes=tuple(notes), source=str(src))
 
 
 def _read_poses_csv(path: Path) -> tuple[dict, str | None]:

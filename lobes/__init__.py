@@ -21,13 +21,16 @@ from .directional import DirectionalPlan, average_directional_matrix
 from .problem import LobeProblem
 from .sdm import Bifurcation, SemiDiscretization, classify_multiplier
 from .solver import LobeResult, Method, StabilityPoint, Verdict, depth_verdict, solve, stability
-from .structure import (Mode, ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure,
-                        TruncationReport)
+from .measured import MeasuredStructure
+from .modal_fit import ModalFit, fit_modal
+from .structure import (ComplexMode, Mode, ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure,
+                        TruncationReport, in_series)
 from .zoa import ZeroOrder
 
 __all__ = [
     "LobeError", "LobeProblem", "Mode", "ModalStructure", "PhysicalStructure", "ReducedStructure",
     "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "ZeroOrder", "Method",
     "solve", "stability", "LobeResult", "StabilityPoint", "Verdict", "Bifurcation", "classify_multiplier",
-    "DirectionalPlan", "average_directional_matrix", "depth_verdict",
+    "DirectionalPlan", "average_directional_matrix", "depth_verdict", "ComplexMode", "MeasuredStructure", "ModalFit",
+    "fit_modal", "in_series",
 ]

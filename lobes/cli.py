@@ -5,9 +5,19 @@ the selected pose (``--case --variant --pose|--path-s|--q-deg``), seen in the cu
 case's feed direction. Operating point: ``--at-rpm``/``--at-depth-mm``, default the case's cut.
 
 Modal model: ``--modal FILE.toml`` with ``[[modes]]`` tables (``freq_hz``, ``damping_ratio``,
-``stiffness_n_per_m``, ``direction = [x, y]`` unit vector in the cut frame) and the tool and
+``stiffness_n_per_m``, ``direction = [x, y]`` unit vector in the cut frame; or, for a complex mode,
+``freq_hz``, ``damping_ratio`` and its residue ``residue_re``, ``residue_im`` as 2 x 2 arrays
+``[[xx, xy], [yx, yy]]`` in m/(N s), ``H(s) = R / (s - lam) + conj``) and the tool and
 material on the command line (``--teeth --diameter-mm --ae-mm --up|--down --ktc-mpa --krc-mpa
 [--helix-deg] [--pitch-deg a,b,...]``).
+
+Measured FRF: ``--frf FILE|DIR`` (UFF58 receptance, mobility or accelerance, or CSV as ``robolobes
+frf`` writes it; a directory: every such file in it) with ``--frf-axes=FEED,NORMAL`` (which
+measured axis, with its sign, lies along the feed and the cut normal, e.g. ``x,y`` or ``-y,x``) and
+the tool and material as for ``--modal``. ``--method zoa`` uses the FRF itself on its band;
+``--method sdm`` fits complex modes (vector fitting, ``--fit-modes N`` to set their number),
+reports the fit and refuses a fit that is not credible. ``--fit-plot PNG``: measured against
+fitted FRF.
 """
 
 from __future__ import annotations
@@ -32,7 +42,7 @@ from robolobes.linearize.cli import add_pose_arguments
 
 from .sdm import SemiDiscretization
 from .solver import solve, stability
-from .structure import Mode, ModalStructure, PhysicalStructure
+from .structure import ComplexMode, Mode, ModalStructure, PhysicalStructure, in_series
 from .zoa import ZeroOrder
 
 __all__ = ["register", "run", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
@@ -42,9 +52,11 @@ __all__ = ["register", "run", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
 # convergence (m = 20..160 agree to 1e-3 /s on the TX200); 5000 speeds is 25x the default.
 MAX_M = 400
 MAX_N_RPM = 5000
+_FRF_ONLY = {"--frf-axes": "frf_axes", "--fit-modes": "fit_modes", "--fit-plot": "fit_plot"}
 _MODAL_ONLY = {"--teeth": "teeth", "--diameter-mm": "diameter_mm", "--ktc-mpa": "ktc_mpa", "--krc-mpa": "krc_mpa",
                "--kac-mpa": "kac_mpa", "--helix-deg": "helix_deg", "--pitch-deg": "pitch_deg"}
-_ROBOT_ONLY = {"--case": "case", "--variant": "variant", "--pose": "pose", "--path-s": "path_s", "--q-deg": "q_deg"}
+_ROBOT_ONLY = {"--case": "case", "--variant": "variant", "--pose": "pose", "--path-s": "path_s", "--q-deg": "q_deg",
+               "--tool-modes": "tool_modes", "--tool-frf": "tool_frf", "--tool-frf-axes": "tool_frf_axes"}
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
@@ -68,9 +80,25 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
     p.add_argument("--out", default=None, metavar="PNG", help="write the lobe diagram to this PNG (or .pdf, .svg)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    t = p.add_argument_group("tool-holder dynamics in series with the robot (robot mode)")
+    t.add_argument("--tool-modes", default=None, metavar="FILE.toml",
+                   help="[[modes]] TOML of tool-tip modes (as --modal), in series with the robot")
+    t.add_argument("--tool-frf", default=None, metavar="FILE|DIR",
+                   help="tool-holder FRF measured on a rigid base (as --frf), fitted, in series with the robot")
+    t.add_argument("--tool-frf-axes", default=None, metavar="FEED,NORMAL",
+                   help="with --tool-frf (required): measured axes along the feed and the cut normal, e.g. x,y")
     g = p.add_argument_group("user's modal model (instead of the robot)")
     g.add_argument("--modal", default=None, metavar="FILE.toml", help="[[modes]] tables: freq_hz, damping_ratio, "
-                   "stiffness_n_per_m, direction = [x, y] (unit, cut frame)")
+                   "stiffness_n_per_m, direction = [x, y] (unit, cut frame); or freq_hz, damping_ratio, "
+                   "residue_re, residue_im (2 x 2, m/(N s)) for a complex mode")
+    g.add_argument("--frf", default=None, metavar="FILE|DIR",
+                   help="measured tool-tip FRF (UFF58 or CSV, or a directory of them) instead of --modal")
+    g.add_argument("--frf-axes", default=None, metavar="FEED,NORMAL",
+                   help="with --frf (required): measured axes along the feed and the cut normal, e.g. x,y or -y,x "
+                        "(write --frf-axes=-y,x)")
+    g.add_argument("--fit-modes", type=int, default=None, metavar="N",
+                   help="with --frf: number of modes of the modal fit (default: one per resonance peak)")
+    g.add_argument("--fit-plot", default=None, metavar="PNG", help="with --frf: measured against fitted FRF figure")
     g.add_argument("--teeth", type=int, default=None)
     g.add_argument("--diameter-mm", type=float, default=None)
     g.add_argument("--ae-mm", type=float, default=None, help="radial depth of cut, mm")
@@ -102,34 +130,57 @@ def read_modal_toml(path: str | Path) -> ModalStructure:
                         f"stiffness_n_per_m, direction = [x, y]")
     out = []
     for i, m in enumerate(modes):
-        missing = [k for k in ("freq_hz", "damping_ratio", "stiffness_n_per_m", "direction") if k not in m]
-        if missing:
-            raise LobeError(f"{path}: modes[{i}] is missing {', '.join(missing)}")
-        unknown = sorted(set(m) - {"freq_hz", "damping_ratio", "stiffness_n_per_m", "direction", "name"})
-        if unknown:
-            raise LobeError(f"{path}: modes[{i}] has unknown key(s) {unknown}; valid: freq_hz, damping_ratio, "
-                            f"stiffness_n_per_m, direction, name")
-        for k in ("freq_hz", "damping_ratio", "stiffness_n_per_m"):
-            if isinstance(m[k], bool) or not isinstance(m[k], (int, float)):
-                raise LobeError(f"{path}: modes[{i}].{k} must be a number, got {m[k]!r}")
-        d = m["direction"]
-        if not isinstance(d, list) or len(d) != 2 or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in d):
-            raise LobeError(f"{path}: modes[{i}].direction must be [x, y] (unit vector in the cut frame), got {d!r}")
-        try:
-            out.append(Mode(float(m["freq_hz"]), float(m["damping_ratio"]), float(m["stiffness_n_per_m"]),
-                            (float(d[0]), float(d[1]))))
-        except LobeError as e:
-            raise LobeError(f"{path}: modes[{i}]: {e}") from None
+        out.append(_read_mode(path, i, m))
     return ModalStructure(tuple(out))
 
 
-def _modal_problem(args) -> tuple[LobeProblem, str]:
-    need = {"--teeth": args.teeth, "--diameter-mm": args.diameter_mm, "--ae-mm": args.ae_mm,
-            "--ktc-mpa": args.ktc_mpa, "--krc-mpa": args.krc_mpa}
-    missing = [k for k, v in need.items() if v is None]
+_REAL_KEYS = ("freq_hz", "damping_ratio", "stiffness_n_per_m", "direction")
+_COMPLEX_KEYS = ("freq_hz", "damping_ratio", "residue_re", "residue_im")
+
+
+def _number(path, i, m, k):
+    if isinstance(m[k], bool) or not isinstance(m[k], (int, float)):
+        raise LobeError(f"{path}: modes[{i}].{k} must be a number, got {m[k]!r}")
+    return float(m[k])
+
+
+def _matrix2(path, i, m, k) -> np.ndarray:
+    v = m[k]
+    ok = isinstance(v, list) and len(v) == 2 and all(isinstance(r, list) and len(r) == 2 for r in v) and all(
+        not isinstance(x, bool) and isinstance(x, (int, float)) for r in v for x in r)
+    if not ok:
+        raise LobeError(f"{path}: modes[{i}].{k} must be a 2 x 2 array [[xx, xy], [yx, yy]] of numbers, got {v!r}")
+    return np.array(v, dtype=float)
+
+
+def _read_mode(path, i: int, m: dict):
+    """One [[modes]] table: a real mode (stiffness, direction) or a complex one (residue_re, residue_im)."""
+    keys = _COMPLEX_KEYS if ("residue_re" in m or "residue_im" in m) else _REAL_KEYS
+    missing = [k for k in keys if k not in m]
     if missing:
-        raise LobeError(f"--modal needs the tool and material too: missing {', '.join(missing)}")
-    structure = read_modal_toml(args.modal)
+        raise LobeError(f"{path}: modes[{i}] is missing {', '.join(missing)}")
+    unknown = sorted(set(m) - set(keys) - {"name"})
+    if unknown:
+        raise LobeError(f"{path}: modes[{i}] has unknown key(s) {unknown}; valid: {', '.join(keys)}, name (a real "
+                        f"mode: {', '.join(_REAL_KEYS)}; a complex one: {', '.join(_COMPLEX_KEYS)})")
+    f, z = _number(path, i, m, "freq_hz"), _number(path, i, m, "damping_ratio")
+    try:
+        if keys is _COMPLEX_KEYS:
+            R = _matrix2(path, i, m, "residue_re") + 1j * _matrix2(path, i, m, "residue_im")
+            return ComplexMode(f, z, R)
+        d = m["direction"]
+        if not isinstance(d, list) or len(d) != 2 or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in d):
+            raise LobeError(f"{path}: modes[{i}].direction must be [x, y] (unit vector in the cut frame), got {d!r}")
+        return Mode(f, z, _number(path, i, m, "stiffness_n_per_m"), (float(d[0]), float(d[1])))
+    except LobeError as e:
+        if str(e).startswith(str(path)):
+            raise
+        raise LobeError(f"{path}: modes[{i}]: {e}") from None
+
+
+def _user_problem(args, structure, label: str) -> tuple[LobeProblem, str]:
+    """The problem of a user's structure (modal file or measured FRF) with the tool and material
+    from the command line."""
     pitch = None
     if args.pitch_deg is not None:
         try:
@@ -145,16 +196,71 @@ def _modal_problem(args) -> tuple[LobeProblem, str]:
         cut = Cut(ae_m=args.ae_mm * 1e-3, ap_m=depth, spindle_rpm=rpm, mode=args.milling_mode or "down")
     except MillingError as e:
         raise LobeError(str(e)) from None
-    return LobeProblem(structure, tool, cut, law), f"modal model {args.modal}"
+    return LobeProblem(structure, tool, cut, law), label
+
+
+def _check_tool_flags(args) -> None:
+    need = {"--teeth": args.teeth, "--diameter-mm": args.diameter_mm, "--ae-mm": args.ae_mm,
+            "--ktc-mpa": args.ktc_mpa, "--krc-mpa": args.krc_mpa}
+    missing = [k for k, v in need.items() if v is None]
+    if missing:
+        which = "--modal" if args.modal is not None else "--frf"
+        raise LobeError(f"{which} needs the tool and material too: missing {', '.join(missing)}")
+
+
+def _modal_problem(args) -> tuple[LobeProblem, str]:
+    _check_tool_flags(args)
+    return _user_problem(args, read_modal_toml(args.modal), f"modal model {args.modal}")
+
+
+def _frf_problem(args, fit_plot_path, prov_inputs) -> tuple[LobeProblem, str, dict]:
+    """The problem of a measured FRF: the FRF itself (zoa) or its modal fit (sdm); the fit is
+    plotted when asked and must be credible for the SDM. Returns (problem, label, info for output)."""
+    from robolobes.linearize.frf_io import read_tool_frf
+
+    from .measured import MeasuredStructure
+    from .modal_fit import fit_modal, plot_fit
+
+    _check_tool_flags(args)
+    tf = read_tool_frf(args.frf, args.frf_axes)
+    meas = MeasuredStructure(tf.frf.omega, tf.frf.H, cross_measured=tf.cross_measured, source=str(args.frf))
+    info: dict = {"file": str(args.frf), "axes": args.frf_axes, "band_hz": list(meas.band_hz),
+                  "lines": len(meas.omega), "cross_measured": tf.cross_measured, "notes": list(tf.notes)}
+    structure = meas
+    if args.method == "sdm" or fit_plot_path is not None:
+        fit = fit_modal(meas, args.fit_modes)
+        info["fit"] = fit.to_json()
+        info["fit_summary"] = fit.summary()
+        if fit_plot_path is not None:
+            from robolobes.core.io import provenance
+
+            with user_path_errors(fit_plot_path):
+                plot_fit(fit, fit_plot_path, title=f"{args.frf}: " + ("credible fit" if fit.credible else
+                                                                       "fit NOT CREDIBLE"),
+                         provenance=provenance(prov_inputs))
+        if args.method == "sdm":
+            if not fit.credible:
+                raise LobeError(f"{args.frf}: the modal fit is not credible ({'; '.join(fit.problems)}); the SDM needs "
+                                "a credible fit: try --fit-modes N, or --method zoa (it uses the FRF itself)")
+            structure = fit.structure
+    label = f"measured FRF {args.frf}" + (" (modal fit)" if structure is not meas else "")
+    problem, label = _user_problem(args, structure, label)
+    return problem, label, info
 
 
 def _robot_problem(args) -> tuple[LobeProblem, str]:
     from robolobes import linearize
     from robolobes.linearize.cli import resolve_pose
 
+    from .tooltip import tool_modes_from_files
+
+    tool_modes = tool_modes_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
     case, robot, theta, label = resolve_pose(args)
     lin = linearize.linearize(robot, theta)
     structure = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
+    if tool_modes:
+        structure = in_series(structure.state_space(), ModalStructure(tuple(tool_modes)).state_space())
+        label += f", tool {args.tool_modes or args.tool_frf} in series (receptances added, no rotational coupling)"
     tool, law, cut = case.tool, case.law, case.cut
     over = {}
     if args.ae_mm is not None:
@@ -183,17 +289,28 @@ def _method(args):
 
 def _check_flags(args) -> None:
     """Refuse options that would have no effect in the chosen mode (a user would think they did)."""
-    if args.modal is None:
+    if args.modal is not None and args.frf is not None:
+        raise LobeError("give either --modal FILE.toml or --frf FILE|DIR, not both")
+    if args.frf is None:
+        given = [flag for flag, k in _FRF_ONLY.items() if getattr(args, k) is not None]
+        if given:
+            raise LobeError(f"{given[0]} applies only with --frf FILE|DIR")
+    elif args.frf_axes is None:
+        raise LobeError("--frf needs --frf-axes=FEED,NORMAL: which measured axis lies along the feed and which along "
+                        "the cut normal (e.g. --frf-axes=x,y)")
+    if args.fit_modes is not None and not 1 <= args.fit_modes <= 20:
+        raise LobeError(f"--fit-modes must be an integer from 1 to 20, got {args.fit_modes}")
+    if args.modal is None and args.frf is None:
         given = [flag for flag, k in _MODAL_ONLY.items() if getattr(args, k) is not None]
         if given:
-            raise LobeError(f"{given[0]} applies only with --modal FILE.toml (the robot's tool and material come "
-                            "from --case)")
+            raise LobeError(f"{given[0]} applies only with --modal FILE.toml or --frf (the robot's tool and material "
+                            "come from --case)")
         args.case = args.case or DEFAULT_CASE
         args.variant = args.variant or "basic"
     else:
         given = [flag for flag, k in _ROBOT_ONLY.items() if getattr(args, k) is not None]
         if given:
-            raise LobeError(f"{given[0]} selects the robot and has no effect with --modal FILE.toml")
+            raise LobeError(f"{given[0]} selects the robot and has no effect with --modal FILE.toml or --frf")
     if args.method == "zoa":
         given = [flag for flag, v in (("--m", args.m), ("--scheme", args.scheme)) if v is not None]
         if given:
@@ -204,12 +321,24 @@ def _inputs(args) -> dict:
     """The run's inputs for provenance: options, and the case or the modal file's content."""
     if args.modal is not None:
         return cli_inputs(args, files={"modal": args.modal})
-    return cli_inputs(args, case=load_case(args.case))
+    if args.frf is not None:
+        from robolobes.linearize.frf_io import tool_frf_files
+
+        return cli_inputs(args, files={f"frf:{f.name}": f for f in tool_frf_files(Path(args.frf))})
+    files = {}
+    if args.tool_modes is not None:
+        files["tool_modes"] = args.tool_modes
+    if args.tool_frf is not None:
+        from robolobes.linearize.frf_io import tool_frf_files
+
+        files.update({f"tool_frf:{f.name}": f for f in tool_frf_files(Path(args.tool_frf))})
+    return cli_inputs(args, case=load_case(args.case), files=files or None)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``robolobes lobes``; returns the exit code (0). Bad input raises ValueError."""
-    if (args.at_rpm is None) != (args.at_depth_mm is None) and args.modal is not None:
+    user = args.modal is not None or args.frf is not None
+    if (args.at_rpm is None) != (args.at_depth_mm is None) and user:
         raise LobeError("give both --at-rpm and --at-depth-mm for an operating point")
     for name in ("rpm_min", "rpm_max", "depth_max_mm"):
         v = getattr(args, name)
@@ -227,7 +356,12 @@ def run(args: argparse.Namespace) -> int:
     method = _method(args)
     inputs = _inputs(args)
     out_path = check_output_file(args.out, _FIGURE_SUFFIXES, inputs) if args.out else None
-    if args.modal is not None:
+    fit_path = check_output_file(args.fit_plot, _FIGURE_SUFFIXES, inputs, name="--fit-plot") if args.fit_plot else None
+    frf_info = None
+    if args.frf is not None:
+        problem, label, frf_info = _frf_problem(args, fit_path, inputs)
+        has_op = args.at_rpm is not None
+    elif args.modal is not None:
         problem, label = _modal_problem(args)
         has_op = args.at_rpm is not None
     else:
@@ -262,6 +396,8 @@ def run(args: argparse.Namespace) -> int:
             "stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float, str))},
             "provenance": prov,
         }
+        if frf_info is not None:
+            out["frf"] = frf_info
         if op is not None:
             out["operating_point"] = {
                 "rpm": op.spindle_rpm, "depth_m": op.depth_m, "spectral_radius": op.spectral_radius,
@@ -271,6 +407,11 @@ def run(args: argparse.Namespace) -> int:
             }
         print(json.dumps(to_jsonable(out), indent=1))
     else:
+        if frf_info is not None:
+            print(f"{args.frf}: {frf_info['lines']} lines {frf_info['band_hz'][0]:g}-{frf_info['band_hz'][1]:g} Hz, "
+                  f"axes (feed, normal) = ({args.frf_axes})" + "".join(f"; {n}" for n in frf_info["notes"]))
+            if "fit_summary" in frf_info:
+                print(frf_info["fit_summary"])
         j = int(np.argmin(result.depth_limit_m))
         print(f"{label}: {method.name}, {len(speeds)} speeds {args.rpm_min:g}-{args.rpm_max:g} rpm, "
               f"{result.stats['wall_s']:.2f} s")

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from robolobes.cases.milling import Cut, CuttingLaw, MillingError, Tool, check_cut
 
 from ._errors import LobeError
-from .structure import ModalStructure, PhysicalStructure, ReducedStructure, Structure
+from .measured import MeasuredStructure
+from .structure import ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure
 
 __all__ = ["LobeProblem"]
 
@@ -21,8 +22,10 @@ class LobeProblem:
 
     Parameters
     ----------
-    structure : PhysicalStructure, ModalStructure or ReducedStructure
-        The tool tip's dynamics in the cut frame.
+    structure : PhysicalStructure, ModalStructure, ReducedStructure, StateSpace, control.StateSpace or MeasuredStructure
+        The tool tip's dynamics in the cut frame. A ``control.StateSpace`` (inputs: force x_c, y_c[, z_c],
+        N; outputs: displacement, m; ``D = 0``) is converted by :meth:`StateSpace.from_control`. A
+        :class:`MeasuredStructure` (an FRF with no model) serves the zero-order method only.
     tool : cases.milling.Tool
     cut : cases.milling.Cut
         Radial depth, mode (up/down), spindle speed and axial depth of the operating point; the
@@ -31,16 +34,19 @@ class LobeProblem:
         Only the cutting coefficients ``Ktc, Krc, Kac`` enter the linear stability.
     """
 
-    structure: Structure
+    structure: Structure | MeasuredStructure
     tool: Tool
     cut: Cut
     law: CuttingLaw
 
     def __post_init__(self) -> None:
-        if not isinstance(self.structure, (PhysicalStructure, ModalStructure, ReducedStructure)):
+        if type(self.structure).__name__ == "StateSpace" and type(self.structure).__module__.startswith("control"):
+            object.__setattr__(self, "structure", StateSpace.from_control(self.structure))
+        if not isinstance(self.structure, (PhysicalStructure, ModalStructure, ReducedStructure, StateSpace,
+                                           MeasuredStructure)):
             raise LobeError(
-                f"structure must be a PhysicalStructure, ModalStructure or ReducedStructure, "
-                f"got {type(self.structure).__name__}"
+                f"structure must be a PhysicalStructure, ModalStructure, ReducedStructure, StateSpace, "
+                f"control.StateSpace or MeasuredStructure, got {type(self.structure).__name__}"
             )
         for name, typ in (("tool", Tool), ("cut", Cut), ("law", CuttingLaw)):
             if not isinstance(getattr(self, name), typ):

@@ -25,7 +25,9 @@ from robolobes.core.validate import finite, finite_array, readonly
 from ._errors import LobeError
 
 __all__ = [
+    "ComplexMode",
     "Mode",
+    "in_series",
     "ModalStructure",
     "PhysicalStructure",
     "ReducedStructure",
@@ -83,6 +85,44 @@ class StateSpace:
             for k in range(0, n, 2):
                 off[k:k + 2, k:k + 2] = 0.0
         object.__setattr__(self, "block2", bool(n % 2 == 0 and not np.any(off)))
+
+    def state_space(self) -> "StateSpace":
+        """The structure protocol: a StateSpace is its own first-order model."""
+        return self
+
+    @classmethod
+    def from_control(cls, sys) -> "StateSpace":
+        """From a ``control.StateSpace`` with inputs = force on the tool, outputs = its displacement.
+
+        ``sys`` has 2 or 3 inputs (force along x_c, y_c[, z_c], N) and as many outputs
+        (displacement along the same axes, m), continuous time, and ``D = 0``: a feedthrough would
+        make the displacement respond instantly to the force, and with the chip force responding
+        instantly to the displacement that closes an algebraic loop through the chip (no delay
+        differential equation is left). The poles must be stable (checked where the lobes are
+        solved). Put in real block-diagonal modal form when its eigenvectors are well conditioned.
+        """
+        try:
+            A, B, C, D = (np.asarray(getattr(sys, k), dtype=float) for k in ("A", "B", "C", "D"))
+        except (AttributeError, TypeError, ValueError):
+            raise LobeError(f"expected a control.StateSpace (A, B, C, D), got {type(sys).__name__}") from None
+        if getattr(sys, "dt", 0) not in (0, None):
+            raise LobeError(f"the state space must be continuous-time (dt = 0), got dt = {sys.dt}")
+        n_in, n_out = B.shape[1], C.shape[0]
+        if n_in not in (2, 3) or n_out != n_in:
+            raise LobeError(f"the state space must have 2 or 3 inputs (force x_c, y_c[, z_c], N) and as many outputs "
+                            f"(displacement, m); got {n_in} inputs, {n_out} outputs")
+        if np.any(D != 0):
+            raise LobeError(f"the state space has a feedthrough D = {D.tolist()}; it must be 0: a feedthrough closes an "
+                            "algebraic loop through the chip (fit without an upper residual, or model the "
+                            "out-of-band stiffness by a mode above the band)")
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B)) and np.all(np.isfinite(C))):
+            raise LobeError("the state space has NaN or inf entries")
+        B3 = np.zeros((A.shape[0], 3))
+        B3[:, :n_in] = B
+        S3 = np.zeros((3, A.shape[0]))
+        S3[:n_out] = C
+        modal = _real_modal_form(A, B3, S3)
+        return modal if modal is not None else cls(A, B3, S3)
 
     @property
     def blocks(self) -> np.ndarray:
@@ -181,6 +221,15 @@ def _real_modal_form(A: np.ndarray, B: np.ndarray, S: np.ndarray) -> StateSpace 
     from scipy.linalg import block_diag
 
     return StateSpace(block_diag(*blocks), L @ B, S @ T)
+
+
+def in_series(a: StateSpace, b: StateSpace) -> StateSpace:
+    """Two structures carrying the same tool force with their displacements added (series
+    receptance ``H = H_a + H_b``, no rotational coupling): block-diagonal ``A``, stacked ``B``,
+    side-by-side ``S``. E.g. the robot at the TCP and a tool-holder measured on a rigid base."""
+    from scipy.linalg import block_diag
+
+    return StateSpace(block_diag(a.A, b.A), np.vstack([a.B, b.B]), np.hstack([a.S, b.S]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -355,27 +404,113 @@ class Mode:
         return self.stiffness_n_per_m / self.omega_rad_s**2
 
 
-@dataclass(frozen=True)
-class ModalStructure:
-    """Uncoupled modes of the tool tip, each moving it along its own direction in the cut plane.
+@dataclass(frozen=True, eq=False)
+class ComplexMode:
+    """One mode of a fitted (measured) tool tip: a pole pair with a complex residue matrix.
 
-    The equivalent physical structure has one coordinate per mode (modal displacement in m along
-    the mode's direction): ``M = diag(k/w^2)``, ``C = diag(2 zeta k / w)``, ``K = diag(k)``,
-    ``tcp = [[d_x...], [d_y...], [0...]]``; its receptance is ``sum d d^T / (k (1 - r^2 + 2 i zeta r))``.
+    ``H(s) = R / (s - lam) + conj(R) / (s - conj(lam))``, ``lam = -zeta w_n + i w_n sqrt(1 - zeta^2)``,
+    ``w_n = 2 pi freq_hz``: complex (non-proportional damping), cross and non-reciprocal
+    (``R[0, 1] != R[1, 0]``) residues are allowed. A real mode of modal stiffness ``k`` along a unit
+    direction ``d`` is ``R = d d^T / (2 i m w_d)`` with ``m = k / w_n^2``, ``w_d = w_n sqrt(1 - zeta^2)``.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Undamped natural frequency ``|lam| / 2 pi``, Hz (> 0).
+    damping_ratio : float
+        ``-Re lam / |lam|``, in (0, 1).
+    residue : complex array (2, 2), m/(N s)
+        ``R``: rows displacement x_c, y_c; columns force x_c, y_c (cut frame).
     """
 
-    modes: tuple[Mode, ...]
+    freq_hz: float
+    damping_ratio: float
+    residue: np.ndarray
+
+    def __post_init__(self) -> None:
+        f = finite("mode freq_hz", self.freq_hz, error=LobeError)
+        z = finite("mode damping_ratio", self.damping_ratio, error=LobeError)
+        if f <= 0:
+            raise LobeError(f"mode freq_hz must be > 0 Hz, got {f}")
+        if not 0.0 < z < 1.0:
+            raise LobeError(f"mode damping_ratio must be in (0, 1) (an underdamped, damped mode), got {z}")
+        try:
+            R = np.array(self.residue, dtype=complex)
+        except (TypeError, ValueError):
+            raise LobeError(f"mode residue must be a 2 x 2 complex matrix, got {self.residue!r}") from None
+        if R.shape != (2, 2) or not np.all(np.isfinite(R)) or not np.any(R):
+            raise LobeError(f"mode residue must be a finite, non-zero 2 x 2 matrix (m/(N s)), got {R.tolist()}")
+        object.__setattr__(self, "freq_hz", f)
+        object.__setattr__(self, "damping_ratio", z)
+        object.__setattr__(self, "residue", readonly(R, complex))
+
+    @property
+    def pole(self) -> complex:
+        """``lam`` (upper half plane), rad/s."""
+        w, z = 2 * math.pi * self.freq_hz, self.damping_ratio
+        return complex(-z * w, w * math.sqrt(1 - z * z))
+
+    @property
+    def modal_constants(self) -> np.ndarray:
+        """``2 i w_d R`` (2, 2), 1/kg: real and, on the diagonal, positive for a real mode
+        (``d d^T / m``); a negative real part on the diagonal means a non-physical driving point."""
+        return 2j * self.pole.imag * np.asarray(self.residue)
+
+    @classmethod
+    def from_mode(cls, mode: "Mode") -> "ComplexMode":
+        """The complex form of a real :class:`Mode`."""
+        d = np.asarray(mode.direction)
+        wd = mode.omega_rad_s * math.sqrt(1 - mode.damping_ratio**2)
+        return cls(mode.freq_hz, mode.damping_ratio, np.outer(d, d) / (2j * mode.mass_kg * wd))
+
+
+def _complex_mode_blocks(md: ComplexMode):
+    """Real realization of one :class:`ComplexMode`: ``R = sum_k u_k v_k^T`` (SVD, rank 1 or 2), each
+    term a complex state ``z' = lam z + v^T F`` with output ``u z + conj(u z)``; in real coordinates
+    ``(Re z, Im z)``: ``A = [[s, -w], [w, s]]``, ``B`` rows ``Re v, Im v``, ``S`` columns
+    ``2 Re u, -2 Im u``. Returns lists of (A 2x2, B 2x3, S 3x2)."""
+    lam = md.pole
+    U, sv, Vh = np.linalg.svd(np.asarray(md.residue))
+    out = []
+    for k in range(2):
+        if sv[k] <= 1e-12 * sv[0]:
+            continue
+        u, v = sv[k] * U[:, k], Vh[k]
+        A = np.array([[lam.real, -lam.imag], [lam.imag, lam.real]])
+        B = np.zeros((2, 3))
+        B[0, :2], B[1, :2] = v.real, v.imag
+        S = np.zeros((3, 2))
+        S[:2, 0], S[:2, 1] = 2 * u.real, -2 * u.imag
+        out.append((A, B, S))
+    return out
+
+
+@dataclass(frozen=True)
+class ModalStructure:
+    """Uncoupled modes of the tool tip: real modes (:class:`Mode`, each moving it along its own
+    direction in the cut plane) and fitted complex modes (:class:`ComplexMode`).
+
+    For real modes the equivalent physical structure has one coordinate per mode (modal
+    displacement in m along the mode's direction): ``M = diag(k/w^2)``, ``C = diag(2 zeta k / w)``,
+    ``K = diag(k)``, ``tcp = [[d_x...], [d_y...], [0...]]``; its receptance is
+    ``sum d d^T / (k (1 - r^2 + 2 i zeta r))``. Complex modes add ``R / (s - lam) + conj``.
+    """
+
+    modes: tuple
 
     def __post_init__(self) -> None:
         modes = tuple(self.modes) if isinstance(self.modes, (list, tuple)) else (self.modes,)
         if not modes:
             raise LobeError("a ModalStructure needs at least one Mode")
         for i, m in enumerate(modes):
-            if not isinstance(m, Mode):
-                raise LobeError(f"modes[{i}] must be a Mode, got {type(m).__name__}")
+            if not isinstance(m, (Mode, ComplexMode)):
+                raise LobeError(f"modes[{i}] must be a Mode or ComplexMode, got {type(m).__name__}")
         object.__setattr__(self, "modes", modes)
 
     def to_physical(self) -> PhysicalStructure:
+        """The equivalent physical structure (real modes only)."""
+        if any(isinstance(m, ComplexMode) for m in self.modes):
+            raise LobeError("complex modes have no M, C, K form; use state_space()")
         k = np.array([m.stiffness_n_per_m for m in self.modes])
         w = np.array([m.omega_rad_s for m in self.modes])
         z = np.array([m.damping_ratio for m in self.modes])
@@ -383,20 +518,32 @@ class ModalStructure:
         return PhysicalStructure(np.diag(k / w**2), np.diag(2 * z * k / w), np.diag(k), d)
 
     def state_space(self) -> StateSpace:
-        """One 2 x 2 block per mode, state ``(q_k, q_k' / w_k)``: ``[[0, w], [-w, -2 zeta w]]``."""
-        n = len(self.modes)
-        A = np.zeros((2 * n, 2 * n))
-        B = np.zeros((2 * n, 3))
-        S = np.zeros((3, 2 * n))
-        for k, md in enumerate(self.modes):
+        """2 x 2 blocks: per real mode, state ``(q_k, q_k' / w_k)``, ``[[0, w], [-w, -2 zeta w]]``;
+        per complex mode, one or two blocks (:func:`_complex_mode_blocks`)."""
+        As, Bs, Ss = [], [], []
+        for md in self.modes:
+            if isinstance(md, ComplexMode):
+                for A, B, S in _complex_mode_blocks(md):
+                    As.append(A)
+                    Bs.append(B)
+                    Ss.append(S)
+                continue
             w, z = md.omega_rad_s, md.damping_ratio
-            A[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[0.0, w], [-w, -2 * z * w]]
-            B[2 * k + 1, :2] = np.array(md.direction) / (md.mass_kg * w)
-            S[:2, 2 * k] = md.direction
-        return StateSpace(A, B, S)
+            B = np.zeros((2, 3))
+            S = np.zeros((3, 2))
+            B[1, :2] = np.array(md.direction) / (md.mass_kg * w)
+            S[:2, 0] = md.direction
+            As.append(np.array([[0.0, w], [-w, -2 * z * w]]))
+            Bs.append(B)
+            Ss.append(S)
+        from scipy.linalg import block_diag
+
+        return StateSpace(block_diag(*As), np.vstack(Bs), np.hstack(Ss))
 
     def frf(self, omega_rad_s: np.ndarray) -> FRF:
         """Tool-tip receptance in the cut frame (FRF, H (3, 3, F) m/N) at ``omega_rad_s`` (F,) rad/s."""
+        if any(isinstance(m, ComplexMode) for m in self.modes):
+            return self.state_space().frf(omega_rad_s)
         return self.to_physical().frf(omega_rad_s)
 
 
@@ -500,4 +647,4 @@ def _truncate(ss: StateSpace, *, max_freq_hz, n_modes, band_hz) -> ReducedStruct
     return ReducedStructure(red, rep_)
 
 
-Structure = Union[PhysicalStructure, ModalStructure, ReducedStructure]
+Structure = Union[PhysicalStructure, ModalStructure, ReducedStructure, StateSpace]

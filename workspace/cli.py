@@ -48,6 +48,10 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="identified model TOML (robolobes identify's case TOML with [[elements]]); replaces --case")
     p.add_argument("--tool-modes", default=None, metavar="FILE",
                    help="[[modes]] TOML of tool-tip modes (as lobes --modal), in series with the robot")
+    p.add_argument("--tool-frf", default=None, metavar="FILE|DIR",
+                   help="tool-holder FRF measured on a rigid base (as lobes --frf), fitted, in series with the robot")
+    p.add_argument("--tool-frf-axes", default=None, metavar="FEED,NORMAL",
+                   help="with --tool-frf (required): measured axes along the feed and the cut normal, e.g. x,y")
     p.add_argument("--at-rpm", type=float, default=None, help="operating speed, rpm (default: the case's)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -92,12 +96,11 @@ def _check_scheduler(s: str) -> str:
     raise BadInput(f"--scheduler must be local, serial or tcp://HOST:PORT, got {s!r}")
 
 
-def _tool_modes(path: str | None) -> tuple:
-    if path is None:
-        return ()
-    from robolobes.lobes.cli import read_modal_toml
+def _tool_modes(args) -> tuple:
+    """Tool-tip modes from --tool-modes or --tool-frf (one representation: lobes.tooltip)."""
+    from robolobes.lobes.tooltip import tool_modes_from_files
 
-    return read_modal_toml(path).modes
+    return tool_modes_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
 
 
 def problem_from_args(args):
@@ -137,7 +140,7 @@ def problem_from_args(args):
     if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
         raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
     case = load_case(args.model if args.model is not None else args.case)
-    modes = _tool_modes(args.tool_modes)
+    modes = _tool_modes(args)
     speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
     problem = MapProblem.make(case, args.variant, args.over, n=args.n, speeds_rpm=speeds, op_rpm=args.at_rpm,
                               tool_modes=modes, model_file=args.model, **ranges)
@@ -288,7 +291,7 @@ def optimize_problem_from_args(args):
     case = load_case(args.model if args.model is not None else args.case)
     speeds = _mrr_speeds(args, case) if args.objective == "mrr" else ()
     mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
-                         op_rpm=args.at_rpm, tool_modes=_tool_modes(args.tool_modes), model_file=args.model)
+                         op_rpm=args.at_rpm, tool_modes=_tool_modes(args), model_file=args.model)
     return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict,
                            objective=args.objective, speeds_rpm=speeds)
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robolobes.lobes import (LobeProblem, ModalStructure, PhysicalStructure, ReducedStructure, SemiDiscretization,
+from robolobes.lobes import (LobeProblem, ModalStructure, in_series, PhysicalStructure, ReducedStructure, SemiDiscretization,
                              StateSpace, TruncationReport, solve)
 
 from .forces import mean_force_cut_frame, static_deflection
@@ -47,10 +47,7 @@ def _series(robot_ss: StateSpace, tool_modes: tuple) -> StateSpace:
     (``H = H_robot + H_tool``): block-diagonal ``A``, stacked ``B``, side-by-side ``S``."""
     if not tool_modes:
         return robot_ss
-    from scipy.linalg import block_diag
-
-    t = ModalStructure(tuple(tool_modes)).state_space()
-    return StateSpace(block_diag(robot_ss.A, t.A), np.vstack([robot_ss.B, t.B]), np.hstack([robot_ss.S, t.S]))
+    return in_series(robot_ss, ModalStructure(tuple(tool_modes)).state_space())
 
 
 def pose_structure(problem: MapProblem, method: MapMethod, lin, feed: np.ndarray):

@@ -20,7 +20,7 @@ import numpy as np
 
 from robolobes.cases.spec import MillingCase
 from robolobes.core.errors import BadInput
-from robolobes.lobes import Mode
+from robolobes.lobes import ComplexMode, Mode
 
 __all__ = ["MapProblem", "MapMethod", "AXES", "OVER", "MAX_POSES", "MAX_SPEEDS", "LEAD_REASON"]
 
@@ -61,7 +61,7 @@ class MapProblem:
         Spindle speeds of the lobes at every pose.
     op_rpm : float
         Operating speed, rpm: the depth limit there is mapped too (``op_depth_limit_m``).
-    tool_modes : tuple of lobes.Mode
+    tool_modes : tuple of lobes.Mode or lobes.ComplexMode
         Tool-tip modes (cut frame, e.g. a measured tool-holder mode), in series with the robot at
         every pose.
     model_file : str or None
@@ -101,8 +101,8 @@ class MapProblem:
         if not (math.isfinite(self.op_rpm) and self.op_rpm > 0):
             raise BadInput(f"op_rpm must be a speed > 0 rpm, got {self.op_rpm}")
         for i, m in enumerate(self.tool_modes):
-            if not isinstance(m, Mode):
-                raise BadInput(f"tool_modes[{i}] must be a lobes.Mode, got {type(m).__name__}")
+            if not isinstance(m, (Mode, ComplexMode)):
+                raise BadInput(f"tool_modes[{i}] must be a lobes.Mode or lobes.ComplexMode, got {type(m).__name__}")
         object.__setattr__(self, "tool_modes", tuple(self.tool_modes))
 
     # ------------------------------------------------------------------ constructors
