@@ -178,7 +178,8 @@ def _engaged_fraction(phi0: np.ndarray, dphi: float, st: float, ex: float):
     return a, b
 
 
-def _static_step_force(tool: Tool, cut: Cut, off, tooth, h0, h: float, n_rev: int, kc, ke) -> np.ndarray:
+def _static_step_force(tool: Tool, cut: Cut, off, tooth, h0, h: float, n_rev: int, kc, ke,
+                       exact: bool = True) -> np.ndarray:
     """The kernel's weighted force sum ``sum_e w0 F_e(t_k) + w1 F_e(t_k+1)`` of the static chips for the
     ``n_rev`` steps of one revolution, (n_rev, 3) N (:mod:`timedomain.delay_kernel`; ``kc h + ke`` is
     the law of one element for ``h > 0``, continued linearly outside the arc)."""
@@ -187,8 +188,12 @@ def _static_step_force(tool: Tool, cut: Cut, off, tooth, h0, h: float, n_rev: in
     st, ex = engagement_rad(tool, cut)
     phi0 = omega * h * np.arange(n_rev)[:, None] + off[None, :]
     a, b = _engaged_fraction(phi0, dphi, st, ex)
-    w0 = (b - a) * (2 - a - b)
-    w1 = (b - a) * (a + b)
+    if exact:
+        w0 = (b - a) * (2 - a - b)
+        w1 = (b - a) * (a + b)
+    else:
+        w0 = (a <= 1e-12) & (b > a)
+        w1 = (b >= 1 - 1e-12) & (b > a)
     out = np.zeros((n_rev, 3))
     for phi, w, inside in ((phi0, w0, a <= 1e-12), (phi0 + dphi, w1, b >= 1 - 1e-12)):
         hs = h0[tooth][None, :] * np.sin(phi)
@@ -256,7 +261,7 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
     if abs(n_rev - round(n_rev)) > 1e-6:
         raise SimulationError(f"DelayNewmark needs a whole number of steps per revolution (360 / deg_per_step), "
                               f"got {n_rev:.6g} for deg_per_step = {method.deg_per_step:g}")
-    fsum = _static_step_force(tool, cut, off, tooth, h0, h, int(round(n_rev)), kc, ke)
+    fsum = _static_step_force(tool, cut, off, tooth, h0, h, int(round(n_rev)), kc, ke, method.entry_exit == "exact")
     qp, vp = _discrete_orbit(P, fsum, h, np.arange(d0 + 1) - d0)
     q0 = qp[-1] + _kick(P, method.kick_m, method.seed)
     v0 = vp[-1].copy()
@@ -267,7 +272,8 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
     rec_f, rec_loss = np.zeros((N, 3)), np.zeros((N, 2))
     cpu0 = time.process_time()
     status, iters, k_fail = run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, off, tooth, h0, dsteps, st, ex, 1.0,
-                                             law_arr, kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, 50)
+                                             law_arr, kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, 50,
+                                             method.entry_exit == "exact")
     cpu = time.process_time() - cpu0
     if status != 0:
         raise SimulationError(f"delay-based run: Newton {'did not converge' if status == 1 else 'went non-finite'} "

@@ -82,7 +82,7 @@ def _delayed(r_hist, v_hist, x, k, h):  # pragma: no cover - numba
 
 @njit(cache=True, nogil=True)
 def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dsteps, st, ex, db, law,
-                     kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, max_iter):  # pragma: no cover - numba
+                     kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, max_iter, exact):  # pragma: no cover - numba
     """Integrate ``n_steps`` steps from ``(q0, v0)`` at t = 0 (module docstring).
 
     r_hist, v_hist (d0 + N, 2): rows 0..d0-1 hold the history before t = 0 (grid times
@@ -92,7 +92,8 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
     static chip (m) and delay in steps; kc, ke (3,) ``K_c db`` (N/m) and ``K_e db`` (N) of one
     element; law (6,) the coefficients. Fills r_hist, v_hist (N+1, 2), rec_f (N+1, 3) (force on
     the tool at each grid time, elements in the arc), rec_loss (N+1, 2) (chip-weighted lost and
-    total engagement at each grid time). Returns (status, total Newton iterations); status 0 ok,
+    total engagement at each grid time). exact: False samples the screen function at the step ends
+    instead (the plain Newmark step, first order at entry and exit; for comparison only). Returns (status, total Newton iterations); status 0 ok,
     1 no convergence, 2 not finite.
     """
     n = q0.shape[0]
@@ -128,8 +129,12 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
             if b <= a:
                 continue
             j = tooth[e]
-            w0 = (b - a) * (2.0 - a - b)
-            w1[e] = (b - a) * (a + b)
+            if exact:
+                w0 = (b - a) * (2.0 - a - b)
+                w1[e] = (b - a) * (a + b)
+            else:  # the screen function sampled at the step ends (plain Newmark, for comparison)
+                w0 = 1.0 if a <= 1e-12 else 0.0
+                w1[e] = 1.0 if b >= 1.0 - 1e-12 else 0.0
             ext1[e] = b < 1.0 - 1e-12
             sn, cs = math.sin(phi0), math.cos(phi0)
             dx, dy = _delayed(r_hist, v_hist, d0 + k - dsteps[j], d0 + k, h)

@@ -122,16 +122,21 @@ class DelayNewmark:
     n_discs : int, optional
         Axial discs of the tool (default: 0.5 deg of helix lag each; 1 for a straight tool).
     kick_m : float
-        Initial displacement of the tool in the cut plane, m, in [1e-9, 1e-3] (default 1 um): the
+        Initial displacement of the tool in the cut plane, m, in [1e-9, 1e-3] (default 5 um): the
         structure starts deflected by a force in a seeded random direction of the cut plane.
     seed : int
         Seed of that direction (default 0).
+    entry_exit : {"exact", "sampled"}
+        "exact" (default): each element's entry into and exit from the arc inside a step is
+        integrated exactly (second order). "sampled": the screen function is sampled at the step
+        ends, as a plain Newmark step does (first order; for comparison with the eroded part).
     """
 
     deg_per_step: float = 2.0
     n_discs: int | None = None
-    kick_m: float = 1e-6
+    kick_m: float = 5e-6
     seed: int = 0
+    entry_exit: str = "exact"
 
     def __post_init__(self):
         d = finite("deg_per_step", self.deg_per_step, positive=True, error=SimulationError)
@@ -143,6 +148,8 @@ class DelayNewmark:
         if not 1e-9 <= k <= 1e-3:
             raise SimulationError(f"kick_m (initial tool displacement) must be in [1e-9, 1e-3] m, got {k:g}")
         integer("seed", self.seed, minimum=0, error=SimulationError)
+        if self.entry_exit not in ("exact", "sampled"):
+            raise SimulationError(f"entry_exit must be 'exact' or 'sampled', got {self.entry_exit!r}")
 
 
 Method = LinearizedNewmark | NonlinearNewmark | DelayNewmark
