@@ -34,9 +34,17 @@ import time
 from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
-
-from robolobes.cases.milling import (Cut, CuttingLaw, Tool, check_cut, edge_forces, engagement_rad, in_cut,
-                                    principal_period, regeneration, tool_force_cut_frame)
+from robolobes.cases.milling import (
+    Cut,
+    CuttingLaw,
+    Tool,
+    check_cut,
+    edge_forces,
+    engagement_rad,
+    principal_period,
+    regeneration,
+    tool_force_cut_frame,
+)
 from robolobes.core.validate import finite, readonly
 from robolobes.lobes.structure import ModalStructure, PhysicalStructure
 
@@ -45,7 +53,7 @@ from .rate import GatedRate, gated_growth_rate, loss_per_period
 from .verdict import TimeDomainVerdict, beat_period_s, chip_scale, decide
 from .workpiece import default_disc_count
 
-__all__ = ["StructureProblem", "DelayResult", "run_delay", "MAX_DELAY_STEPS"]
+__all__ = ["MAX_DELAY_STEPS", "DelayResult", "StructureProblem", "run_delay"]
 
 #: Largest number of steps of one delay-based run (memory of the records: ~100 B per step).
 MAX_DELAY_STEPS = 20_000_000
@@ -97,7 +105,7 @@ class StructureProblem:
         return s.to_physical() if isinstance(s, ModalStructure) else s
 
     @classmethod
-    def from_simulation(cls, problem: SimulationProblem) -> "StructureProblem":
+    def from_simulation(cls, problem: SimulationProblem) -> StructureProblem:
         """The robot of ``problem`` linearized at the pass start, with the case's tool, cut and law,
         over the problem's simulated time."""
         from robolobes.linearize.linear import linearize

@@ -39,9 +39,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
-
 import robolobes.cases.milling as _milling
+from numba import njit
 
 _edge_force_law = njit(inline="always")(_milling.edge_force_law)
 _project_cut_frame = njit(inline="always")(_milling.project_cut_frame)

@@ -24,9 +24,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .verdict import LOSS_LIMIT, GrowthEstimate, GrowthRule, growth_rate, poincare_sections
+from .verdict import (
+    LOSS_LIMIT,
+    GrowthEstimate,
+    GrowthRule,
+    growth_rate,
+    poincare_sections,
+)
 
-__all__ = ["RESOLVED_FACTOR", "MIN_DIFFERENCES", "GatedRate", "gated_growth_rate", "loss_per_period"]
+__all__ = ["MIN_DIFFERENCES", "RESOLVED_FACTOR", "GatedRate", "gated_growth_rate", "loss_per_period"]
 
 #: The motion must exceed this multiple of the verdict's resolution to enter the fit.
 RESOLVED_FACTOR = 10.0

@@ -446,7 +446,8 @@ def floquet_rate_per_s(spectral_radius: float, principal_period_s: float) -> flo
 def beat_period_s(poles_rad_s) -> float:
     """Beat period ``1 / min |f_i - f_j|`` (s) of the two closest modes that ring for at least
     three cycles (damping ratio <= 1 / (6 pi) = 0.053: amplitude >= 1/e after three cycles), from
-    the structure's poles (rad/s, complex; conjugates counted once); 0 with fewer than two.
+    the structure's poles (rad/s, complex; conjugates counted once); 0 with fewer than two distinct
+    frequencies (a repeated pole, within 1e-9 relative, is one mode and does not beat).
 
     Two decaying modes of close frequencies beat: over less than a beat their summed envelope can
     rise while both decay, and the fit's residuals cannot show it (module docstring).
@@ -455,10 +456,12 @@ def beat_period_s(poles_rad_s) -> float:
     p = p[p.imag > 0]
     zeta = -p.real / np.abs(p)
     f = np.sort(np.abs(p[zeta <= 1 / (6 * math.pi)]) / (2 * math.pi))
-    if f.size < 2:
+    # a repeated pole (e.g. a symmetric tool in x and y) is one mode whose directions combine: no beat
+    df = np.diff(f)
+    df = df[df > 1e-9 * f[1:]] if f.size >= 2 else df
+    if df.size == 0:
         return 0.0
-    df = float(np.min(np.diff(f)))
-    return 1.0 / df if df > 0 else math.inf
+    return 1.0 / float(np.min(df))
 
 
 def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], *,
