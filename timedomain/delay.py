@@ -50,6 +50,7 @@ from robolobes.lobes.structure import ModalStructure, PhysicalStructure
 
 from .problem import DelayNewmark, SimulationError, SimulationProblem
 from .rate import GatedRate, gated_growth_rate, loss_per_period
+from .summary import has_runout
 from .verdict import TimeDomainVerdict, beat_period_s, chip_scale, decide
 from .workpiece import default_disc_count
 
@@ -126,7 +127,8 @@ class DelayResult:
     deviation_m : array (N, 2)          tool displacement in the cut plane (x_c, y_c), m.
     force_tool_n : array (N, 3)         force on the tool, cut frame, N.
     chip_loss : array (N,)              chip-weighted share of the engagement with chip <= 0.
-    principal_period_s : float
+    principal_period_s : float         the sections' period, s: the principal period, or the revolution
+                                        for a tool with runout (its forced response repeats once per revolution).
     verdict : TimeDomainVerdict         the verdict's rule over [5 principal periods, end].
     rate : GatedRate                    growth rate over the gated periods (:mod:`timedomain.rate`).
     stats : dict                        steps, newton_iterations, n_discs, h_s, cpu_s.
@@ -229,6 +231,14 @@ def _discrete_orbit(P: PhysicalStructure, fsum: np.ndarray, h: float, k: np.ndar
     return (e @ Qn).real, (e @ (s[:, None] * Qn)).real
 
 
+def _section_period(tool: Tool, cut: Cut) -> float:
+    """Period of the Poincare sections, s: the principal period, or the revolution for a tool with
+    runout, whose forced response repeats only once per revolution (the second differences at the
+    tooth period would keep it; a flip's multiplier per revolution is mu^2, the same rate per second)."""
+    tp, _ = principal_period(tool, cut)
+    return cut.spindle_period_s if has_runout(tool) else tp
+
+
 def run_delay(problem, method: DelayNewmark) -> DelayResult:
     """Run the delay-based model (module docstring) on a :class:`StructureProblem` or a
     :class:`~timedomain.problem.SimulationProblem` (the robot linearized at the pass start)."""
@@ -288,7 +298,7 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
                               f"at the step to t = {(k_fail + 1) * h:.6g} s")
     r_hist = r_hist[d0:]
     t = np.arange(N) * h
-    tp, _ = principal_period(tool, cut)
+    tp = _section_period(tool, cut)
     t0 = min(TRANSIENT_PERIODS * tp, t[-1])
     poles = P.state_space().poles
     verdict = decide(t, r_hist, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=float(t[-1]),
