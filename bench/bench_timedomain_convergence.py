@@ -16,7 +16,9 @@ Cases: ``is-1dof`` and ``is-2dof`` (Insperger & Stepan: 922 Hz, zeta 0.011, 2 te
 Kn 200 MPa, a/D = 0.05 down-milling at 10 000 rpm), ``alu-helix`` (the aluminium case, 30 deg
 helix, 170/190 deg pitch, basic model, linearized path, feed 0.03 mm and a 45 mm part so that the
 steady window is long), ``alu-straight`` (the same tool without helix), ``steel`` (the steel case,
-30 deg helix, runout).
+30 deg helix, runout), ``steel-no-runout`` (its tool without runout: the same linear problem; with
+runout the forced response has a period-2 part at the flip frequency, 51.7 Hz, that above the limit
+is in the nonlinear regime from the start).
 
     python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
 """
@@ -69,8 +71,10 @@ def _benchmark(two_dof: bool):
 
 def _robot_case(name: str):
     warnings.filterwarnings("ignore", category=L.JointLimitWarning)
-    if name == "steel":
+    if name.startswith("steel"):
         case = cases.load_case("tx200-steel")
+        if name == "steel-no-runout":
+            case = replace(case, tool=replace(case.tool, runout_m=(0.0, 0.0)))
         t_end = 4.5
     else:
         case = cases.load_case("tx200-aluminium")
@@ -86,7 +90,7 @@ def _robot_case(name: str):
 
 CASES = {"is-1dof": lambda: _benchmark(False), "is-2dof": lambda: _benchmark(True),
          "alu-helix": lambda: _robot_case("alu-helix"), "alu-straight": lambda: _robot_case("alu-straight"),
-         "steel": lambda: _robot_case("steel")}
+         "steel": lambda: _robot_case("steel"), "steel-no-runout": lambda: _robot_case("steel-no-runout")}
 
 
 def _sdm(c, cut):
@@ -156,7 +160,8 @@ def run_case(name: str, factors, eroded: bool) -> None:
     c = CASES[name]()
     lim = _limit(c)
     tp = principal_period(c["tool"], c["cut"])[0]
-    print(f"\n## {name}: {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, principal period {tp * 1e3:.4f} ms",
+    print(f"\n## {name}: {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, "
+          f"principal period {tp * 1e3:.4f} ms",
           flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)

@@ -249,3 +249,28 @@ def test_bad_problems_are_refused_before_any_work():
     with pytest.raises(SimulationError, match="whole number of steps per revolution"):
         simulate(p, DelayNewmark(deg_per_step=0.7))
     assert issubclass(SimulationError, BadInput)
+
+
+# ---- the robot: steel (30 deg helix, runout 6.9 um), basic model, at 3100 rpm
+
+STEEL = cases.load_case("tx200-steel")
+STEEL_LIMIT_M = 0.6427e-3  # SDM limit at 3100 rpm (basic model)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("factor, runout", [(0.5, True), (0.8, True), (1.25, False), (2.0, False)])
+def test_steel_rate_equals_the_floquet_exponent(factor, runout):
+    # Below the limit with the tool's runout (observed 0.5x -4.68 +- 1.16, SDM -3.44; 0.8x -4.50 +-
+    # 0.51, SDM -3.64: the robot's modes around the 103 Hz tooth passing beat, hence the SE). Above
+    # it the runout's period-2 forced response sits at the flip frequency (51.7 Hz) and is in the
+    # nonlinear regime (chip loss >= 5 %) from the start, so no linear rate exists; the linear
+    # problem is the same without runout, which is what is compared there (kick 1 nm).
+    tool = STEEL.tool if runout else replace(STEEL.tool, runout_m=(0.0, 0.0))
+    case = replace(STEEL, tool=tool, cut=replace(STEEL.cut, ap_m=factor * STEEL_LIMIT_M))
+    robot = L.build_model(STEEL.robot, "basic")
+    st = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
+    sdm = floquet_exponent(LobeProblem(st, case.tool, case.cut, case.law), SemiDiscretization(m=40, axial_slices=32))
+    kick = {} if factor < 1 else {"kick_m": 1e-9}
+    r = simulate(SimulationProblem(robot, case, t_end_s=4.5), DelayNewmark(**kick))
+    assert r.rate.estimate is not None, r.rate.reason
+    assert _within(r.rate.rate_per_s, r.rate.se_per_s, sdm.value_per_s), (r.rate.rate_per_s, sdm.value_per_s)

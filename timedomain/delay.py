@@ -97,7 +97,8 @@ class StructureProblem:
                                       f"got {type(getattr(self, name)).__name__}")
         check_cut(self.tool, self.cut)
         if not self.cut.feed_per_tooth_m > 0:
-            raise SimulationError(f"the delay-based model needs a feed per tooth > 0 m, got {self.cut.feed_per_tooth_m}")
+            raise SimulationError(f"the delay-based model needs a feed per tooth > 0 m, "
+                                  f"got {self.cut.feed_per_tooth_m}")
         object.__setattr__(self, "t_end_s", finite("t_end_s", self.t_end_s, positive=True, error=SimulationError))
 
     @property
@@ -255,7 +256,8 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
     h = math.radians(method.deg_per_step) / omega
     n_steps = int(math.ceil(problem.t_end_s / h - 1e-9))
     if n_steps > MAX_DELAY_STEPS:
-        raise SimulationError(f"deg_per_step = {method.deg_per_step:g} over {problem.t_end_s:g} s needs {n_steps} steps; "
+        raise SimulationError(f"deg_per_step = {method.deg_per_step:g} over {problem.t_end_s:g} s needs {n_steps} "
+                              f"steps; "
                               f"valid: at most {MAX_DELAY_STEPS} (a coarser step or a shorter t_end_s)")
     n_discs = method.n_discs or default_disc_count(tool, cut.ap_m)
     off, tooth, h0, delay = _elements(tool, cut, n_discs)

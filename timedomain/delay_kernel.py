@@ -89,10 +89,12 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
 
     offset (E,) element angle offsets, rad; tooth (E,) int tooth of each element; h0, dsteps (T,)
     static chip (m) and delay in steps; kc, ke (3,) ``K_c db`` (N/m) and ``K_e db`` (N) of one
-    element; law (6,) the coefficients. Fills r_hist, v_hist (N+1, 2), rec_f (N+1, 3) (force on
+    element; law (6,) the coefficients times the element width db (then pass db = 1). Fills
+    r_hist, v_hist (d0 + N + 1, 2), rec_f (N+1, 3) (force on
     the tool at each grid time, elements in the arc), rec_loss (N+1, 2) (chip-weighted lost and
     total engagement at each grid time). exact: False samples the screen function at the step ends
-    instead (the plain Newmark step, first order at entry and exit; for comparison only). Returns (status, total Newton iterations); status 0 ok,
+    instead (the plain Newmark step, first order at entry and exit; for comparison only).
+    Returns (status, total Newton iterations, step); status 0 ok,
     1 no convergence, 2 not finite.
     """
     n = q0.shape[0]
