@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from robolobes.core.numerics import richardson
 
 from .problem import LobeProblem
@@ -48,7 +50,7 @@ def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = N
     period = math.nan
     for m in (method.m, 2 * method.m):
         engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6))
-        period = float(engine.period_s([rpm])[0])
+        period = float(engine.period_s(np.array([rpm]))[0])
         rho = float(engine.multipliers([rpm], [depth])[0][0])
         rates.append(math.log(rho) / period)
     ext = richardson(rates[0], rates[1])
