@@ -206,11 +206,9 @@ def test_aluminium_helical_tool_at_0p8_rate_equals_the_floquet_exponent():
 @pytest.mark.slow
 def test_aluminium_helical_rate_does_not_depend_on_the_disc_count():
     # The eroded part's rate moved by 0.13 1/s between 4, 16 and 54 discs; the delay model's moves by
-    # less than 0.005 1/s (observed -0.2754, -0.2756, -0.2757 +- 0.0041) and by less than 0.005 1/s
-    # between 15, 16 and 17 discs.
+    # less than 0.005 1/s (observed -0.2754, -0.2756, -0.2757 +- 0.0041, whole pass).
     case = _alu()
-    rates = [simulate(SimulationProblem(_robot(), case, t_end_s=1.5), DelayNewmark(n_discs=n)).rate.rate_per_s
-             for n in (4, 15, 16, 17, 54)]
+    rates = [simulate(SimulationProblem(_robot(), case), DelayNewmark(n_discs=n)).rate.rate_per_s for n in (4, 16, 54)]
     assert max(rates) - min(rates) < 0.005, rates
 
 
