@@ -265,6 +265,9 @@ def test_beat_period_of_the_closest_ringing_modes():
     poles += [p.conjugate() for p in poles]
     assert_allclose(beat_period_s(poles), 1 / (27.72 - 25.15), rtol=1e-9)
     assert beat_period_s([pole(20.0, 0.01)]) == 0.0
+    # a repeated pole (a tool symmetric in x and y) is one mode: it does not beat with itself
+    assert beat_period_s([pole(922.0, 0.011), pole(922.0, 0.011)]) == 0.0
+    assert_allclose(beat_period_s([pole(922.0, 0.011), pole(922.0, 0.011), pole(930.0, 0.011)]), 1 / 8.0, rtol=1e-9)
     # a window shorter than the beat period is undetermined, whatever the fit says
     rng = np.random.default_rng(1)
     t, x = _signal(-3.0, 0.3, 20.0, rng)

@@ -5,6 +5,9 @@ shape: ``simulate(SimulationProblem(robot, case), LinearizedNewmark())``.
   and :class:`NonlinearNewmark`, and the bounds on what sets memory and run time;
 * :mod:`timedomain.result` -- :class:`SimulationResult`, :class:`SimulationSummary`;
 * :mod:`timedomain.simulation` -- :func:`simulate`;
+* :mod:`timedomain.delay` -- the delay-based regenerative model (:class:`DelayNewmark`), also for
+  structures without robot (:class:`timedomain.delay.StructureProblem`);
+* :mod:`timedomain.rate` -- the growth rate over the resolved, linear periods of a run;
 * :mod:`timedomain.equations` -- the full and the linearized equations of a pass;
 * :mod:`timedomain.drivers` -- the time loops (full, linearized in Python, compiled fast path);
 * :mod:`timedomain.fastpath` -- the compiled linearized loop (numba);
@@ -22,9 +25,9 @@ shape: ``simulate(SimulationProblem(robot, case), LinearizedNewmark())``.
 if __name__ != "robolobes.timedomain":  # this folder imported by itself (from the repository root): a second copy
     raise ImportError(f"{__name__!r} is the folder of the robolobes.timedomain package: import robolobes.timedomain instead")
 
-from .problem import LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem
+from .problem import DelayNewmark, LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem
 from .result import SimulationResult, SimulationSummary
 from .simulation import simulate
 
 __all__ = ["simulate", "SimulationProblem", "SimulationResult", "SimulationSummary", "LinearizedNewmark",
-           "NonlinearNewmark", "SimulationError"]
+           "NonlinearNewmark", "DelayNewmark", "SimulationError"]

@@ -28,7 +28,7 @@ from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite, integer
 from robolobes.linearize.model import FlexibleRobot
 
-__all__ = ["SimulationError", "SimulationProblem", "LinearizedNewmark", "NonlinearNewmark", "Method",
+__all__ = ["SimulationError", "SimulationProblem", "LinearizedNewmark", "NonlinearNewmark", "DelayNewmark", "Method",
            "MAX_RECORD_BYTES", "RECORD_BYTES_PER_STEP", "MAX_DISCS", "max_steps", "step_count", "pass_duration_s"]
 
 #: Memory of a run's records: t (8 B), force (3 x 8), centre (2 x 8), TCP (3 x 8) per step.
@@ -107,7 +107,52 @@ class NonlinearNewmark(_NewmarkMethod):
         integer("max_iter", self.max_iter, minimum=1, maximum=100, error=SimulationError)
 
 
-Method = LinearizedNewmark | NonlinearNewmark
+@dataclass(frozen=True)
+class DelayNewmark:
+    """The delay-based regenerative model (:mod:`timedomain.delay`): the chip of every tooth and disc
+    is the static chip plus the projection of the displacement now minus one tooth delay earlier, at
+    the nominal (fixed) engagement, on a linear structure (the robot linearized at the pass start, or
+    a modal / physical structure); average-acceleration Newmark with exact entry and exit of every
+    element inside a step.
+
+    Parameters
+    ----------
+    deg_per_step : float
+        Spindle rotation per time step, deg, in (0, 10] (default 2).
+    n_discs : int, optional
+        Axial discs of the tool (default: 0.5 deg of helix lag each; 1 for a straight tool).
+    kick_m : float
+        Initial displacement of the tool in the cut plane, m, in [1e-9, 1e-3] (default 5 um): the
+        structure starts deflected by a force in a seeded random direction of the cut plane.
+    seed : int
+        Seed of that direction (default 0).
+    entry_exit : {"exact", "sampled"}
+        "exact" (default): each element's entry into and exit from the arc inside a step is
+        integrated exactly (second order). "sampled": the screen function is sampled at the step
+        ends, as a plain Newmark step does (first order; for comparison with the eroded part).
+    """
+
+    deg_per_step: float = 2.0
+    n_discs: int | None = None
+    kick_m: float = 5e-6
+    seed: int = 0
+    entry_exit: str = "exact"
+
+    def __post_init__(self):
+        d = finite("deg_per_step", self.deg_per_step, positive=True, error=SimulationError)
+        if d > 10:
+            raise SimulationError(f"deg_per_step must be in (0, 10] deg of spindle rotation per step, got {d}")
+        if self.n_discs is not None:
+            integer("n_discs", self.n_discs, minimum=1, maximum=MAX_DISCS, error=SimulationError)
+        k = finite("kick_m", self.kick_m, positive=True, error=SimulationError)
+        if not 1e-9 <= k <= 1e-3:
+            raise SimulationError(f"kick_m (initial tool displacement) must be in [1e-9, 1e-3] m, got {k:g}")
+        integer("seed", self.seed, minimum=0, error=SimulationError)
+        if self.entry_exit not in ("exact", "sampled"):
+            raise SimulationError(f"entry_exit must be 'exact' or 'sampled', got {self.entry_exit!r}")
+
+
+Method = LinearizedNewmark | NonlinearNewmark | DelayNewmark
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,7 +25,7 @@ from robolobes.linearize.linear import linearize
 
 from .drivers import Records, run_full, run_linearized
 from .equations import PassSetup
-from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem
+from .problem import DelayNewmark, LinearizedNewmark, NonlinearNewmark, SimulationError, SimulationProblem
 from .result import SimulationResult
 from .runout import needs_companion, with_companion_verdict
 from .summary import summarize
@@ -60,8 +60,8 @@ def _result(problem, method, S: PassSetup, rec: Records, stats: dict) -> Simulat
 
 
 @blas_single_threaded
-def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNewmark | None = None,
-             progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True) -> SimulationResult:
+def simulate(problem, method: LinearizedNewmark | NonlinearNewmark | DelayNewmark | None = None,
+             progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True):
     """Simulate the pass of ``problem`` with ``method`` (:mod:`timedomain.equations` for the equations).
 
     BLAS runs on one thread inside (:mod:`core.threads`: the matrices are 6-18 DOF), unless the user
@@ -69,9 +69,11 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
 
     Parameters
     ----------
-    problem : SimulationProblem
-    method : LinearizedNewmark or NonlinearNewmark, optional
-        Default ``NonlinearNewmark()`` (the full nonlinear equations).
+    problem : SimulationProblem, or timedomain.delay.StructureProblem (only with DelayNewmark)
+    method : LinearizedNewmark, NonlinearNewmark or DelayNewmark, optional
+        Default ``NonlinearNewmark()`` (the full nonlinear equations). ``DelayNewmark`` runs the
+        delay-based regenerative model (:mod:`timedomain.delay`) and returns a
+        :class:`~timedomain.delay.DelayResult`.
     progress : callable ``(fraction) -> None``, optional
         Called about every 1 % of the run.
     verdict_companion : bool
@@ -80,7 +82,7 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
 
     Returns
     -------
-    SimulationResult
+    SimulationResult (DelayResult for DelayNewmark)
 
     Raises
     ------
@@ -90,6 +92,13 @@ def simulate(problem: SimulationProblem, method: LinearizedNewmark | NonlinearNe
         On Ctrl-C (KeyboardInterrupt), carrying the last accepted state; nothing is written.
     """
     method = NonlinearNewmark() if method is None else method
+    if isinstance(method, DelayNewmark):
+        from .delay import run_delay
+
+        return run_delay(problem, method)
+    if not isinstance(problem, SimulationProblem):
+        raise SimulationError(f"problem must be a SimulationProblem for {type(method).__name__}, got "
+                              f"{type(problem).__name__} (a structure without robot runs with DelayNewmark)")
     wall0 = time.perf_counter()
     S = PassSetup(problem, method)
     rec = (run_linearized(S, progress) if isinstance(method, LinearizedNewmark) else run_full(S, progress, method))

@@ -281,7 +281,7 @@ def _block_fit(e: np.ndarray, tk: np.ndarray, nb: int, floor: float):
 
 
 def growth_rate(t_s, x, period_s: float, *, t_start_s: float, t_end_s: float,
-                rule: GrowthRule = GrowthRule()) -> GrowthEstimate:
+                rule: GrowthRule = GrowthRule(), min_periods: int | None = None) -> GrowthEstimate:
     """Growth rate of the non-synchronous motion of ``x`` over ``[t_start_s, t_end_s]``.
 
     Parameters
@@ -290,6 +290,8 @@ def growth_rate(t_s, x, period_s: float, *, t_start_s: float, t_end_s: float,
     x : array (n,) or (n, m)         TCP deviation (cut frame), m.
     period_s : float                 principal period Tp, s.
     t_start_s, t_end_s : float       window, s; it must hold ``rule.min_periods`` periods.
+    min_periods : int, optional      fewer periods accepted (at least ``rule.blocks + 2``: one
+                                     difference per block), for :mod:`timedomain.rate`.
 
     Returns
     -------
@@ -298,16 +300,18 @@ def growth_rate(t_s, x, period_s: float, *, t_start_s: float, t_end_s: float,
     from robolobes.core.errors import BadInput
     p = poincare_sections(t_s, x, period_s, t_start_s, t_end_s, rule.phases)
     k = p.shape[0]
-    if k < rule.min_periods:
-        raise BadInput(f"the window holds {k} principal periods; the growth rate needs {rule.min_periods}: "
-                       f"lengthen it to >= {rule.min_periods * period_s:.6g} s")
+    need = rule.min_periods if min_periods is None else max(int(min_periods), rule.blocks + 2)
+    if k < need:
+        raise BadInput(f"the window holds {k} principal periods; the growth rate needs {need}: "
+                       f"lengthen it to >= {need * period_s:.6g} s")
     e = (p[2:] - 2 * p[1:-1] + p[:-2]).reshape(k - 2, -1)
     tk = float(t_start_s) + period_s * np.arange(1, k - 1)
     slope, se, dof, rho, tb, a, below = _block_fit(e, tk, rule.blocks, rule.resolution_m)
     # blocking error: the same fit with 3/4 and 3/2 as many blocks (a sinusoid that does not fill a
     # whole number of cycles per block leaves a deterministic residual the AR(1) SE can miss)
-    alt = [_block_fit(e, tk, nb, rule.resolution_m)[0] for nb in (rule.blocks * 3 // 4, rule.blocks * 3 // 2)]
-    se = math.hypot(se, max(abs(s_ - slope) for s_ in alt))
+    alt = [_block_fit(e, tk, nb, rule.resolution_m)[0] for nb in (rule.blocks * 3 // 4, rule.blocks * 3 // 2)
+           if 3 <= nb <= e.shape[0]]
+    se = math.hypot(se, max((abs(s_ - slope) for s_ in alt), default=0.0))
     q = _t_quantile(rule.confidence, dof)
     return GrowthEstimate(rate_per_s=slope, se_per_s=se, ci_per_s=(slope - q * se, slope + q * se), dof=dof, rho=rho,
                           block_t_s=tb, block_log_amp=a, window_s=(float(t_start_s), float(tk[-1]) + period_s),
@@ -442,7 +446,8 @@ def floquet_rate_per_s(spectral_radius: float, principal_period_s: float) -> flo
 def beat_period_s(poles_rad_s) -> float:
     """Beat period ``1 / min |f_i - f_j|`` (s) of the two closest modes that ring for at least
     three cycles (damping ratio <= 1 / (6 pi) = 0.053: amplitude >= 1/e after three cycles), from
-    the structure's poles (rad/s, complex; conjugates counted once); 0 with fewer than two.
+    the structure's poles (rad/s, complex; conjugates counted once); 0 with fewer than two distinct
+    frequencies (a repeated pole, within 1e-9 relative, is one mode and does not beat).
 
     Two decaying modes of close frequencies beat: over less than a beat their summed envelope can
     rise while both decay, and the fit's residuals cannot show it (module docstring).
@@ -451,10 +456,12 @@ def beat_period_s(poles_rad_s) -> float:
     p = p[p.imag > 0]
     zeta = -p.real / np.abs(p)
     f = np.sort(np.abs(p[zeta <= 1 / (6 * math.pi)]) / (2 * math.pi))
-    if f.size < 2:
+    # a repeated pole (e.g. a symmetric tool in x and y) is one mode whose directions combine: no beat
+    df = np.diff(f)
+    df = df[df > 1e-9 * f[1:]] if f.size >= 2 else df
+    if df.size == 0:
         return 0.0
-    df = float(np.min(np.diff(f)))
-    return 1.0 / df if df > 0 else math.inf
+    return 1.0 / float(np.min(df))
 
 
 def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], *,

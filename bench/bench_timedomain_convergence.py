@@ -1,0 +1,222 @@
+"""Convergence of the time domain's growth rates to the SDM's Floquet exponent ln|mu| / Tp.
+
+For each case and depth factor (0.5, 0.8, 1.25, 2 times the SDM limit at the case's speed) prints:
+
+* the SDM exponent (Richardson from m and 2 m steps per period, :func:`robolobes.lobes.exponent.floquet_exponent`)
+  at the nominal radial depth, and, for the eroded part, at ``ae`` minus that run's mean normal
+  deflection (like with like: the deflected tool cuts a narrower immersion);
+* the delay-based rate (:class:`~robolobes.timedomain.DelayNewmark`) and, for the robot cases, the
+  eroded-part rate (:class:`~robolobes.timedomain.LinearizedNewmark`) at three step sizes (2, 1,
+  0.5 deg per step, default discs) and three disc counts (half, default, twice; 2 deg per step),
+  each with its standard error, and the observed order ``log2(e_2 / e_1)`` of successive step
+  halvings where the error exceeds 10 standard errors;
+* the CPU time per simulated second of both methods at their default settings.
+
+Cases: ``is-1dof`` and ``is-2dof`` (Insperger & Stepan: 922 Hz, zeta 0.011, 2 teeth, Kt 600 MPa,
+Kn 200 MPa, a/D = 0.05 down-milling at 10 000 rpm), ``alu-helix`` (the aluminium case, 30 deg
+helix, 170/190 deg pitch, basic model, linearized path, feed 0.03 mm and a 45 mm part so that the
+steady window is long), ``alu-straight`` (the same tool without helix), ``steel`` (the steel case,
+30 deg helix, runout), ``steel-no-runout`` (its tool without runout: the same linear problem; with
+runout the forced response has a period-2 part at the flip frequency, 51.7 Hz, that above the limit
+is in the nonlinear regime from the start).
+
+    python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import robolobes.linearize as L
+from robolobes import cases
+from robolobes.cases.milling import Cut, CuttingLaw, Tool, principal_period
+from robolobes.lobes import (
+    LobeProblem,
+    ModalStructure,
+    Mode,
+    PhysicalStructure,
+    SemiDiscretization,
+    solve,
+)
+from robolobes.lobes.exponent import floquet_exponent
+from robolobes.timedomain import (
+    DelayNewmark,
+    LinearizedNewmark,
+    SimulationProblem,
+    simulate,
+)
+from robolobes.timedomain.delay import StructureProblem
+from robolobes.timedomain.rate import gated_growth_rate
+
+FACTORS = (0.5, 0.8, 1.25, 2.0)
+STEPS_DEG = (2.0, 1.0, 0.5)
+
+
+def _benchmark(two_dof: bool):
+    fn, zeta, mass = 922.0, 0.011, 0.03993
+    k = mass * (2 * math.pi * fn) ** 2
+    dirs = ((1.0, 0.0), (0.0, 1.0)) if two_dof else ((1.0, 0.0),)
+    structure = ModalStructure(tuple(Mode(fn, zeta, k, d) for d in dirs))
+    tool = Tool(diameter_m=0.01, teeth=2)
+    cut = Cut(ae_m=0.0005, ap_m=1e-3, spindle_rpm=10000.0, mode="down", feed_per_tooth_m=1e-4)
+    return dict(structure=structure, tool=tool, cut=cut, law=CuttingLaw(ktc_pa=6e8, krc_pa=2e8), robot=None,
+                t_end_s=0.2, slices=None, m=80)
+
+
+def _robot_case(name: str):
+    warnings.filterwarnings("ignore", category=L.JointLimitWarning)
+    if name.startswith("steel"):
+        case = cases.load_case("tx200-steel")
+        if name == "steel-no-runout":
+            case = replace(case, tool=replace(case.tool, runout_m=(0.0, 0.0)))
+        t_end = 4.5
+    else:
+        case = cases.load_case("tx200-aluminium")
+        tool = case.tool if name == "alu-helix" else replace(case.tool, helix_rad=0.0)
+        case = replace(case, tool=tool, cut=replace(case.cut, feed_per_tooth_m=3e-5),
+                       path=replace(case.path, part_length_m=0.045))
+        t_end = None
+    robot = L.build_model(case.robot, "basic")
+    structure = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
+    return dict(structure=structure, tool=case.tool, cut=case.cut, law=case.law, robot=robot, case=case,
+                t_end_s=t_end, slices=32, m=40)
+
+
+CASES = {"is-1dof": lambda: _benchmark(False), "is-2dof": lambda: _benchmark(True),
+         "alu-helix": lambda: _robot_case("alu-helix"), "alu-straight": lambda: _robot_case("alu-straight"),
+         "steel": lambda: _robot_case("steel"), "steel-no-runout": lambda: _robot_case("steel-no-runout")}
+
+
+def _sdm(c, cut):
+    p = LobeProblem(c["structure"], c["tool"], cut, c["law"])
+    return floquet_exponent(p, SemiDiscretization(m=c["m"], axial_slices=c["slices"]))
+
+
+def _limit(c) -> float:
+    p = LobeProblem(c["structure"], c["tool"], c["cut"], c["law"])
+    meth = SemiDiscretization(m=c["m"], axial_slices=c["slices"], richardson=True)
+    return float(solve(p, meth, [c["cut"].spindle_rpm]).depth_limit_m[0])
+
+
+def _kick(c, factor, sigma):
+    """Initial kick: 20 um (benchmarks) or the default 5 um below the limit; above it 1 nm where the
+    motion would grow by more than e^9 over the run (else the default), so that the gated window
+    (10 x 2 nm to 5 % chip loss) is crossed during the run."""
+    if factor < 1:
+        return {"kick_m": 2e-5} if c["robot"] is None else {}
+    t_end = c["t_end_s"] if c["t_end_s"] is not None else 2.5
+    return {"kick_m": 1e-9} if sigma * t_end > 9 else {}
+
+
+def _delay(c, cut, factor, deg, n_discs=None, sigma=0.0):
+    kick = _kick(c, factor, sigma)
+    meth = DelayNewmark(deg_per_step=deg, n_discs=n_discs, **kick)
+    if c["robot"] is None:
+        prob = StructureProblem(c["structure"], c["tool"], cut, c["law"], t_end_s=c["t_end_s"])
+    else:
+        prob = SimulationProblem(c["robot"], replace(c["case"], cut=cut), t_end_s=c["t_end_s"])
+    c0 = time.process_time()
+    r = simulate(prob, meth)
+    cpu = time.process_time() - c0
+    return r.rate.rate_per_s, r.rate.se_per_s, cpu / float(r.t_s[-1]), r.stats["n_discs"]
+
+
+def _eroded(c, cut, deg, n_discs=None):
+    case = replace(c["case"], cut=cut)
+    prob = SimulationProblem(c["robot"], case, t_end_s=c["t_end_s"])
+    c0 = time.process_time()
+    run = simulate(prob, LinearizedNewmark(deg_per_step=deg, n_discs=n_discs))
+    cpu = time.process_time() - c0
+    tp = principal_period(case.tool, cut)[0]
+    if max(case.tool.runout_m) != min(case.tool.runout_m):
+        tp = cut.spindle_period_s  # with runout the forced response repeats once per revolution
+    t0, t1 = run.steady_window_s
+    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0, t_end_s=min(t1, run.t_s[-1]))
+    sel = (run.t_s >= t0) & (run.t_s <= t1)
+    dy = float(np.mean(run.tcp_deviation_m[sel, 1]))
+    return g.rate_per_s, g.se_per_s, cpu / float(run.t_s[-1]), run.stats["n_discs"], dy
+
+
+def _orders(rates, ref):
+    """Observed order of successive halvings where both errors exceed 10 SE, else '-'."""
+    out = []
+    for (r1, s1), (r2, s2) in zip(rates[:-1], rates[1:]):
+        e1, e2 = abs(r1 - ref), abs(r2 - ref)
+        out.append(f"{math.log2(e1 / e2):.2f}" if (e1 > 10 * s1 and e2 > 10 * s2 and e2 > 0) else "-")
+    return " ".join(out)
+
+
+def _fmt(r, s):
+    return f"{r:+9.4f} +- {s:.4f}" if math.isfinite(r) else "      n/a       "
+
+
+def run_case(name: str, factors, eroded: bool) -> None:
+    c = CASES[name]()
+    lim = _limit(c)
+    tp = principal_period(c["tool"], c["cut"])[0]
+    print(f"\n## {name}: {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, "
+          f"principal period {tp * 1e3:.4f} ms",
+          flush=True)
+    for f in factors:
+        cut = replace(c["cut"], ap_m=f * lim)
+        sdm = _sdm(c, cut)
+        print(f"{name} {f:g}x: SDM sigma {sdm.value_per_s:+.4f} 1/s (m={sdm.m}: {sdm.coarse_per_s:+.4f}, "
+              f"2m: {sdm.fine_per_s:+.4f}, error {sdm.error_per_s:.4f})", flush=True)
+        methods = [("delay", lambda d, n, f=f, cut=cut, sg=sdm.value_per_s: _delay(c, cut, f, d, n, sg))]
+        if eroded and c["robot"] is not None:
+            methods.append(("eroded", lambda d, n, cut=cut: _eroded(c, cut, d, n)))
+        for label, fn in methods:
+            by_step = [fn(d, None) for d in STEPS_DEG]
+            ref = sdm.value_per_s
+            extra = ""
+            if label == "eroded":
+                dy = by_step[0][4]
+                sgn = 1.0 if cut.mode == "down" else -1.0
+                narrow = replace(cut, ae_m=cut.ae_m - sgn * dy)
+                ref = _sdm(c, narrow).value_per_s
+                extra = f"; SDM at ae - {sgn * dy * 1e6:.1f} um: {ref:+.4f}"
+            steps = ", ".join(f"{d:g} deg {_fmt(r[0], r[1])}" for d, r in zip(STEPS_DEG, by_step))
+            print(f"  {label:6s} steps: {steps}; order {_orders([r[:2] for r in by_step], ref)}{extra}", flush=True)
+            nd = by_step[0][3]
+            if c["tool"].helix_rad > 0:
+                counts = sorted({max(1, nd // 2), nd, 2 * nd})
+                by_disc = [by_step[0] if n == nd else fn(2.0, n) for n in counts]
+                discs = ", ".join(f"{n} discs {_fmt(r[0], r[1])}" for n, r in zip(counts, by_disc))
+                print(f"  {label:6s} discs (2 deg): {discs}", flush=True)
+            print(f"  {label:6s} CPU per simulated second at 2 deg, {nd} discs: {by_step[0][2]:.3f} s", flush=True)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--case", default=",".join(CASES), help=f"comma-separated, from {', '.join(CASES)}")
+    ap.add_argument("--factor", default=",".join(f"{f:g}" for f in FACTORS), help="comma-separated depth factors")
+    ap.add_argument("--no-eroded", action="store_true", help="only the delay-based method")
+    a = ap.parse_args(argv)
+    names = [n for n in a.case.split(",") if n]
+    bad = [n for n in names if n not in CASES]
+    if bad:
+        print(f"unknown case {bad[0]!r}; valid: {', '.join(CASES)}", file=sys.stderr)
+        return 2
+    try:
+        factors = [float(x) for x in a.factor.split(",")]
+    except ValueError:
+        print(f"--factor must be comma-separated numbers, got {a.factor!r}", file=sys.stderr)
+        return 2
+    if not all(0 < f <= 4 for f in factors):
+        print(f"--factor values must be in (0, 4], got {a.factor!r}", file=sys.stderr)
+        return 2
+    c = _benchmark(False)  # compile (or load) the delay kernel outside the CPU timings
+    simulate(StructureProblem(c["structure"], c["tool"], c["cut"], c["law"], t_end_s=0.01), DelayNewmark())
+    for n in names:
+        run_case(n, factors, not a.no_eroded)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

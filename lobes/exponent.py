@@ -1,0 +1,58 @@
+"""The Floquet exponent of a cut: ``sigma = ln|mu_max| / Tp`` (1/s), the growth rate a time-domain
+run must measure (Insperger & Stepan 2004), from the semi-discretization at ``m`` and ``2 m`` steps
+per principal period, extrapolated by :func:`robolobes.core.numerics.richardson` (order 2)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robolobes.core.numerics import richardson
+
+from .problem import LobeProblem
+from .sdm import SDMEngine, SemiDiscretization
+
+__all__ = ["FloquetExponent", "floquet_exponent"]
+
+
+@dataclass(frozen=True)
+class FloquetExponent:
+    """``sigma`` at ``m`` and ``2 m`` steps per period and its Richardson extrapolation, 1/s.
+
+    coarse_per_s, fine_per_s : float   ln|mu| / Tp at m and 2 m.
+    value_per_s, error_per_s : float   extrapolation and its error bound ``|fine - coarse|``.
+    period_s : float                   the principal period Tp, s.
+    m : int
+    """
+
+    coarse_per_s: float
+    fine_per_s: float
+    value_per_s: float
+    error_per_s: float
+    period_s: float
+    m: int
+
+
+def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = None) -> FloquetExponent:
+    """Floquet exponent of ``problem`` at its own cut (``cut.spindle_rpm``, ``cut.ap_m``).
+
+    Parameters
+    ----------
+    problem : LobeProblem
+    method : SemiDiscretization, optional
+        The coarse level (default ``SemiDiscretization(m=40)``); the fine level doubles ``m``.
+    """
+    method = SemiDiscretization(m=40) if method is None else method
+    rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
+    rates = []
+    period = math.nan
+    for m in (method.m, 2 * method.m):
+        engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6))
+        period = float(engine.period_s(np.array([rpm]))[0])
+        rho = float(engine.multipliers([rpm], [depth])[0][0])
+        rates.append(math.log(rho) / period)
+    ext = richardson(rates[0], rates[1])
+    return FloquetExponent(coarse_per_s=rates[0], fine_per_s=rates[1], value_per_s=float(ext.value),
+                           error_per_s=float(ext.error), period_s=period, m=method.m)
