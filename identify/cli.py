@@ -38,6 +38,44 @@ def _write_report(out, result, measurement, state):
                          theta=measurement.poses[0].theta)
 
 
+#: measurement kinds whose numbers depend on the material (the cutting-force coefficients differ
+#: ~5x between the built-in cases): their case is never assumed
+_MATERIAL_KINDS = ("forces", "force_stats", "stability")
+
+
+def check_measurement(measurement, state, case_given: bool) -> None:
+    """The checks every command makes on its inputs, before any work (BadInput, one line).
+
+    Joint angles inside the model's ranges (``linearize.check_limits``, the 5 deg tolerance of the
+    case loader) for FRF poses and stability rows given by angles; a force-side set names its case
+    (in its files or with ``--case``): its forces scale with the material's coefficients."""
+    import warnings
+
+    import numpy as np
+
+    from robolobes.core.errors import BadInput
+    from robolobes.linearize import check_limits
+
+    if measurement.kind in _MATERIAL_KINDS and not case_given and getattr(measurement, "case", None) is None:
+        raise BadInput(f"--measured {measurement.path}: names no case (the material sets the cutting forces); "
+                       "add case = \"tx200-aluminium\" (or another case) to the file, or pass --case")
+    robot = state.case.robot
+    if measurement.kind == "frf":
+        angles = [(f"pose {p.pose} of {measurement.path}/poses.csv", p.theta) for p in measurement.poses]
+    elif measurement.kind == "stability":
+        angles = [(f"{measurement.path} row {k + 2}", np.asarray(r.q_rad)) for k, r in enumerate(measurement.rows)
+                  if r.q_rad is not None]
+    else:
+        angles = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # within the tolerance: accepted, as the case loader does
+        for where, q in angles:
+            try:
+                check_limits(robot, q)
+            except BadInput as e:
+                raise BadInput(f"{where}: {e}") from None
+
+
 def run_identify_cli(args) -> int:
     import json
 
@@ -53,13 +91,14 @@ def run_identify_cli(args) -> int:
         raise BadInput("--effects is not used with stability observations: both candidates (joint_damping, "
                        "process_damping) are always tried; drop --effects")
     state, notes = model_state(measurement, args.case, args.variant)
+    check_measurement(measurement, state, args.case is not None)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
     state.robot()  # builds the model: bad [[elements]] fail here, before any work
     inputs = cli_inputs(args, case=state.case, files=_measured_files(measurement.path),
                         drop=("run", "quiet", "json", "report"))
     prov = provenance(inputs)
-    report = OutputDir(args.report, "identify", inputs) if args.report else None   # checked before work
+    report = OutputDir(args.report, "identify", inputs, name="--report") if args.report else None   # before work
     bar = Progress("identify", enabled=not args.quiet)
     steps = [0]
 
