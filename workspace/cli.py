@@ -396,6 +396,8 @@ def _plot_optimum(res, path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
     ax = axes[0]
     for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        if not ev.feasible:
+            continue
         ax.plot(ev.s_m * 1e3, np.minimum(ev.depth_m, res.problem.depth_max_m) * 1e3, "o-", color=c,
                 label=f"{lab}, {ev.rpm:.0f} rpm")
     ax.axhline(res.problem.map_problem.case.cut.ap_m * 1e3, color="k", ls="--", label="cut depth")
@@ -407,6 +409,8 @@ def _plot_optimum(res, path) -> None:
     ax = axes[1]
     spec = res.problem.map_problem.case.robot
     for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        if not ev.feasible:   # no pose to draw (e.g. no strictly feasible candidate)
+            continue
         pts, _ = fk_frames(spec, ev.theta[ev.worst])
         pts = np.vstack([[0.0, 0.0, 0.0], pts]) * 1e3
         ax.plot(pts[:, 0], pts[:, 2], "o-", color=c, lw=3, label=f"{lab}, worst pass pose")
@@ -495,6 +499,7 @@ def _optimize_json(opt, res, strict) -> dict:
           "baseline_strict_violation": (strict_violation(opt.map_problem.case.robot, base.theta)
                                         if base.feasible else None),
           "baseline_feasible": base.feasible, "baseline_reason": base.reason,
+          "optimum_feasible": best.feasible, "optimum_reason": best.reason,
           "depth_along_pass_m": {"s_m": best.s_m, "baseline": base.depth_m, "optimum": best.depth_m},
           "strict_limits": opt.strict, "strict_optimum": _strict_json(opt, res, strict),
           "evaluations": res.stats["evaluations"],
@@ -567,7 +572,10 @@ def _print_optimum(js: dict, target) -> None:
         f"at least {js['gain_at_least']:.3g}" if js["gain_at_least"] is not None else "none")
     where = (f"offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, yaw {js['yaw_deg']:.1f} deg, "
              f"tool rotation {js['tool_rotation_deg']:.1f} deg")
-    if js["objective"] == "mrr":
+    if not js["optimum_feasible"]:
+        print(f"{js['case']}: no feasible candidate found ({js['optimum_reason']}); try more --n-starts or wider "
+              f"ranges -> {target}")
+    elif js["objective"] == "mrr":
         print(f"{js['case']}: material removal rate {js['baseline_mrr_cm3_per_min']:.4g} cm^3/min (paper's placement, "
               f"{js['baseline_rpm']:.0f} rpm) -> {js['optimized_mrr_cm3_per_min']:.4g} cm^3/min at {js['best_rpm']:.0f} "
               f"rpm (gain {js['mrr_gain']:.3g}; depth {mm(js['optimized_min_depth_m'])}) with {where} -> {target}")
