@@ -67,25 +67,29 @@ def main(argv: list[str] | None = None) -> int:
     """Run one subcommand; returns the exit code.
 
     Exit codes: 0 done; 2 bad input (:class:`~robolobes.core.errors.BadInput`, one line on stderr,
-    raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C; 1 out
-    of memory (one line). Any other exception is an internal error and keeps its traceback.
+    raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C (SIGINT),
+    143 SIGTERM (one line, however many signals follow); 1 out of memory (one line). Any other exception is an internal error and keeps its traceback.
     """
     from robolobes.core.errors import BadInput
+
+    from robolobes.core import interrupt
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return int(args.run(args) or 0)
-    except KeyboardInterrupt:
-        print("\nrobolobes: interrupted", file=sys.stderr)
-        return 130
-    except MemoryError:
-        _error(args.command, "out of memory: reduce the grid sizes (--n, --m, --n-rpm) or the simulated duration")
-        return 1
-    except BadInput as e:  # only bad input; any other error is internal and keeps its traceback
-        _error(args.command, e)
-        return 2
+    # SIGINT / SIGTERM: the first interrupts, later ones wait for the clean-up (core.interrupt)
+    with interrupt.handling():
+        try:
+            return int(args.run(args) or 0)
+        except KeyboardInterrupt:
+            print("\nrobolobes: interrupted", file=sys.stderr)
+            return interrupt.exit_code()
+        except MemoryError:
+            _error(args.command, "out of memory: reduce the grid sizes (--n, --m, --n-rpm) or the simulated duration")
+            return 1
+        except BadInput as e:  # only bad input; any other error is internal and keeps its traceback
+            _error(args.command, e)
+            return 2
 
 
 if __name__ == "__main__":

@@ -28,6 +28,12 @@ Rules (stated once; the README's "Command line" section repeats them):
    lists are deleted; a file robolobes did not write is never deleted.
 5. An ``OSError`` while writing into the output becomes one line naming the user's path
    (:func:`user_path_errors`), not a traceback.
+6. A resumable output (``resume=True``: the map) is locked for the whole run with an OS lock
+   (``fcntl.flock`` on ``.NAME.robolobes-lock`` beside it, which the kernel releases when the
+   holder dies, however it dies): a second run on the same target is refused at once, naming the
+   holder's process id. The lock file is removed when the run ends; one left by a killed run is
+   reused. The marker is written atomically, and the final swap is not cut by a Ctrl-C
+   (:func:`robolobes.core.interrupt.deferred`).
 
 Usage::
 
@@ -56,6 +62,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fcntl
 import json
 import os
 import re
@@ -73,6 +80,7 @@ __all__ = ["MARKER", "OutputRefused", "OutputDir", "check_output_file", "read_pr
            "user_path_errors", "cli_inputs", "file_sha256"]
 
 MARKER = ".robolobes.json"
+_MARKER_TMP = MARKER + ".tmp"
 _SNIFF_BYTES = 65536
 _VERSION_RE = re.compile(rb"robolobes_version\W{1,6}([0-9A-Za-z.+_-]+)")
 _HASH_RE = re.compile(rb"inputs_sha256\W{1,6}([0-9a-f]{64})")
@@ -227,7 +235,7 @@ def _files_under(root: Path) -> list[str]:
             if (Path(dirpath) / d).is_symlink():
                 out.append((rel / d).as_posix())
         out += [(rel / f).as_posix() for f in filenames]
-    return sorted(f for f in out if f != MARKER)
+    return sorted(f for f in out if f not in (MARKER, _MARKER_TMP))
 
 
 def _read_marker(directory: Path) -> dict | None:
@@ -273,7 +281,23 @@ class OutputDir:
         self.path: Path | None = None
         self.resumed = False
         self._open = False
+        self._lock: tuple[int, Path] | None = None
         self.check()
+        if resume:
+            self._lock = _acquire_lock(self.target, self._shown)
+
+    def release(self) -> None:
+        """Release the output's lock (done by commit and discard; the kernel does it if we die)."""
+        if self._lock is not None:
+            fd, path = self._lock
+            self._lock = None
+            with contextlib.suppress(OSError):
+                path.unlink()      # while still holding the lock: see _acquire_lock
+            os.close(fd)
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):
+            self.release()
 
     # -- checks ---------------------------------------------------------------------------------
     @property
@@ -326,7 +350,10 @@ class OutputDir:
                 "complete": complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
 
     def _write_marker(self, d: Path, complete: bool) -> None:
-        (d / MARKER).write_text(json.dumps(self._marker(_files_under(d), complete), indent=2) + "\n")
+        """Write the marker atomically (a kill never leaves an empty or half-written one)."""
+        tmp = d / _MARKER_TMP
+        tmp.write_text(json.dumps(self._marker(_files_under(d), complete), indent=2) + "\n")
+        os.replace(tmp, d / MARKER)
 
     def open(self) -> Path:
         """Re-check the target and create the staging directory (reused with ``resume``); returns it.
@@ -374,38 +401,77 @@ class OutputDir:
         if not self._open:
             return
         self._open = False
-        if self.resume:
-            with contextlib.suppress(OSError):
-                self._write_marker(self.path, complete=False)
-        else:
-            shutil.rmtree(self.path, ignore_errors=True)  # the staging directory is entirely ours
+        from .interrupt import deferred
+
+        with deferred():
+            if self.resume:
+                with contextlib.suppress(OSError):
+                    self._write_marker(self.path, complete=False)
+            else:
+                shutil.rmtree(self.path, ignore_errors=True)  # the staging directory is entirely ours
+        self.release()
 
     def commit(self) -> None:
         """Write the marker, re-check the target and swap the staging directory in; ``path`` becomes the target."""
         if not self._open:
             raise RuntimeError("OutputDir.commit() without open()")
+        from .interrupt import deferred
+
+        with deferred():   # the swap and the removal of the old output are not cut by a Ctrl-C
+            try:
+                with user_path_errors(self.target):
+                    self._write_marker(self.path, complete=True)
+                    self.check()
+                    old = None
+                    if self.target.exists():
+                        old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-",
+                                                    dir=self.target.parent))
+                        old.rmdir()
+                        os.rename(self.target, old)
+                    try:
+                        os.rename(self.path, self.target)
+                    except BaseException:
+                        if old is not None:
+                            os.rename(old, self.target)
+                        raise
+            except BaseException:
+                self.discard()
+                raise
+            self._open = False
+            self.path = self.target
+            if old is not None:
+                _remove_listed(old)
+            self.release()
+
+
+def _acquire_lock(target: Path, shown: str) -> tuple[int, Path]:
+    """An exclusive ``flock`` on ``.NAME.robolobes-lock`` beside ``target``; OutputRefused if held.
+
+    The holder removes the file when it is done, while holding the lock; so after locking, the
+    path must still name the locked file (else another run removed it meanwhile: try again)."""
+    lock = target.parent / f".{target.name}.robolobes-lock"
+    for _ in range(100):
         try:
-            with user_path_errors(self.target):
-                self._write_marker(self.path, complete=True)
-                self.check()
-                old = None
-                if self.target.exists():
-                    old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-", dir=self.target.parent))
-                    old.rmdir()
-                    os.rename(self.target, old)
-                try:
-                    os.rename(self.path, self.target)
-                except BaseException:
-                    if old is not None:
-                        os.rename(old, self.target)
-                    raise
-        except BaseException:
-            self.discard()
-            raise
-        self._open = False
-        self.path = self.target
-        if old is not None:
-            _remove_listed(old)
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:
+            raise OutputRefused(f"{shown}: cannot create the lock {lock} ({e.strerror or e})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise OutputRefused(f"{shown} is in use by another robolobes run (process {holder}); wait for it to "
+                                "end or choose another directory") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            return fd, lock
+        os.close(fd)
+    raise OutputRefused(f"{shown}: could not lock {lock}; try again")
 
 
 def _remove_listed(old: Path) -> None:

@@ -129,12 +129,15 @@ def create_store(path: Path, problem, method, poses: dict) -> None:
             raise BadInput(f"{tmp} exists and is not a partial robolobes map store; move it away or choose "
                            f"another path")
         shutil.rmtree(tmp)
-    try:
-        ds.to_zarr(tmp, mode="w", encoding=enc, consolidated=False, write_empty_chunks=True)
-        tmp.rename(path)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    from robolobes.core.interrupt import deferred
+
+    with deferred():   # a Ctrl-C waits until the store exists whole (or its creation failed)
+        try:
+            ds.to_zarr(tmp, mode="w", encoding=enc, consolidated=False, write_empty_chunks=True)
+            tmp.rename(path)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
 
 
 def _is_map_store(path: Path) -> bool:
@@ -201,7 +204,15 @@ def write_chunk(path: Path, res: ChunkResult, n: int) -> None:
     for name, (dims, dt, _, _, _) in RESULT_VARS.items():
         data[name] = (dims, np.asarray(getattr(res, _FIELD.get(name, name))).astype(dt))
     region = {"pose": slice(res.start, res.start + n)}
-    xr.Dataset(data).to_zarr(path, region=region, consolidated=False, write_empty_chunks=True)
+    from robolobes.core.interrupt import deferred
+
+    with deferred():   # a Ctrl-C waits for the chunk's files: none is left half written
+        _write_region(path, xr.Dataset(data), region, n)
+
+
+def _write_region(path: Path, ds, region: dict, n: int) -> None:
+    xr = _xr()
+    ds.to_zarr(path, region=region, consolidated=False, write_empty_chunks=True)
     # ``done`` last, in its own write: a kill between the two leaves the chunk "not done"
     xr.Dataset({"done": ("pose", np.ones(n, bool))}).to_zarr(path, region=region, consolidated=False,
                                                              write_empty_chunks=True)
