@@ -6,16 +6,17 @@ The command line installs :func:`handling` around a subcommand. Then:
   ``SIGTERM`` is remembered, so that the exit code is 143 instead of 130);
 * **later** signals are counted and ignored: the clean-up that the first one started (stopping the
   workers, writing the "incomplete" marker, removing a staging directory) runs to its end, however
-  often the user presses Ctrl-C;
+  often the user presses Ctrl-C, and so does the interpreter's exit after it;
 * inside :func:`deferred` (a store's creation, a chunk's write, the final swap of a staging
   directory into ``--out``) the first signal waits until the block is done and is raised at its
   end, so a file is never left half written.
 
 Worker processes (:func:`worker_init`) ignore SIGINT (the parent stops them), and exit by
 themselves when their parent dies (SIGKILL of the parent included): a thread checks the parent
-every ``PARENT_POLL_S``. :func:`blocked` holds SIGINT and SIGTERM back while workers are started,
-so that a worker never sees one before it ignores it (the signal mask is inherited across
-``fork``/``exec``; a signal that arrives meanwhile is delivered to the parent afterwards).
+every ``PARENT_POLL_S``. :func:`blocked` holds SIGINT and SIGTERM back in the thread that starts
+the workers, so that a worker never sees one before it ignores it (the signal mask is inherited
+across ``fork``/``exec``); the parent itself wraps the start in :func:`deferred` as well, because a
+process-directed signal may be taken by another of its threads.
 
 Without :func:`handling` (library use, tests) :func:`deferred` and :func:`blocked` change nothing
 visible: Python's default handler raises at once.
@@ -75,7 +76,8 @@ def handling() -> Iterator[_State]:
         yield _state
     finally:
         for s, h in old.items():
-            signal.signal(s, h)
+            # after a signal the process is ending: more signals must not kill it mid-exit
+            signal.signal(s, signal.SIG_IGN if _state.interrupted or _state.pending else h)
         _state.active = False
 
 

@@ -86,12 +86,28 @@ def register(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+#: seconds to wait for a Dask scheduler to accept a connection before refusing --scheduler
+SCHEDULER_TIMEOUT_S = 5.0
+
+
 def _check_scheduler(s: str) -> str:
+    """``local``, ``serial`` or a ``tcp://HOST:PORT`` that accepts a TCP connection now (checked before
+    any work, whatever the number of chunks)."""
+    import socket
+
     if s in ("local", "serial"):
         return s
-    if s.startswith("tcp://") and ":" in s[6:] and s.rsplit(":", 1)[1].isdigit():
-        return s
-    raise BadInput(f"--scheduler must be local, serial or tcp://HOST:PORT, got {s!r}")
+    host, _, port = s[6:].rpartition(":") if s.startswith("tcp://") else ("", "", "")
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise BadInput(f"--scheduler must be local, serial or tcp://HOST:PORT with PORT in 1..65535, got {s!r}")
+    try:
+        with socket.create_connection((host, int(port)), timeout=SCHEDULER_TIMEOUT_S):
+            pass
+    except OSError as e:
+        raise BadInput(f"--scheduler {s}: no Dask scheduler answers there ({e.strerror or e}); start one "
+                       "(dask scheduler) or use --scheduler local") from None
+    return s
 
 
 def _tool_modes(path: str | None) -> tuple:

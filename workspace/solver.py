@@ -129,7 +129,9 @@ def _run_pool(tasks, on_result, workers: int):
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
                              initializer=interrupt.worker_init, initargs=(os.getpid(),))
     try:
-        with interrupt.blocked():   # the workers start with SIGINT held back, then ignore it
+        # the workers start with SIGINT/SIGTERM held back (then ignore SIGINT); this process finishes
+        # starting them before it acts on a signal (a half-sent start would crash the worker)
+        with interrupt.deferred(), interrupt.blocked():
             pending = {ex.submit(compute_chunk, *t) for t in tasks}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
