@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 import warnings
 
@@ -55,6 +56,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# a value such as -200,200 or -10,20,30 (numbers, the first negative): argparse takes it for an option
+_NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:,\s*[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)+$")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``["--x-range-mm", "-200,200"]`` -> ``["--x-range-mm=-200,200"]``: a comma list of numbers that
+    starts with a minus is a value, never an option, so it is joined to the option before it."""
+    out: list[str] = []
+    for tok in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and _NEGATIVE_LIST.match(tok):
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
+#: environment switch: parse and validate the command line (every check made before any work),
+#: then stop with exit code 0 (used by the test of every documented command line)
+VALIDATE_ONLY = "ROBOLOBES_VALIDATE_ONLY"
+
+
+def _validate_only(args) -> int:
+    """Run the subcommand's ``validate(args)`` (registered with ``set_defaults``) if it has one."""
+    check = getattr(args, "validate", None)
+    if check is not None:
+        check(args)
+    print(f"robolobes {args.command}: {'inputs valid' if check else 'command line parsed'} ({VALIDATE_ONLY})",
+          file=sys.stderr)
+    return 0
+
+
 def _format_warning(message, category, filename, lineno, line=None):
     return f"robolobes: warning: {message}\n"
 
@@ -76,10 +108,12 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     # SIGINT / SIGTERM: the first interrupts, later ones wait for the clean-up (core.interrupt)
     with interrupt.handling():
         try:
+            if os.environ.get(VALIDATE_ONLY) == "1":
+                return _validate_only(args)
             return int(args.run(args) or 0)
         except KeyboardInterrupt:
             print("\nrobolobes: interrupted", file=sys.stderr)
