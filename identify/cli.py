@@ -76,18 +76,17 @@ def check_measurement(measurement, state, case_given: bool) -> None:
                 raise BadInput(f"{where}: {e}") from None
 
 
-def run_identify_cli(args) -> int:
-    import json
-
-    from robolobes.core.io import provenance, to_jsonable
+def _prepare(args):
+    """Every check before any work: ``(measurement, state, prov, report)``."""
+    from robolobes.core.errors import BadInput
+    from robolobes.core.io import provenance
     from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
 
-    from .api import identify, model_state, read_measurement
+    from .api import model_state, read_measurement
 
     with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
         measurement = read_measurement(args.measured)
     if args.effects and measurement.kind == "stability":
-        from robolobes.core.errors import BadInput
         raise BadInput("--effects is not used with stability observations: both candidates (joint_damping, "
                        "process_damping) are always tried; drop --effects")
     state, notes = model_state(measurement, args.case, args.variant)
@@ -96,9 +95,24 @@ def run_identify_cli(args) -> int:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
     state.robot()  # builds the model: bad [[elements]] fail here, before any work
     inputs = cli_inputs(args, case=state.case, files=_measured_files(measurement.path),
-                        drop=("run", "quiet", "json", "report"))
-    prov = provenance(inputs)
-    report = OutputDir(args.report, "identify", inputs, name="--report") if args.report else None   # before work
+                        drop=("run", "quiet", "json", "report", "validate"))
+    report = OutputDir(args.report, "identify", inputs, name="--report") if args.report else None
+    return measurement, state, provenance(inputs), report
+
+
+def validate_identify(args) -> None:
+    """The checks of :func:`run_identify_cli` before any work (ROBOLOBES_VALIDATE_ONLY)."""
+    _prepare(args)
+
+
+def run_identify_cli(args) -> int:
+    import json
+
+    from robolobes.core.io import to_jsonable
+
+    from .api import identify
+
+    measurement, state, prov, report = _prepare(args)
     bar = Progress("identify", enabled=not args.quiet)
     steps = [0]
 
@@ -155,4 +169,4 @@ def _register_identify(sub) -> None:
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
-    p.set_defaults(run=run_identify_cli)
+    p.set_defaults(run=run_identify_cli, validate=validate_identify)

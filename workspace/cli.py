@@ -351,9 +351,14 @@ def optimize_problem_from_args(args):
         names.append("tool_rotation_rad")
     if not names:
         raise BadInput("every range of --over is empty (A = B): nothing to optimize")
+    flags = {"x_offset_m": ("--x-range-mm", 1e3), "y_offset_m": ("--y-range-mm", 1e3),
+             "z_offset_m": ("--z-range-mm", 1e3), "yaw_rad": ("--yaw-range-deg", 180 / math.pi),
+             "tool_rotation_rad": ("--rotation-range-deg", 180 / math.pi)}
     for k in names:
         if not rng[k][0] <= 0.0 <= rng[k][1]:
-            raise BadInput(f"the range of {k} must contain 0 (the paper's placement is the baseline), got {rng[k]}")
+            flag, scale = flags[k]
+            raise BadInput(f"{flag} must contain 0 (the paper's placement is the baseline), got "
+                           f"{rng[k][0] * scale:g},{rng[k][1] * scale:g}")
     speed_flags = [f for f, v in (("--rpm-min", args.rpm_min), ("--rpm-max", args.rpm_max), ("--n-rpm", args.n_rpm))
                    if v is not None]
     if args.objective == "depth" and speed_flags:
