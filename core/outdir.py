@@ -17,7 +17,9 @@ Rules (stated once; the README's "Command line" section repeats them):
    * a file robolobes did not write (no ``robolobes_version`` / ``inputs_sha256`` in its first
      or last 64 KiB: every robolobes writer records them, see ``core.io.provenance_text``);
    * a non-empty directory without the marker file ``.robolobes.json``, or one that holds a file
-     its marker does not list (a file the user added);
+     its marker does not list (a file the user added), or a file whose content differs from the
+     SHA-256 its marker records (a file the user edited; files inside a ``*.zarr`` store are not
+     hashed: every chunk carries its own checksum);
    * a robolobes output from other inputs (pass ``replace=True`` to allow replacing it; the CLIs
      do not, so a user deletes or renames an old result explicitly).
 
@@ -338,6 +340,10 @@ class OutputDir:
         if foreign:
             raise OutputRefused(f"{shown} holds {foreign[0]!r}, which robolobes did not write; the directory is left "
                                 "untouched: move that file or choose another directory")
+        changed = [] if partial else _changed_files(d, marker)
+        if changed:
+            raise OutputRefused(f"{shown} holds {changed[0]!r}, changed since robolobes wrote it; the directory is "
+                                "left untouched: move that file away (or delete it) to run again")
         digest = marker["provenance"].get("inputs_sha256")
         if digest != self.provenance["inputs_sha256"] and not self.replace:
             raise OutputRefused(f"{shown} holds a robolobes {marker.get('command', '')} output from other inputs "
@@ -345,14 +351,17 @@ class OutputDir:
                                 "delete it")
 
     # -- staging --------------------------------------------------------------------------------
-    def _marker(self, files: list[str], complete: bool) -> dict:
-        return {"command": self.command, "provenance": self.provenance, "inputs": self.inputs,
-                "complete": complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
+    def _marker(self, files: list[str], complete: bool, d: Path | None = None) -> dict:
+        m = {"command": self.command, "provenance": self.provenance, "inputs": self.inputs,
+             "complete": complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
+        if complete and d is not None:
+            m["sha256"] = {f: _sha256_of(d / f) for f in files if _hashed(f) and (d / f).is_file()}
+        return m
 
     def _write_marker(self, d: Path, complete: bool) -> None:
         """Write the marker atomically (a kill never leaves an empty or half-written one)."""
         tmp = d / _MARKER_TMP
-        tmp.write_text(json.dumps(self._marker(_files_under(d), complete), indent=2) + "\n")
+        tmp.write_text(json.dumps(self._marker(_files_under(d), complete, d), indent=2) + "\n")
         os.replace(tmp, d / MARKER)
 
     def open(self) -> Path:
@@ -472,6 +481,35 @@ def _acquire_lock(target: Path, shown: str) -> tuple[int, Path]:
             return fd, lock
         os.close(fd)
     raise OutputRefused(f"{shown}: could not lock {lock}; try again")
+
+
+def _hashed(rel: str) -> bool:
+    """Files whose content the marker records: all but those inside a zarr store (``*.zarr/``),
+    which carries a checksum in every chunk and is verified by its reader."""
+    return not any(part.endswith(".zarr") for part in rel.split("/")[:-1])
+
+
+def _sha256_of(path: Path) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _changed_files(d: Path, marker: dict) -> list[str]:
+    """Files of a finished output whose content differs from what its marker records (a user's edit)."""
+    out = []
+    for rel, digest in sorted((marker.get("sha256") or {}).items()):
+        f = d / rel
+        try:
+            if f.is_file() and _sha256_of(f) != digest:
+                out.append(rel)
+        except OSError:
+            out.append(rel)
+    return out
 
 
 def _remove_listed(old: Path) -> None:

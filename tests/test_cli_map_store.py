@@ -88,3 +88,12 @@ def test_every_chunk_is_written_even_all_fill(made):
     z = made[0] / "map.zarr"
     for v in ("depth_limit_m", "bifurcation", "done", "n_kept_modes"):
         assert sorted(p.name for p in (z / v / "c").iterdir()) == ["0", "1"]
+
+
+def test_an_edited_file_inside_the_output_is_not_overwritten(made, tmp_path, capsys):
+    out = _copy(made, tmp_path)
+    (out / "map.json").write_text('{"my": "notes"}\n')
+    rc = main(ARGS + ["--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "'map.json', changed since robolobes wrote it" in err[0], err
+    assert (out / "map.json").read_text() == '{"my": "notes"}\n'
