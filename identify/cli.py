@@ -48,7 +48,8 @@ def check_measurement(measurement, state, case_given: bool) -> None:
 
     Joint angles inside the model's ranges (``linearize.check_limits``, the 5 deg tolerance of the
     case loader) for FRF poses and stability rows given by angles; a force-side set names its case
-    (in its files or with ``--case``): its forces scale with the material's coefficients."""
+    (in its files or with ``--case``): its forces scale with the material's coefficients; a force
+    series lies inside the case's pass and is not zero everywhere."""
     import warnings
 
     import numpy as np
@@ -59,6 +60,13 @@ def check_measurement(measurement, state, case_given: bool) -> None:
     if measurement.kind in _MATERIAL_KINDS and not case_given and getattr(measurement, "case", None) is None:
         raise BadInput(f"--measured {measurement.path}: names no case (the material sets the cutting forces); "
                        "add case = \"tx200-aluminium\" (or another case) to the file, or pass --case")
+    if measurement.kind == "forces":
+        from .forces import check_window
+
+        check_window(measurement.path / "cut.toml", measurement.window_s, state.case)
+        if not np.any(measurement.force_n):
+            raise BadInput(f"{measurement.path / 'forces.csv'}: every force sample in window_s is zero: no cut was "
+                           "measured (an empty channel?)")
     robot = state.case.robot
     if measurement.kind == "frf":
         angles = [(f"pose {p.pose} of {measurement.path}/poses.csv", p.theta) for p in measurement.poses]

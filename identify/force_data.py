@@ -16,8 +16,7 @@ Three kinds of set (issue 10, section 1), each recognised from its files:
 Every reader checks before any work and raises :class:`~robolobes.core.errors.BadInput` with one
 line naming the file and the bad value: NaN, a sample rate that disagrees with ``t_s`` (more than
 0.1 % or non-uniform sampling beyond 1 % jitter), a window outside the pass or not covered by the
-samples, unknown axes or observations, a force beyond ``MAX_FORCE_N`` (1 MN) or a series that is
-zero on every axis, a speed outside (0, ``MAX_RPM``] rpm or a depth outside (0, ``MAX_DEPTH_MM``]
+samples, unknown axes or observations, a force beyond ``MAX_FORCE_N`` (1 MN), a speed outside (0, ``MAX_RPM``] rpm or a depth outside (0, ``MAX_DEPTH_MM``]
 mm. Files are read, never modified. Sizes are bounded (``MAX_SAMPLES``, ``MAX_ROWS``).
 """
 
@@ -263,8 +262,6 @@ def _read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
         i, j = np.argwhere(big)[0]
         raise _bad(path, f"row {i + 2}, column {['fx_n', 'fy_n', 'fz_n'][j]} is {float(a[i, j + 1]):.6g} N; a cutting "
                          f"force is at most {MAX_FORCE_N:.0e} N in magnitude (check the unit)")
-    if not np.any(a[:, 1:]):
-        raise _bad(path, "every force sample is zero: no cut was measured (an empty channel?)")
     return np.ascontiguousarray(a[:, 0]), np.ascontiguousarray(a[:, 1:])
 
 

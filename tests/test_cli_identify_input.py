@@ -164,7 +164,7 @@ def _force_set(d, forces, rate=1000.0, case='case = "tx200-aluminium"\n'):
 
 def test_all_zero_forces_refused(tmp_path, capsys):
     d = _force_set(tmp_path / "f", np.zeros((200, 3)))
-    _refused(capsys, d, "every force sample is zero")
+    _refused(capsys, d, "every force sample in window_s is zero")
 
 
 def test_a_force_of_1e308_newton_refused(tmp_path, capsys):
