@@ -83,13 +83,6 @@ def test_deleted_done_array_means_nothing_done(made, tmp_path, capsys):
     _same_results(out, made[1])
 
 
-def test_every_chunk_is_written_even_all_fill(made):
-    # zarr skips chunks equal to the fill value unless told otherwise: every file must exist
-    z = made[0] / "map.zarr"
-    for v in ("depth_limit_m", "bifurcation", "done", "n_kept_modes"):
-        assert sorted(p.name for p in (z / v / "c").iterdir()) == ["0", "1"]
-
-
 def test_an_edited_file_inside_the_output_is_not_overwritten(made, tmp_path, capsys):
     out = _copy(made, tmp_path)
     (out / "map.json").write_text('{"my": "notes"}\n')
