@@ -35,7 +35,8 @@ Rules (stated once; the README's "Command line" section repeats them):
    holder dies, however it dies): a second run on the same target is refused at once, naming the
    holder's process id. The lock file is removed when the run ends; one left by a killed run is
    reused. The marker is written atomically, and the final swap is not cut by a Ctrl-C
-   (:func:`robolobes.core.interrupt.deferred`).
+   (:func:`robolobes.core.interrupt.deferred`). A staging directory is ``flock``-ed by its run;
+   one left by a run that died (nothing holds its lock) is removed by the next run on the target.
 
 Usage::
 
@@ -284,12 +285,17 @@ class OutputDir:
         self.resumed = False
         self._open = False
         self._lock: tuple[int, Path] | None = None
+        self._stage_fd: int | None = None
         self.check()
         if resume:
             self._lock = _acquire_lock(self.target, self._shown)
+        _remove_dead_stages(self.target)
 
     def release(self) -> None:
-        """Release the output's lock (done by commit and discard; the kernel does it if we die)."""
+        """Release the output's locks (done by commit and discard; the kernel does it if we die)."""
+        if self._stage_fd is not None:
+            os.close(self._stage_fd)
+            self._stage_fd = None
         if self._lock is not None:
             fd, path = self._lock
             self._lock = None
@@ -383,6 +389,7 @@ class OutputDir:
                 self._write_marker(self.path, complete=False)
             else:
                 self.path = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-stage-", dir=self.target.parent))
+                self._stage_fd = _lock_dir(self.path)   # held while alive: a later run knows it is not stale
         self._open = True
         return self.path
 
@@ -451,6 +458,42 @@ class OutputDir:
             if old is not None:
                 _remove_listed(old)
             self.release()
+
+
+def _lock_dir(d: Path) -> int:
+    """An open descriptor of directory ``d`` holding an exclusive ``flock`` on it."""
+    fd = os.open(d, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return fd
+
+
+def _remove_dead_stages(target: Path) -> None:
+    """Remove the staging directories of ``target`` left by runs that died (SIGKILL, power loss).
+
+    A staging directory is ``.NAME.robolobes-stage-XXXXXXXX`` (made by :meth:`OutputDir.open`,
+    entirely ours) and its run holds a ``flock`` on it while alive; one that can be locked now has
+    no live holder, so it is removed. Staging directories of live runs and anything else are kept."""
+    pattern = re.compile(re.escape(f".{target.name}.robolobes-stage-") + r"[A-Za-z0-9_]{8}")
+    try:
+        entries = list(target.parent.iterdir())
+    except OSError:
+        return
+    for d in entries:
+        if not pattern.fullmatch(d.name) or d.is_symlink() or not d.is_dir():
+            continue
+        try:
+            fd = os.open(d, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue   # a live run's
+        try:
+            shutil.rmtree(d, ignore_errors=True)
+        finally:
+            os.close(fd)
 
 
 def _acquire_lock(target: Path, shown: str) -> tuple[int, Path]:
