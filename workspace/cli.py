@@ -68,9 +68,11 @@ def _case_ref(args) -> str:
 
     if args.model is not None and args.case is not None:
         raise BadInput("--case has no effect with --model (the identified model TOML is a whole case); drop one")
-    if args.model is None and args.case is None:
+    if args.model is not None:
+        return str(args.model)
+    if args.case is None:
         args.case = DEFAULT_CASE
-    return args.model if args.model is not None else args.case
+    return str(args.case)
 
 
 def _common(p: argparse.ArgumentParser) -> None:

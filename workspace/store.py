@@ -184,8 +184,9 @@ def _read_done(path: Path, P: int, cp: int) -> np.ndarray:
 
     group = zarr.open_group(str(path), mode="r")
     why = next((w for k in range(-(-P // cp)) if (w := _chunk_problem(group, path, "done", k, cp))), None)
-    if why is None:
-        done = np.asarray(group["done"][:], dtype=bool)
+    arr = group["done"] if why is None else None
+    if isinstance(arr, zarr.Array):
+        done = np.asarray(arr[:], dtype=bool)
         if done.shape == (P,):
             return done
         why = f"done has shape {done.shape}, not ({P},)"
@@ -220,9 +221,13 @@ def _write_region(path: Path, ds, region: dict, n: int) -> None:
 
 def _chunk_problem(group, path: Path, name: str, k: int, cp: int) -> str | None:
     """Why chunk ``k`` (poses ``k cp`` ..) of array ``name`` cannot be trusted, or None."""
+    import zarr
+
     if name not in group:
         return f"array {name} is missing"
     arr = group[name]
+    if not isinstance(arr, zarr.Array):
+        return f"{name} is not an array"
     key = arr.metadata.encode_chunk_key((k,) + (0,) * (arr.ndim - 1))
     if not (path / name / key).is_file():
         return f"{name}/{key} is missing"
