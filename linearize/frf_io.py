@@ -27,8 +27,8 @@ Bad input raises :class:`~robolobes.core.errors.BadInput` naming the file and th
 a frequency axis not increasing, a pose not in ``poses.csv``, unknown ordinate types, units or
 directions. A file is read completely or refused: an empty file, one that is not text (binary
 bytes, UTF-16), one whose datasets are not closed by their ``-1`` delimiter (truncated), one with
-fewer values than its ``num_pts``, one with no dataset 58, or with datasets other than 58, 151
-(header) and 164 (SI units) is an error naming it; so are an FRF that is zero at every line, a
+fewer values than its ``num_pts``, one with no dataset 58, or with a units dataset 164 other than
+SI is an error naming it (other datasets, such as 151 headers or geometry, are skipped); so are an FRF that is zero at every line, a
 pair measured twice for one pose, and a dataset labelled with another pose inside a file named
 after a pose of ``poses.csv``. ``poses.csv`` (UTF-8, a byte-order mark accepted) must have the
 columns ``pose`` and ``q1_deg`` .. ``q6_deg``.
@@ -270,10 +270,6 @@ def _to_receptance(f_hz, H, ordinate: int, units: str, denom: str, where: str):
     return f_hz, (H / (1j * w) if ordinate == 11 else -H / w ** 2)
 
 
-#: datasets a measured-FRF UFF file may hold besides 58: 151 (header), 164 (units, SI only)
-_UFF_OTHER = (151, 164)
-
-
 def _uff_text_check(path: Path) -> int | None:
     """Refuse a file that cannot be a complete UFF: empty, not text, not opened or closed by the
     ``-1`` delimiter. Returns the number of datasets its delimiters enclose (None for binary 58b
@@ -314,10 +310,9 @@ def _uff_sets(path: Path) -> list[dict]:
         raise BadInput(f"{path}: {n_blocks} datasets between '-1' lines, of which pyuff read {len(sets)}: "
                        "a damaged or truncated file")
     types = [s.get("type") for s in sets]
-    other = sorted({t for t in types if t != 58 and t not in _UFF_OTHER}, key=str)
-    if other or 58 not in types:
-        raise BadInput(f"{path}: datasets {sorted(set(types), key=str)}; an FRF file holds datasets 58 (and "
-                       "optionally 151 header, 164 units)")
+    if 58 not in types:
+        raise BadInput(f"{path}: datasets {sorted(set(types), key=str)} and no dataset 58 (function at a node: "
+                       "the FRFs); an FRF file holds datasets 58")
     for k, s in enumerate(sets):
         if s.get("type") == 164 and int(s.get("units_code", 1)) != 1:
             raise BadInput(f"{path} dataset {k + 1}: units dataset 164 with units_code {s.get('units_code')}; "
