@@ -100,11 +100,11 @@ def main(argv: list[str] | None = None) -> int:
 
     Exit codes: 0 done; 2 bad input (:class:`~robolobes.core.errors.BadInput`, one line on stderr,
     raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C (SIGINT),
-    143 SIGTERM (one line, however many signals follow); 1 out of memory (one line). Any other exception is an internal error and keeps its traceback.
+    143 SIGTERM (one line, however many signals follow); 1 out of memory (one line). Any other
+    exception is an internal error and keeps its traceback.
     """
-    from robolobes.core.errors import BadInput
-
     from robolobes.core import interrupt
+    from robolobes.core.errors import BadInput
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
     parser = build_parser()
