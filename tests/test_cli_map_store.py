@@ -81,6 +81,19 @@ def test_deleted_done_array_means_nothing_done(made, tmp_path, capsys):
     assert "array done is missing" in err and len(err.strip().splitlines()) == 1
     assert js["computed_poses"] == 12
     _same_results(out, made[1])
+    assert xr.open_zarr(out / "map.zarr", consolidated=False).attrs == made[1].attrs   # still our store
+
+
+@pytest.mark.slow
+def test_garbage_in_the_done_array_means_nothing_done(made, tmp_path, capsys):
+    out = _copy(made, tmp_path)
+    (out / "map.zarr" / "done" / "c" / "1").write_bytes(b"garbage")
+    js, err = _run(out, capsys)
+    assert "done/c/1 cannot be decoded" in err or "done/c/1 fails its checksum" in err, err
+    assert js["computed_poses"] == 12
+    _same_results(out, made[1])
+    js, err = _run(out, capsys)      # and the repaired store resumes as complete
+    assert js["computed_poses"] == 0 and not err.strip()
 
 
 def test_an_edited_file_inside_the_output_is_not_overwritten(made, tmp_path, capsys):

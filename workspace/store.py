@@ -192,7 +192,9 @@ def _read_done(path: Path, P: int, cp: int) -> np.ndarray:
         why = f"done has shape {done.shape}, not ({P},)"
     warnings.warn(f"{path.name}: {why}; every chunk is computed again", StoreDamageWarning, stacklevel=2)
     xr = _xr()
-    xr.Dataset({"done": ("pose", np.zeros(P, bool))}).to_zarr(
+    # mode "a" rewrites the group's attributes with the dataset's: keep the store's own
+    attrs = dict(group.attrs)
+    xr.Dataset({"done": ("pose", np.zeros(P, bool))}, attrs=attrs).to_zarr(
         path, mode="a", consolidated=False, write_empty_chunks=True,
         encoding={"done": {"chunks": (cp,), **_codecs()}} if "done" not in group else None)
     return np.zeros(P, bool)
