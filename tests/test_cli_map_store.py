@@ -74,6 +74,7 @@ def test_garbage_in_a_chunk_fails_its_checksum_and_is_recomputed(made, tmp_path,
     _same_results(out, made[1])
 
 
+@pytest.mark.slow
 def test_deleted_done_array_means_nothing_done(made, tmp_path, capsys):
     out = _copy(made, tmp_path)
     shutil.rmtree(out / "map.zarr" / "done")

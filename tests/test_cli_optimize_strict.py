@@ -13,7 +13,7 @@ import pytest
 from robolobes.main import main
 
 
-@pytest.mark.parametrize("case", ["tx200-aluminium", "tx200-steel"])
+@pytest.mark.parametrize("case", ["tx200-aluminium", pytest.param("tx200-steel", marks=pytest.mark.slow)])
 def test_optimize_strict_works_for_both_builtin_cases(tmp_path, capsys, case):
     out = tmp_path / "opt"
     rc = main(["optimize", "--case", case, "--strict", "--n-starts", "1", "--max-local-evals", "0", "--n-s", "2",
