@@ -5,7 +5,8 @@ by this test with ``os.killpg`` (the whole group, as a terminal's Ctrl-C does: t
 too), exactly as many as each test states. Nothing wraps the command in GNU ``timeout`` (which
 would forward a signal of its own). The moment is found by watching the staging directory:
 ``.map.zarr.partial`` while the store is created, ``map.zarr/done`` once chunks compute,
-``map.json`` just before the final swap. The moments other than "chunks compute" are ``slow``.
+``map.json`` just before the final swap. The default run keeps the SIGKILL, lock and scheduler
+tests; the Ctrl-C and SIGTERM moments (5-30 s each) are ``slow``.
 """
 
 import fcntl
@@ -116,6 +117,7 @@ def _worker_pids(proc, n=2, limit_s=120):
     raise AssertionError("the workers did not start")
 
 
+@pytest.mark.slow
 def test_sigints_while_chunks_compute_stop_the_workers_and_resume(tmp_path):
     out = tmp_path / "m"
     proc = _start(out, SMALL + ["--workers", "2"])
@@ -150,7 +152,6 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path):
     assert not [p for p in workers if _alive(p)]
 
 
-@pytest.mark.slow
 def test_sigkill_of_the_main_process_leaves_no_worker_alive(tmp_path):
     out = tmp_path / "m"
     proc = _start(out, SMALL + ["--workers", "2"])
