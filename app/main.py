@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 import warnings
 
@@ -65,6 +66,37 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+# a value such as -200,200 or -10,20,30 (numbers, the first negative): argparse takes it for an option
+_NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:,\s*[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)+$")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``["--x-range-mm", "-200,200"]`` -> ``["--x-range-mm=-200,200"]``: a comma list of numbers that
+    starts with a minus is a value, never an option, so it is joined to the option before it."""
+    out: list[str] = []
+    for tok in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and _NEGATIVE_LIST.match(tok):
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
+#: environment switch: parse and validate the command line (every check made before any work),
+#: then stop with exit code 0 (used by the test of every documented command line)
+VALIDATE_ONLY = "ROBOLOBES_VALIDATE_ONLY"
+
+
+def _validate_only(args) -> int:
+    """Run the subcommand's ``validate(args)`` (registered with ``set_defaults``) if it has one."""
+    check = getattr(args, "validate", None)
+    if check is not None:
+        check(args)
+    print(f"robolobes {args.command}: {'inputs valid' if check else 'command line parsed'} ({VALIDATE_ONLY})",
+          file=sys.stderr)
+    return 0
+
+
 def _format_warning(message, category, filename, lineno, line=None):
     return f"robolobes: warning: {message}\n"
 
@@ -77,28 +109,34 @@ def main(argv: list[str] | None = None) -> int:
     """Run one subcommand; returns the exit code.
 
     Exit codes: 0 done; 2 bad input (:class:`~robolobes.core.errors.BadInput`, one line on stderr,
-    raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C; 1 out
-    of memory (one line). Any other exception is an internal error and keeps its traceback.
+    raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C (SIGINT),
+    143 SIGTERM (one line, however many signals follow); 1 out of memory (one line). Any other
+    exception is an internal error and keeps its traceback.
     """
+    from robolobes.core import interrupt
     from robolobes.core.errors import BadInput
     from robolobes.core.warnonce import each_warning_once
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
-    argv = sys.argv[1:] if argv is None else list(argv)
+    argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
     parser = build_parser(argv)
     args = parser.parse_args(argv)
-    try:
-        with each_warning_once():  # the same warning reached from several steps is shown once
-            return int(args.run(args) or 0)
-    except KeyboardInterrupt:
-        print("\nrobolobes: interrupted", file=sys.stderr)
-        return 130
-    except MemoryError:
-        _error(args.command, "out of memory: reduce the grid sizes (--n, --m, --n-rpm) or the simulated duration")
-        return 1
-    except BadInput as e:  # only bad input; any other error is internal and keeps its traceback
-        _error(args.command, e)
-        return 2
+    # SIGINT / SIGTERM: the first interrupts, later ones wait for the clean-up (core.interrupt)
+    with interrupt.handling():
+        try:
+            if os.environ.get(VALIDATE_ONLY) == "1":
+                return _validate_only(args)
+            with each_warning_once():  # the same warning reached from several steps is shown once
+                return int(args.run(args) or 0)
+        except KeyboardInterrupt:
+            print("\nrobolobes: interrupted", file=sys.stderr)
+            return interrupt.exit_code()
+        except MemoryError:
+            _error(args.command, "out of memory: reduce the grid sizes (--n, --m, --n-rpm) or the simulated duration")
+            return 1
+        except BadInput as e:  # only bad input; any other error is internal and keeps its traceback
+            _error(args.command, e)
+            return 2
 
 
 if __name__ == "__main__":

@@ -25,6 +25,10 @@ __all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_ca
            "case_table"]
 
 DEFAULT_CASE = "tx200-aluminium"
+#: Largest joint stiffness accepted, N m/rad: five orders of magnitude above the TX200's stiffest
+#: joint (6e6); beyond it the joint is rigid for every purpose and the stiffness matrix's ratio to
+#: its softest terms approaches float64 resolution (the modal solve fails with no useful message).
+MAX_STIFFNESS_N_M_PER_RAD = 1e12
 
 
 class CaseError(BadInput):
@@ -141,7 +145,8 @@ class _Reader:
             raise self._err(key, "an array of tables [[...]]", v, missing=v is None)
         return [_Reader(self.path, x, f"{self.prefix}{key}[{i}].") for i, x in enumerate(v)]
 
-    def num(self, key: str, default=None, *, positive=False, nonneg=False, allow_nan=False) -> float:
+    def num(self, key: str, default=None, *, positive=False, nonneg=False, allow_nan=False,
+            most: float | None = None) -> float:
         v = self._get(key, default)
         if v is None:
             raise self._err(key, "a number", missing=True)
@@ -156,6 +161,8 @@ class _Reader:
             raise self._err(key, "a number > 0", v)
         if nonneg and v < 0:
             raise self._err(key, "a number >= 0", v)
+        if most is not None and abs(v) > most:
+            raise self._err(key, f"a number of magnitude <= {most:g}", v)
         return v
 
     def integer(self, key: str, default=None, *, minimum=None) -> int:
@@ -280,7 +287,7 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
             raise jr._err("range_deg", "[lower, upper] with lower < upper", np.degrees(rng).tolist())
         joints.append(JointSpec(
             name=jr.text("name"), axis=cast(Axis, jr.text("axis", choices=("x", "y", "z"))),
-            stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True),
+            stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True, most=MAX_STIFFNESS_N_M_PER_RAD),
             damping_n_m_s_per_rad=jr.num("damping_n_m_s_per_rad", nonneg=True),
             range_rad=rng, gravity_compensation=jr.boolean("gravity_compensation", False)))
         jr.finish()
@@ -307,7 +314,8 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
     spec = RobotSpec(
         name=r.text("name"), links=tuple(links), joints=tuple(joints), payload=payload,
         gravity_m_per_s2=r.num("gravity_m_per_s2", nonneg=True),
-        orthogonal_stiffness_n_m_per_rad=orth.num("stiffness_n_m_per_rad", positive=True),
+        orthogonal_stiffness_n_m_per_rad=orth.num("stiffness_n_m_per_rad", positive=True,
+                                                  most=MAX_STIFFNESS_N_M_PER_RAD),
         orthogonal_damping_n_m_s_per_rad=orth.num("damping_n_m_s_per_rad", nonneg=True),
         backlash_half_width_rad=back.num("half_width_rad", nonneg=True),
         poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""),

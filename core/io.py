@@ -9,8 +9,10 @@ removed and an existing target is left untouched.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any, Iterator
@@ -27,8 +29,9 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     target = Path(path)
     if target.parent and not target.parent.exists():
         raise FileNotFoundError(f"output directory {target.parent} does not exist")
+    _remove_dead_parts(target)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part" + target.suffix, dir=target.parent or ".")
-    os.close(fd)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)   # held while this process lives: see _remove_dead_parts
     tmp_path = Path(tmp)
     umask = os.umask(0)
     os.umask(umask)
@@ -39,6 +42,31 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+    finally:
+        os.close(fd)
+
+
+def _remove_dead_parts(target: Path) -> None:
+    """Remove ``.NAME.XXXXXXXX.partSUFFIX`` files beside ``target`` left by a process that died while
+    writing (its ``flock`` on the file is gone: the kernel drops it with the process)."""
+    pattern = re.compile(re.escape(f".{target.name}.") + r"[A-Za-z0-9_]{8}" + re.escape(".part" + target.suffix))
+    parent = target.parent if str(target.parent) else Path(".")
+    try:
+        entries = [p for p in parent.iterdir() if pattern.fullmatch(p.name)]
+    except OSError:
+        return
+    for p in entries:
+        try:
+            fd = os.open(p, os.O_RDONLY | os.O_NOFOLLOW)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            p.unlink(missing_ok=True)
+        except OSError:
+            pass   # a live writer's
+        finally:
+            os.close(fd)
 
 
 def to_jsonable(obj) -> Any:

@@ -17,7 +17,9 @@ Rules (stated once; the README's "Command line" section repeats them):
    * a file robolobes did not write (no ``robolobes_version`` / ``inputs_sha256`` in its first
      or last 64 KiB: every robolobes writer records them, see ``core.io.provenance_text``);
    * a non-empty directory without the marker file ``.robolobes.json``, or one that holds a file
-     its marker does not list (a file the user added);
+     its marker does not list (a file the user added), or a file whose content differs from the
+     SHA-256 its marker records (a file the user edited; files inside a ``*.zarr`` store are not
+     hashed: every chunk carries its own checksum);
    * a robolobes output from other inputs (pass ``replace=True`` to allow replacing it; the CLIs
      do not, so a user deletes or renames an old result explicitly).
 
@@ -28,6 +30,13 @@ Rules (stated once; the README's "Command line" section repeats them):
    lists are deleted; a file robolobes did not write is never deleted.
 5. An ``OSError`` while writing into the output becomes one line naming the user's path
    (:func:`user_path_errors`), not a traceback.
+6. A resumable output (``resume=True``: the map) is locked for the whole run with an OS lock
+   (``fcntl.flock`` on ``.NAME.robolobes-lock`` beside it, which the kernel releases when the
+   holder dies, however it dies): a second run on the same target is refused at once, naming the
+   holder's process id. The lock file is removed when the run ends; one left by a killed run is
+   reused. The marker is written atomically, and the final swap is not cut by a Ctrl-C
+   (:func:`robolobes.core.interrupt.deferred`). A staging directory is ``flock``-ed by its run;
+   one left by a run that died (nothing holds its lock) is removed by the next run on the target.
 
 Usage::
 
@@ -56,6 +65,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fcntl
 import json
 import os
 import re
@@ -73,6 +83,7 @@ __all__ = ["MARKER", "OutputRefused", "OutputDir", "check_output_file", "read_pr
            "user_path_errors", "cli_inputs", "file_sha256"]
 
 MARKER = ".robolobes.json"
+_MARKER_TMP = MARKER + ".tmp"
 _SNIFF_BYTES = 65536
 _VERSION_RE = re.compile(rb"robolobes_version\W{1,6}([0-9A-Za-z.+_-]+)")
 _HASH_RE = re.compile(rb"inputs_sha256\W{1,6}([0-9a-f]{64})")
@@ -227,7 +238,7 @@ def _files_under(root: Path) -> list[str]:
             if (Path(dirpath) / d).is_symlink():
                 out.append((rel / d).as_posix())
         out += [(rel / f).as_posix() for f in filenames]
-    return sorted(f for f in out if f != MARKER)
+    return sorted(f for f in out if f not in (MARKER, _MARKER_TMP))
 
 
 def _read_marker(directory: Path) -> dict | None:
@@ -279,7 +290,28 @@ class OutputDir:
         self.path: Path | None = None
         self.resumed = False
         self._open = False
+        self._lock: tuple[int, Path] | None = None
+        self._stage_fd: int | None = None
         self.check()
+        if resume:
+            self._lock = _acquire_lock(self.target, self._shown)
+        _remove_dead_stages(self.target)
+
+    def release(self) -> None:
+        """Release the output's locks (done by commit and discard; the kernel does it if we die)."""
+        if self._stage_fd is not None:
+            os.close(self._stage_fd)
+            self._stage_fd = None
+        if self._lock is not None:
+            fd, path = self._lock
+            self._lock = None
+            with contextlib.suppress(OSError):
+                path.unlink()      # while still holding the lock: see _acquire_lock
+            os.close(fd)
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):
+            self.release()
 
     # -- checks ---------------------------------------------------------------------------------
     @property
@@ -320,6 +352,10 @@ class OutputDir:
         if foreign:
             raise OutputRefused(f"{shown} holds {foreign[0]!r}, which robolobes did not write; the directory is left "
                                 "untouched: move that file or choose another directory")
+        changed = [] if partial else _changed_files(d, marker)
+        if changed:
+            raise OutputRefused(f"{shown} holds {changed[0]!r}, changed since robolobes wrote it; the directory is "
+                                "left untouched: move that file away (or delete it) to run again")
         digest = marker["provenance"].get("inputs_sha256")
         if digest != self.provenance["inputs_sha256"] and not self.replace:
             raise OutputRefused(f"{shown} holds a robolobes {marker.get('command', '')} output from other inputs "
@@ -327,12 +363,18 @@ class OutputDir:
                                 "delete it")
 
     # -- staging --------------------------------------------------------------------------------
-    def _marker(self, files: list[str], complete: bool) -> dict:
-        return {"command": self.command, "provenance": self.provenance, "inputs": self.inputs,
-                "complete": complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
+    def _marker(self, files: list[str], complete: bool, d: Path | None = None) -> dict:
+        m = {"command": self.command, "provenance": self.provenance, "inputs": self.inputs,
+             "complete": complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files}
+        if complete and d is not None:
+            m["sha256"] = {f: _sha256_of(d / f) for f in files if _hashed(f) and (d / f).is_file()}
+        return m
 
     def _write_marker(self, d: Path, complete: bool) -> None:
-        (d / MARKER).write_text(json.dumps(self._marker(_files_under(d), complete), indent=2) + "\n")
+        """Write the marker atomically (a kill never leaves an empty or half-written one)."""
+        tmp = d / _MARKER_TMP
+        tmp.write_text(json.dumps(self._marker(_files_under(d), complete, d), indent=2) + "\n")
+        os.replace(tmp, d / MARKER)
 
     def open(self) -> Path:
         """Re-check the target and create the staging directory (reused with ``resume``); returns it.
@@ -353,6 +395,7 @@ class OutputDir:
                 self._write_marker(self.path, complete=False)
             else:
                 self.path = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-stage-", dir=self.target.parent))
+                self._stage_fd = _lock_dir(self.path)   # held while alive: a later run knows it is not stale
         self._open = True
         return self.path
 
@@ -381,39 +424,143 @@ class OutputDir:
             return
         assert self.path is not None  # open() set it
         self._open = False
-        if self.resume:
-            with contextlib.suppress(OSError):
-                self._write_marker(self.path, complete=False)
-        else:
-            shutil.rmtree(self.path, ignore_errors=True)  # the staging directory is entirely ours
+        from .interrupt import deferred
+
+        with deferred():
+            if self.resume:
+                with contextlib.suppress(OSError):
+                    self._write_marker(self.path, complete=False)
+            else:
+                shutil.rmtree(self.path, ignore_errors=True)  # the staging directory is entirely ours
+        self.release()
 
     def commit(self) -> None:
         """Write the marker, re-check the target and swap the staging directory in; ``path`` becomes the target."""
         if not self._open:
             raise RuntimeError("OutputDir.commit() without open()")
         assert self.path is not None  # open() set it
+        from .interrupt import deferred
+
+        with deferred():   # the swap and the removal of the old output are not cut by a Ctrl-C
+            try:
+                with user_path_errors(self.target):
+                    self._write_marker(self.path, complete=True)
+                    self.check()
+                    old = None
+                    if self.target.exists():
+                        old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-",
+                                                    dir=self.target.parent))
+                        old.rmdir()
+                        os.rename(self.target, old)
+                    try:
+                        os.rename(self.path, self.target)
+                    except BaseException:
+                        if old is not None:
+                            os.rename(old, self.target)
+                        raise
+            except BaseException:
+                self.discard()
+                raise
+            self._open = False
+            self.path = self.target
+            if old is not None:
+                _remove_listed(old)
+            self.release()
+
+
+def _lock_dir(d: Path) -> int:
+    """An open descriptor of directory ``d`` holding an exclusive ``flock`` on it."""
+    fd = os.open(d, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return fd
+
+
+def _remove_dead_stages(target: Path) -> None:
+    """Remove the staging directories of ``target`` left by runs that died (SIGKILL, power loss).
+
+    A staging directory is ``.NAME.robolobes-stage-XXXXXXXX`` (made by :meth:`OutputDir.open`,
+    entirely ours) and its run holds a ``flock`` on it while alive; one that can be locked now has
+    no live holder, so it is removed. Staging directories of live runs and anything else are kept."""
+    pattern = re.compile(re.escape(f".{target.name}.robolobes-stage-") + r"[A-Za-z0-9_]{8}")
+    try:
+        entries = list(target.parent.iterdir())
+    except OSError:
+        return
+    for d in entries:
+        if not pattern.fullmatch(d.name) or d.is_symlink() or not d.is_dir():
+            continue
         try:
-            with user_path_errors(self.target):
-                self._write_marker(self.path, complete=True)
-                self.check()
-                old = None
-                if self.target.exists():
-                    old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-", dir=self.target.parent))
-                    old.rmdir()
-                    os.rename(self.target, old)
-                try:
-                    os.rename(self.path, self.target)
-                except BaseException:
-                    if old is not None:
-                        os.rename(old, self.target)
-                    raise
-        except BaseException:
-            self.discard()
-            raise
-        self._open = False
-        self.path = self.target
-        if old is not None:
-            _remove_listed(old)
+            fd = os.open(d, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue   # a live run's
+        try:
+            shutil.rmtree(d, ignore_errors=True)
+        finally:
+            os.close(fd)
+
+
+def _acquire_lock(target: Path, shown: str) -> tuple[int, Path]:
+    """An exclusive ``flock`` on ``.NAME.robolobes-lock`` beside ``target``; OutputRefused if held.
+
+    The holder removes the file when it is done, while holding the lock; so after locking, the
+    path must still name the locked file (else another run removed it meanwhile: try again)."""
+    lock = target.parent / f".{target.name}.robolobes-lock"
+    for _ in range(100):
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:
+            raise OutputRefused(f"{shown}: cannot create the lock {lock} ({e.strerror or e})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise OutputRefused(f"{shown} is in use by another robolobes run (process {holder}); wait for it to "
+                                "end or choose another directory") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            return fd, lock
+        os.close(fd)
+    raise OutputRefused(f"{shown}: could not lock {lock}; try again")
+
+
+def _hashed(rel: str) -> bool:
+    """Files whose content the marker records: all but those inside a zarr store (``*.zarr/``),
+    which carries a checksum in every chunk and is verified by its reader."""
+    return not any(part.endswith(".zarr") for part in rel.split("/")[:-1])
+
+
+def _sha256_of(path: Path) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _changed_files(d: Path, marker: dict) -> list[str]:
+    """Files of a finished output whose content differs from what its marker records (a user's edit)."""
+    out = []
+    for rel, digest in sorted((marker.get("sha256") or {}).items()):
+        f = d / rel
+        try:
+            if f.is_file() and _sha256_of(f) != digest:
+                out.append(rel)
+        except OSError:
+            out.append(rel)
+    return out
 
 
 def _remove_listed(old: Path) -> None:

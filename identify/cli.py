@@ -38,28 +38,89 @@ def _write_report(out, result, measurement, state):
                          theta=measurement.poses[0].theta)
 
 
-def run_identify_cli(args) -> int:
-    import json
+#: measurement kinds whose numbers depend on the material (the cutting-force coefficients differ
+#: ~5x between the built-in cases): their case is never assumed
+_MATERIAL_KINDS = ("forces", "force_stats", "stability")
 
-    from robolobes.core.io import provenance, to_jsonable
+
+def check_measurement(measurement, state, case_given: bool) -> None:
+    """The checks every command makes on its inputs, before any work (BadInput, one line).
+
+    Joint angles inside the model's ranges (``linearize.check_limits``, the 5 deg tolerance of the
+    case loader) for FRF poses and stability rows given by angles; a force-side set names its case
+    (in its files or with ``--case``): its forces scale with the material's coefficients; a force
+    series lies inside the case's pass and is not zero everywhere."""
+    import warnings
+
+    import numpy as np
+
+    from robolobes.core.errors import BadInput
+    from robolobes.linearize import check_limits
+
+    if measurement.kind in _MATERIAL_KINDS and not case_given and getattr(measurement, "case", None) is None:
+        raise BadInput(f"--measured {measurement.path}: names no case (the material sets the cutting forces); "
+                       "add case = \"tx200-aluminium\" (or another case) to the file, or pass --case")
+    if measurement.kind == "forces":
+        from .forces import check_window
+
+        check_window(measurement.path / "cut.toml", measurement.window_s, state.case)
+        if not np.any(measurement.force_n):
+            raise BadInput(f"{measurement.path / 'forces.csv'}: every force sample in window_s is zero: no cut was "
+                           "measured (an empty channel?)")
+    robot = state.case.robot
+    if measurement.kind == "frf":
+        angles = [(f"pose {p.pose} of {measurement.path}/poses.csv", p.theta) for p in measurement.poses]
+    elif measurement.kind == "stability":
+        angles = [(f"{measurement.path} row {k + 2}", np.asarray(r.q_rad)) for k, r in enumerate(measurement.rows)
+                  if r.q_rad is not None]
+    else:
+        angles = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # within the tolerance: accepted, as the case loader does
+        for where, q in angles:
+            try:
+                check_limits(robot, q)
+            except BadInput as e:
+                raise BadInput(f"{where}: {e}") from None
+
+
+def _prepare(args):
+    """Every check before any work: ``(measurement, state, prov, report)``."""
+    from robolobes.core.errors import BadInput
+    from robolobes.core.io import provenance
     from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
 
-    from .api import identify, model_state, read_measurement
+    from .api import model_state, read_measurement
 
     with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
         measurement = read_measurement(args.measured)
     if args.effects and measurement.kind == "stability":
-        from robolobes.core.errors import BadInput
         raise BadInput("--effects is not used with stability observations: both candidates (joint_damping, "
                        "process_damping) are always tried; drop --effects")
     state, notes = model_state(measurement, args.case, args.variant)
+    check_measurement(measurement, state, args.case is not None)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
     state.robot()  # builds the model: bad [[elements]] fail here, before any work
     inputs = cli_inputs(args, case=state.case, files=_measured_files(measurement.path),
-                        drop=("run", "quiet", "json", "report"))
-    prov = provenance(inputs)
-    report = OutputDir(args.report, "identify", inputs) if args.report else None   # checked before work
+                        drop=("run", "quiet", "json", "report", "validate"))
+    report = OutputDir(args.report, "identify", inputs, name="--report") if args.report else None
+    return measurement, state, provenance(inputs), report
+
+
+def validate_identify(args) -> None:
+    """The checks of :func:`run_identify_cli` before any work (ROBOLOBES_VALIDATE_ONLY)."""
+    _prepare(args)
+
+
+def run_identify_cli(args) -> int:
+    import json
+
+    from robolobes.core.io import to_jsonable
+
+    from .api import identify
+
+    measurement, state, prov, report = _prepare(args)
     bar = Progress("identify", enabled=not args.quiet)
     steps = [0]
 
@@ -116,4 +177,4 @@ def _register_identify(sub) -> None:
     p.add_argument("--no-poles", action="store_true",
                    help="skip the modal fit (LSCF/LSFD) of the measurement (FRF sets; saves a few s per pose)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
-    p.set_defaults(run=run_identify_cli)
+    p.set_defaults(run=run_identify_cli, validate=validate_identify)

@@ -16,8 +16,8 @@ Three kinds of set, each recognised from its files:
 Every reader checks before any work and raises :class:`~robolobes.core.errors.BadInput` with one
 line naming the file and the bad value: NaN, a sample rate that disagrees with ``t_s`` (more than
 0.1 % or non-uniform sampling beyond 1 % jitter), a window outside the pass or not covered by the
-samples, unknown axes or observations. Files are read, never modified. Sizes are bounded
-(``MAX_SAMPLES``, ``MAX_ROWS``).
+samples, unknown axes or observations, a force beyond ``MAX_FORCE_N`` (1 MN), a speed outside (0, ``MAX_RPM``] rpm or a depth outside (0, ``MAX_DEPTH_MM``]
+mm. Files are read, never modified. Sizes are bounded (``MAX_SAMPLES``, ``MAX_ROWS``).
 """
 
 from __future__ import annotations
@@ -44,6 +44,15 @@ MAX_ROWS = 100_000
 STAT_KEYS = ("min", "max", "mean", "rms")
 #: Relative disagreement allowed between ``sample_rate_hz`` and the mean spacing of ``t_s``.
 RATE_TOL = 1e-3
+#: Largest force magnitude accepted in a sample or a statistic, N. A robot's milling forces are
+#: hundreds of N; 1 MN is beyond what any spindle, tool or robot carries, and squares of forces up
+#: to it stay far from float64 overflow (1e308).
+MAX_FORCE_N = 1e6
+#: Fastest spindle speed accepted, rpm (the bound of every other command's speeds).
+MAX_RPM = 100_000.0
+#: Deepest axial cut accepted, mm: longer than any end mill's flutes; deeper "depths" are typos
+#: (a depth in um), and the lobe computation becomes ill-conditioned far beyond it.
+MAX_DEPTH_MM = 100.0
 
 
 def _bad(path, msg: str) -> BadInput:
@@ -227,7 +236,7 @@ def read_force_set(directory) -> ForceSeries:
 
 def _read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     try:
-        with open(path, newline="") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             header = fh.readline().strip().replace(" ", "").split(",")
             if header != ["t_s", "fx_n", "fy_n", "fz_n"]:
                 raise _bad(path, f"header must be t_s,fx_n,fy_n,fz_n, got {','.join(header)!r}")
@@ -237,6 +246,8 @@ def _read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
                 raise _bad(path, f"not a table of numbers: {e}") from None
     except FileNotFoundError:
         raise _bad(path, "file not found (a cutting-force set needs forces.csv and cut.toml)") from None
+    except UnicodeDecodeError as e:
+        raise _bad(path, f"not a UTF-8 CSV file ({e})") from None
     if a.shape[0] > MAX_SAMPLES:
         raise _bad(path, f"more than {MAX_SAMPLES} samples; split the series or decimate it")
     if a.shape[0] < 2 or a.shape[1] != 4:
@@ -246,6 +257,11 @@ def _read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
         i, j = np.argwhere(bad)[0]
         raise _bad(path, f"row {i + 2}, column {['t_s', 'fx_n', 'fy_n', 'fz_n'][j]} is {a[i, j]}; values must "
                          f"be finite numbers")
+    big = np.abs(a[:, 1:]) > MAX_FORCE_N
+    if big.any():
+        i, j = np.argwhere(big)[0]
+        raise _bad(path, f"row {i + 2}, column {['fx_n', 'fy_n', 'fz_n'][j]} is {float(a[i, j + 1]):.6g} N; a cutting "
+                         f"force is at most {MAX_FORCE_N:.0e} N in magnitude (check the unit)")
     return np.ascontiguousarray(a[:, 0]), np.ascontiguousarray(a[:, 1:])
 
 
@@ -285,6 +301,9 @@ def read_force_stats(path) -> ForceStatistics:
             if k not in tab:
                 raise _bad(p, f"table [{ax}] lacks key {k!r}; it needs min, max, mean, rms (N)")
             row[k] = _number(p, f"{ax}.{k}", tab[k])
+            if abs(row[k]) > MAX_FORCE_N:
+                raise _bad(p, f"[{ax}] {k} = {row[k]:.6g} N; a cutting force is at most {MAX_FORCE_N:.0e} N in "
+                              "magnitude (check the unit)")
         if not row["min"] <= row["mean"] <= row["max"] or row["rms"] < abs(row["mean"]) - 1e-9:
             raise _bad(p, f"table [{ax}] = {row} is inconsistent: needs min <= mean <= max and rms >= |mean|")
         stats[ax] = row
@@ -296,7 +315,7 @@ def read_stability(path) -> StabilityObservations:
     """Read ``stability.csv`` (module docstring). Raises BadInput naming the file, row and value."""
     p = Path(path)
     try:
-        with open(p, newline="") as fh:
+        with open(p, newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(fh)
             cols = [c.strip() for c in (reader.fieldnames or [])]
             need = {"case", "rpm", "depth_mm", "observed"}
@@ -310,17 +329,21 @@ def read_stability(path) -> StabilityObservations:
                 rows.append(_stability_row(p, i, {k.strip(): (v or "").strip() for k, v in raw.items() if k}, qcols))
     except FileNotFoundError:
         raise _bad(p, "file not found") from None
+    except (UnicodeDecodeError, csv.Error) as e:
+        raise _bad(p, f"not a UTF-8 CSV file ({e})") from None
     if not rows:
         raise _bad(p, "no observations")
     return StabilityObservations(path=p, rows=tuple(rows))
 
 
 def _stability_row(p, i: int, r: dict, qcols: list) -> StabilityObservation:
-    def num(key, positive=False):
+    def num(key, positive=False, most=None, unit=""):
         try:
             v = float(r[key])
         except (KeyError, ValueError):
             raise _bad(p, f"row {i}: {key} = {r.get(key)!r} is not a number") from None
+        if most is not None and not (math.isfinite(v) and 0 < v <= most):
+            raise _bad(p, f"row {i}: {key} = {r[key]!r}; valid: (0, {most:g}] {unit}")
         if not math.isfinite(v) or (positive and v <= 0):
             raise _bad(p, f"row {i}: {key} = {r[key]!r}; valid: a finite number{' > 0' if positive else ''}")
         return v
@@ -332,7 +355,8 @@ def _stability_row(p, i: int, r: dict, qcols: list) -> StabilityObservation:
         raise _bad(p, f"row {i}: empty case")
     path_s = num("path_s_m") if r.get("path_s_m") else None
     q = tuple(math.radians(num(c)) for c in qcols) if path_s is None else None
-    return StabilityObservation(case=r["case"], rpm=num("rpm", True), depth_m=num("depth_mm", True) * 1e-3,
+    return StabilityObservation(case=r["case"], rpm=num("rpm", most=MAX_RPM, unit="rpm"),
+                                depth_m=num("depth_mm", most=MAX_DEPTH_MM, unit="mm") * 1e-3,
                                 chatter=obs == "chatter", path_s_m=path_s, q_rad=q)
 
 

@@ -25,7 +25,13 @@ to that pose whatever the file is called. Read by :func:`read_frf_set`:
 
 Bad input raises :class:`~robolobes.core.errors.BadInput` naming the file and the value: NaN,
 a frequency axis not increasing, a pose not in ``poses.csv``, unknown ordinate types, units or
-directions.
+directions. A file is read completely or refused: an empty file, one that is not text (binary
+bytes, UTF-16), one whose datasets are not closed by their ``-1`` delimiter (truncated), one with
+fewer values than its ``num_pts``, one with no dataset 58, or with a units dataset 164 other than
+SI is an error naming it (other datasets, such as 151 headers or geometry, are skipped); so are an FRF that is zero at every line, a
+pair measured twice for one pose, and a dataset labelled with another pose inside a file named
+after a pose of ``poses.csv``. ``poses.csv`` (UTF-8, a byte-order mark accepted) must have the
+columns ``pose`` and ``q1_deg`` .. ``q6_deg``.
 """
 
 from __future__ import annotations
@@ -46,6 +52,8 @@ __all__ = ["write_frf", "read_frf", "plot_bode", "MeasuredPair", "PoseFRF", "FRF
            "write_frf_set", "G_M_PER_S2", "ToolFRF", "read_tool_frf", "parse_frf_axes", "tool_frf_files"]
 
 G_M_PER_S2 = 9.80665  # standard gravity, for accelerances in g
+#: motor angles per pose in ``poses.csv`` (the six-axis arm)
+N_JOINTS = 6
 
 _FMT = {".csv": "csv", ".uff": "uff", ".unv": "uff"}
 
@@ -220,6 +228,9 @@ def _check_axis(f_hz, H, where: str) -> None:
         raise BadInput(f"{where}: needs at least 2 frequency lines, got {len(f_hz)}")
     if not np.all(np.isfinite(f_hz)) or not np.all(np.isfinite(H)):
         raise BadInput(f"{where}: NaN or inf in the frequencies or the FRF values")
+    if not np.any(H):
+        raise BadInput(f"{where}: the FRF is zero at every line; a measured FRF is not (an empty or "
+                       "failed channel?)")
     if np.any(np.diff(f_hz) <= 0) or f_hz[0] < 0:
         i = int(np.argmax(np.diff(f_hz) <= 0)) if np.any(np.diff(f_hz) <= 0) else 0
         raise BadInput(f"{where}: the frequency axis must be >= 0 and increasing; it is not at line {i} "
@@ -259,15 +270,60 @@ def _to_receptance(f_hz, H, ordinate: int, units: str, denom: str, where: str):
     return f_hz, (H / (1j * w) if ordinate == 11 else -H / w ** 2)
 
 
+def _uff_text_check(path: Path) -> int | None:
+    """Refuse a file that cannot be a complete UFF: empty, not text, not opened or closed by the
+    ``-1`` delimiter. Returns the number of datasets its delimiters enclose (None for binary 58b
+    datasets, whose payload is not line-structured)."""
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise BadInput(f"{path}: cannot read ({e.strerror or e})") from None
+    if not raw.strip():
+        raise BadInput(f"{path}: empty file; a UFF file holds datasets 58 between '-1' lines")
+    if b"\x00" in raw or raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        if re.search(rb"^\s*58b\b", raw, re.M) is None:
+            raise BadInput(f"{path}: not a text UFF file (NUL bytes: binary data or UTF-16); save it as "
+                           "ASCII UFF")
+    lines = [ln.strip() for ln in raw.decode("latin-1").splitlines()]
+    body = [ln for ln in lines if ln]
+    if body[0] != "-1":
+        raise BadInput(f"{path}: not a UFF file (the first line is not the '-1' delimiter)")
+    if re.search(rb"^\s*58b\b", raw, re.M) is not None:
+        return None
+    n_delim = sum(ln == "-1" for ln in body)
+    if n_delim % 2 or body[-1] != "-1":
+        raise BadInput(f"{path}: truncated UFF file (the last dataset is not closed by a '-1' line)")
+    return n_delim // 2
+
+
 def _uff_sets(path: Path) -> list[dict]:
+    """The datasets 58 of a UFF file, read completely or refused (BadInput naming the file)."""
     import pyuff
 
+    n_blocks = _uff_text_check(path)
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as e:  # pyuff raises bare exceptions on malformed files
         raise BadInput(f"{path}: not a readable UFF file ({e})") from None
     sets = [sets] if isinstance(sets, dict) else list(sets)
-    return [s for s in sets if s.get("type") == 58]
+    if n_blocks is not None and len(sets) != n_blocks:
+        raise BadInput(f"{path}: {n_blocks} datasets between '-1' lines, of which pyuff read {len(sets)}: "
+                       "a damaged or truncated file")
+    types = [s.get("type") for s in sets]
+    if 58 not in types:
+        raise BadInput(f"{path}: datasets {sorted(set(types), key=str)} and no dataset 58 (function at a node: "
+                       "the FRFs); an FRF file holds datasets 58")
+    for k, s in enumerate(sets):
+        if s.get("type") == 164 and int(s.get("units_code", 1)) != 1:
+            raise BadInput(f"{path} dataset {k + 1}: units dataset 164 with units_code {s.get('units_code')}; "
+                           "only SI (1) is read: the units come from each dataset's axis labels")
+    out = [s for s in sets if s.get("type") == 58]
+    for k, s in enumerate(out):
+        n = int(s.get("num_pts", -1))
+        if len(np.atleast_1d(s.get("data", []))) != n or len(np.atleast_1d(s.get("x", []))) != n:
+            raise BadInput(f"{path} dataset {k + 1}: {len(np.atleast_1d(s.get('data', [])))} values for num_pts "
+                           f"= {n}: a truncated or damaged dataset")
+    return out
 
 
 def _uff_pair(s: dict, where: str) -> tuple[str | None, str, MeasuredPair]:
@@ -291,13 +347,25 @@ _CSV_LABELS = {"x": 0, "y": 1, "z": 2, "feed": 0, "normal": 1, "axial": 2}
 
 
 def _csv_pairs(path: Path) -> tuple[str, list[MeasuredPair]]:
-    with open(path) as fh:
-        first = fh.readline()
-        names = fh.readline().strip().split(",")
+    try:
+        raw = path.read_bytes()
+        text = raw.decode("utf-8")
+    except OSError as e:
+        raise BadInput(f"{path}: cannot read ({e.strerror or e})") from None
+    except UnicodeDecodeError:
+        raise BadInput(f"{path}: not a UTF-8 text file (binary data or UTF-16?); save it as UTF-8 CSV") from None
+    if not text.strip():
+        raise BadInput(f"{path}: empty file")
+    if "\x00" in text:
+        raise BadInput(f"{path}: NUL bytes in a CSV file (binary data or UTF-16?)")
+    if not text.endswith("\n"):
+        raise BadInput(f"{path}: the last line does not end with a newline: a truncated file?")
+    first, _, rest = text.partition("\n")
+    names = rest.partition("\n")[0].strip().split(",")
     if not first.startswith("#") or not names or names[0] != "freq_hz":
         raise BadInput(f"{path}: not an FRF CSV written by robolobes frf (a '# ...' line, then freq_hz,H_<out>_<in>_re_m_per_n,...)")
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=2, ndmin=2)
+        data = np.loadtxt(text.splitlines()[2:], delimiter=",", ndmin=2)
     except ValueError as e:
         raise BadInput(f"{path}: {e}") from None
     if data.shape[1] != len(names):
@@ -449,15 +517,21 @@ def read_tool_frf(path: str | Path, axes: str = "x,y") -> ToolFRF:
 
 def _read_poses_csv(path: Path) -> tuple[dict, str | None]:
     try:
-        with open(path, newline="") as fh:
-            rows = list(csv.DictReader(fh))
-            names = rows[0].keys() if rows else []
-    except (OSError, UnicodeDecodeError) as e:
-        raise BadInput(f"{path}: cannot read ({e})") from None
-    qcols = [c for c in names if re.fullmatch(r"q\d+_deg", c or "")]
-    if "pose" not in names or not qcols:
-        raise BadInput(f"{path}: needs columns pose,q1_deg,...,q6_deg (commanded motor angles, degrees)")
-    qcols.sort(key=lambda c: int(c[1:-4]))
+        with open(path, newline="", encoding="utf-8-sig") as fh:   # a byte-order mark is not a column name
+            reader = csv.DictReader(fh)
+            names = [(c or "").strip() for c in (reader.fieldnames or [])]
+            rows = [{(k or "").strip(): v for k, v in r.items()} for r in reader]
+    except FileNotFoundError:
+        raise BadInput(f"{path}: no such file; an FRF set needs poses.csv (pose,q1_deg,...,q6_deg)") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise BadInput(f"{path}: cannot read as UTF-8 CSV ({e})") from None
+    qcols = [f"q{i}_deg" for i in range(1, N_JOINTS + 1)]
+    missing = [c for c in ["pose"] + qcols if c not in names]
+    extra = [c for c in names if re.fullmatch(r"q\d+_deg", c) and c not in qcols]
+    if missing or extra:
+        raise BadInput(f"{path}: columns {names}: {'missing ' + ', '.join(missing) if missing else ''}"
+                       f"{'; ' if missing and extra else ''}{'unknown ' + ', '.join(extra) if extra else ''}; "
+                       f"needs pose,q1_deg,...,q{N_JOINTS}_deg (commanded motor angles, degrees)")
     poses, cases = {}, set()
     for k, row in enumerate(rows, start=2):
         name = (row["pose"] or "").strip()
@@ -492,24 +566,37 @@ def read_frf_set(path: str | Path) -> FRFSet:
     poses, case = _read_poses_csv(d / "poses.csv")
     found: dict[str, list] = {name: [] for name in poses}
     frames: dict[str, set] = {name: set() for name in poses}
+    where_pair: dict[tuple, str] = {}
+
+    def add(pose: str, fr: str, pair: MeasuredPair, where: str) -> None:
+        key = (pose, pair.out_axis, pair.in_axis)
+        if key in where_pair:
+            raise BadInput(f"{where}: pose {pose} pair (out {'xyz'[pair.out_axis]}, in {'xyz'[pair.in_axis]}) is "
+                           f"measured twice (also in {where_pair[key]}); give each pair once")
+        where_pair[key] = where
+        found[pose].append(pair)
+        frames[pose].add(fr)
+
     for f in sorted(d.iterdir()):
-        if f.name == "poses.csv" or f.suffix.lower() not in _FMT:
+        if f.name == "poses.csv" or f.suffix.lower() not in _FMT or not f.is_file():
             continue
         if _fmt(f) == "csv":
             if f.stem not in poses:
                 raise BadInput(f"{f}: pose {f.stem!r} is not in {d / 'poses.csv'} (poses: {', '.join(poses)})")
             fr, pairs = _csv_pairs(f)
-            found[f.stem] += pairs
-            frames[f.stem].add(fr)
+            for pair in pairs:
+                add(f.stem, fr, pair, str(f))
             continue
         for k, s in enumerate(_uff_sets(f)):
             where = f"{f} dataset {k + 1}"
             pose, fr, pair = _uff_pair(s, where)
+            if pose is not None and f.stem in poses and pose != f.stem:
+                raise BadInput(f"{where}: labelled pose {pose!r} (id1) inside {f.name}, the file of pose "
+                               f"{f.stem!r}; rename the file or fix its id1")
             pose = pose or f.stem
             if pose not in poses:
                 raise BadInput(f"{where}: pose {pose!r} is not in {d / 'poses.csv'} (poses: {', '.join(poses)})")
-            found[pose].append(pair)
-            frames[pose].add(fr)
+            add(pose, fr, pair, where)
     out = []
     for name, pairs in found.items():
         if not pairs:

@@ -23,6 +23,8 @@ MAX_N = 20_000
 MAX_N_RPM = 1_000
 #: speeds per candidate of the MRR objective (robolobes.workspace.optimize.MAX_MRR_SPEEDS)
 MAX_OPT_RPM = 200
+#: default simulated time of an optimize --time-domain check, s
+TD_END_S = 4.0
 
 
 def parse_range(name: str, text: str | None, scale: float, default):
@@ -38,11 +40,45 @@ def parse_range(name: str, text: str | None, scale: float, default):
     return a * scale, b * scale
 
 
+#: the range options each ``map --over`` uses (any other one given has no effect: refused)
+MAP_RANGES = {"pass": (), "placement": ("x_range_mm", "y_range_mm", "z_range_mm", "yaw_range_deg"),
+              "tool-rotation": ("rotation_range_deg",), "lead-tilt": ("tilt_range_deg", "lead_range_deg")}
+#: the range options each ``optimize --over`` item uses
+OPT_RANGES = {"placement": ("x_range_mm", "y_range_mm", "z_range_mm", "yaw_range_deg"),
+              "tool-rotation": ("rotation_range_deg",)}
+
+
+def _flag(dest: str) -> str:
+    return "--" + dest.replace("_", "-")
+
+
+def _refuse_unused(args, used: set, candidates, why: str) -> None:
+    """BadInput for the first option among ``candidates`` that was given but is not in ``used``."""
+    for dest in candidates:
+        if getattr(args, dest, None) is not None and dest not in used:
+            raise BadInput(f"{_flag(dest)} has no effect {why}; drop it")
+
+
+def _case_ref(args) -> str:
+    """``--model`` or ``--case`` (the default case if neither); both given: refused (--model replaces
+    the case)."""
+    from robolobes.cases import DEFAULT_CASE
+
+    if args.model is not None and args.case is not None:
+        raise BadInput("--case has no effect with --model (the identified model TOML is a whole case); drop one")
+    if args.model is not None:
+        return str(args.model)
+    if args.case is None:
+        args.case = DEFAULT_CASE
+    return str(args.case)
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     from robolobes.cases import DEFAULT_CASE
     from robolobes.linearize.model import VARIANTS
 
-    p.add_argument("--case", default=DEFAULT_CASE, help=f"built-in case or case TOML (default {DEFAULT_CASE})")
+    p.add_argument("--case", default=None, help=f"built-in case or case TOML (default {DEFAULT_CASE}; not with "
+                                                "--model)")
     p.add_argument("--variant", default="basic", choices=VARIANTS, help="model variant (default basic)")
     p.add_argument("--model", default=None, metavar="FILE",
                    help="identified model TOML (robolobes identify's case TOML with [[elements]]); replaces --case")
@@ -84,16 +120,38 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--rpm-max", type=float, default=25000.0)
     p.add_argument("--n-rpm", type=int, default=100, help=f"speeds, 1..{MAX_N_RPM} (default 100)")
     p.add_argument("--out", default="robolobes-map", metavar="DIR", help="output directory (default robolobes-map)")
-    p.set_defaults(run=run_map)
+    p.set_defaults(run=run_map, validate=validate_map)
     return p
 
 
+def validate_map(args) -> None:
+    """Every check ``map`` makes before any work (ROBOLOBES_VALIDATE_ONLY): options, case, output."""
+    problem, method = problem_from_args(args)
+    _out_dir(args, problem, method).release()
+
+
+#: seconds to wait for a Dask scheduler to accept a connection before refusing --scheduler
+SCHEDULER_TIMEOUT_S = 5.0
+
+
 def _check_scheduler(s: str) -> str:
+    """``local``, ``serial`` or a ``tcp://HOST:PORT`` that accepts a TCP connection now (checked before
+    any work, whatever the number of chunks)."""
+    import socket
+
     if s in ("local", "serial"):
         return s
-    if s.startswith("tcp://") and ":" in s[6:] and s.rsplit(":", 1)[1].isdigit():
-        return s
-    raise BadInput(f"--scheduler must be local, serial or tcp://HOST:PORT, got {s!r}")
+    host, _, port = s[6:].rpartition(":") if s.startswith("tcp://") else ("", "", "")
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise BadInput(f"--scheduler must be local, serial or tcp://HOST:PORT with PORT in 1..65535, got {s!r}")
+    try:
+        with socket.create_connection((host, int(port)), timeout=SCHEDULER_TIMEOUT_S):
+            pass
+    except OSError as e:
+        raise BadInput(f"--scheduler {s}: no Dask scheduler answers there ({e.strerror or e}); start one "
+                       "(dask scheduler) or use --scheduler local") from None
+    return s
 
 
 def _tool_modes(args) -> tuple:
@@ -123,6 +181,9 @@ def problem_from_args(args):
         raise BadInput(f"--at-rpm must be a speed in (0, 100000] rpm, got {args.at_rpm}")
     if not 1 <= args.workers <= 64:
         raise BadInput(f"--workers must be from 1 to 64, got {args.workers}")
+    all_ranges = sorted({d for v in MAP_RANGES.values() for d in v})
+    _refuse_unused(args, set(MAP_RANGES[args.over]), all_ranges, f"with --over {args.over}")
+    case_ref = _case_ref(args)
     _check_scheduler(args.scheduler)
     ranges = dict(x_range_m=parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.2, 0.2)),
                   y_range_m=parse_range("--y-range-mm", args.y_range_mm, 1e-3, (-0.2, 0.2)),
@@ -139,7 +200,7 @@ def problem_from_args(args):
         raise BadInput(f"--lead-range-deg {args.lead_range_deg} refused: {LEAD_REASON}")
     if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
         raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
-    case = load_case(args.model if args.model is not None else args.case)
+    case = load_case(case_ref)
     modes = _tool_modes(args)
     speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
     problem = MapProblem.make(case, args.variant, args.over, n=args.n, speeds_rpm=speeds, op_rpm=args.at_rpm,
@@ -238,11 +299,19 @@ def register_optimize(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--n-rpm", type=int, default=None, help=f"mrr: speeds searched, 1..{MAX_OPT_RPM} (default 16)")
     p.add_argument("--strict", action="store_true", help="joint ranges without the 5 deg tolerance")
     p.add_argument("--time-domain", action="store_true", help="verify baseline and optimum in the time domain")
-    p.add_argument("--td-end-s", type=float, default=4.0, help="simulated time of each verification run, s "
-                   "(default 4, capped at the pass duration)")
+    p.add_argument("--td-end-s", type=float, default=None, help="with --time-domain: simulated time of each "
+                   f"verification run, s (default {TD_END_S:g}, capped at the pass duration)")
     p.add_argument("--out", default="robolobes-optimize", metavar="DIR", help="output directory")
-    p.set_defaults(run=run_optimize)
+    p.set_defaults(run=run_optimize, validate=validate_optimize)
     return p
+
+
+def validate_optimize(args) -> None:
+    """Every check ``optimize`` makes before any work (ROBOLOBES_VALIDATE_ONLY)."""
+    from robolobes.core.outdir import OutputDir
+
+    opt = optimize_problem_from_args(args)
+    OutputDir(args.out, "optimize", _optimize_inputs(args, opt))
 
 
 def optimize_problem_from_args(args):
@@ -261,8 +330,14 @@ def optimize_problem_from_args(args):
         raise BadInput(f"--n-starts must be from 1 to 500, got {args.n_starts}")
     if not 0 <= args.max_local_evals <= 2000:
         raise BadInput(f"--max-local-evals must be from 0 to 2000, got {args.max_local_evals}")
+    used = {d for o in over for d in OPT_RANGES[o]}
+    _refuse_unused(args, used, OPT_RANGES["placement"] + OPT_RANGES["tool-rotation"], f"with --over {args.over}")
+    if args.td_end_s is not None and not args.time_domain:
+        raise BadInput("--td-end-s has no effect without --time-domain; drop it or add --time-domain")
+    args.td_end_s = TD_END_S if args.td_end_s is None else args.td_end_s
     if not (math.isfinite(args.td_end_s) and 0 < args.td_end_s <= 60):
         raise BadInput(f"--td-end-s must be in (0, 60] s, got {args.td_end_s}")
+    case_ref = _case_ref(args)
     if args.at_rpm is not None and not (math.isfinite(args.at_rpm) and 0 < args.at_rpm <= 100_000):
         raise BadInput(f"--at-rpm must be a speed in (0, 100000] rpm, got {args.at_rpm}")
     rng = {"x_offset_m": parse_range("--x-range-mm", args.x_range_mm, 1e-3, (-0.1, 0.1)),
@@ -279,16 +354,21 @@ def optimize_problem_from_args(args):
         names.append("tool_rotation_rad")
     if not names:
         raise BadInput("every range of --over is empty (A = B): nothing to optimize")
+    flags = {"x_offset_m": ("--x-range-mm", 1e3), "y_offset_m": ("--y-range-mm", 1e3),
+             "z_offset_m": ("--z-range-mm", 1e3), "yaw_rad": ("--yaw-range-deg", 180 / math.pi),
+             "tool_rotation_rad": ("--rotation-range-deg", 180 / math.pi)}
     for k in names:
         if not rng[k][0] <= 0.0 <= rng[k][1]:
-            raise BadInput(f"the range of {k} must contain 0 (the paper's placement is the baseline), got {rng[k]}")
+            flag, scale = flags[k]
+            raise BadInput(f"{flag} must contain 0 (the paper's placement is the baseline), got "
+                           f"{rng[k][0] * scale:g},{rng[k][1] * scale:g}")
     speed_flags = [f for f, v in (("--rpm-min", args.rpm_min), ("--rpm-max", args.rpm_max), ("--n-rpm", args.n_rpm))
                    if v is not None]
     if args.objective == "depth" and speed_flags:
         raise BadInput(f"{speed_flags[0]} is for --objective mrr (the depth objective uses --at-rpm)")
     if args.objective == "mrr" and args.at_rpm is not None:
         raise BadInput("--at-rpm is for --objective depth (mrr searches --rpm-min..--rpm-max)")
-    case = load_case(args.model if args.model is not None else args.case)
+    case = load_case(case_ref)
     speeds = _mrr_speeds(args, case) if args.objective == "mrr" else ()
     mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
                          op_rpm=args.at_rpm, tool_modes=_tool_modes(args), model_file=args.model)
@@ -312,6 +392,15 @@ def _mrr_speeds(args, case) -> np.ndarray:
     return np.linspace(lo, hi, n)
 
 
+def _optimize_inputs(args, opt) -> dict:
+    """What determines an optimize run's results (its output's ``inputs_sha256``)."""
+    return {"command": "optimize", "problem": opt.map_problem.describe(), "variables": list(opt.variables),
+            "bounds": {k: list(v) for k, v in opt.bounds.items()}, "n_s": opt.n_s, "strict": opt.strict,
+            "objective": opt.objective, "speeds_rpm": list(opt.speeds_rpm),
+            "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
+            "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
+
+
 def run_optimize(args: argparse.Namespace) -> int:
     from robolobes.core.io import to_jsonable, write_json
     from robolobes.core.outdir import OutputDir
@@ -324,12 +413,7 @@ def run_optimize(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     opt = optimize_problem_from_args(args)
     method = MapMethod()
-    inputs = {"command": "optimize", "problem": opt.map_problem.describe(), "variables": list(opt.variables),
-              "bounds": {k: list(v) for k, v in opt.bounds.items()}, "n_s": opt.n_s, "strict": opt.strict,
-              "objective": opt.objective, "speeds_rpm": list(opt.speeds_rpm),
-              "n_starts": args.n_starts, "max_local_evals": args.max_local_evals,
-              "time_domain": args.time_domain, "td_end_s": args.td_end_s, "robot": repr(opt.map_problem.case.robot)}
-    out = OutputDir(args.out, "optimize", inputs)
+    out = OutputDir(args.out, "optimize", _optimize_inputs(args, opt))
     cb, close = _progress(args.quiet, "optimize")
     try:
         res, strict = optimize_with_strict(opt, method, n_starts=args.n_starts, max_local_evals=args.max_local_evals,
@@ -367,7 +451,10 @@ def _print_optimum(js: dict, target) -> None:
         f"at least {js['gain_at_least']:.3g}" if js["gain_at_least"] is not None else "none")
     where = (f"offset {np.round(np.array(js['placement_offset_m']) * 1e3, 1).tolist()} mm, yaw {js['yaw_deg']:.1f} deg, "
              f"tool rotation {js['tool_rotation_deg']:.1f} deg")
-    if js["objective"] == "mrr":
+    if not js["optimum_feasible"]:
+        print(f"{js['case']}: no feasible candidate found ({js['optimum_reason']}); try more --n-starts or wider "
+              f"ranges -> {target}")
+    elif js["objective"] == "mrr":
         print(f"{js['case']}: material removal rate {js['baseline_mrr_cm3_per_min']:.4g} cm^3/min (paper's placement, "
               f"{js['baseline_rpm']:.0f} rpm) -> {js['optimized_mrr_cm3_per_min']:.4g} cm^3/min at {js['best_rpm']:.0f} "
               f"rpm (gain {js['mrr_gain']:.3g}; depth {mm(js['optimized_min_depth_m'])}) with {where} -> {target}")

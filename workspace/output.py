@@ -48,6 +48,8 @@ def plot_optimum(res, path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
     ax = axes[0]
     for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        if not ev.feasible:
+            continue
         ax.plot(ev.s_m * 1e3, np.minimum(ev.depth_m, res.problem.depth_max_m) * 1e3, "o-", color=c,
                 label=f"{lab}, {ev.rpm:.0f} rpm")
     ax.axhline(res.problem.map_problem.case.cut.ap_m * 1e3, color="k", ls="--", label="cut depth")
@@ -59,6 +61,8 @@ def plot_optimum(res, path) -> None:
     ax = axes[1]
     spec = res.problem.map_problem.case.robot
     for ev, c, lab in ((res.baseline, "r", "paper's placement"), (res.best, "g", "optimum")):
+        if not ev.feasible:   # no pose to draw (e.g. no strictly feasible candidate)
+            continue
         pts, _ = fk_frames(spec, ev.theta[ev.worst])
         pts = np.vstack([[0.0, 0.0, 0.0], pts]) * 1e3
         ax.plot(pts[:, 0], pts[:, 2], "o-", color=c, lw=3, label=f"{lab}, worst pass pose")
@@ -148,6 +152,7 @@ def optimize_json(opt, res, strict) -> dict:
           "baseline_strict_violation": (strict_violation(opt.map_problem.case.robot, base.theta)
                                         if base.feasible else None),
           "baseline_feasible": base.feasible, "baseline_reason": base.reason,
+          "optimum_feasible": best.feasible, "optimum_reason": best.reason,
           "depth_along_pass_m": {"s_m": best.s_m, "baseline": base.depth_m, "optimum": best.depth_m},
           "strict_limits": opt.strict, "strict_optimum": _strict_json(opt, res, strict),
           "evaluations": res.stats["evaluations"],

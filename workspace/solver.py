@@ -117,18 +117,39 @@ def _run_serial(tasks, on_result):
 
 
 def _run_pool(tasks, on_result, workers: int):
+    """The local pool: workers ignore Ctrl-C and exit when this process dies (``core.interrupt``);
+    on any exit from here (an interruption included) they are terminated, not awaited."""
     import multiprocessing as mp
+    import os
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+    from robolobes.core import interrupt
+
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                             initializer=interrupt.worker_init, initargs=(os.getpid(),))
     try:
-        pending = {ex.submit(compute_chunk, *t) for t in tasks}
+        # the workers start with SIGINT/SIGTERM held back (then ignore SIGINT); this process finishes
+        # starting them before it acts on a signal (a half-sent start would crash the worker)
+        with interrupt.deferred(), interrupt.blocked():
+            pending = {ex.submit(compute_chunk, *t) for t in tasks}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for f in done:
                 on_result(f.result())
     finally:
-        ex.shutdown(wait=False, cancel_futures=True)
+        _stop_pool(ex)
+
+
+def _stop_pool(ex) -> None:
+    """Cancel what is queued, terminate the workers (a chunk takes seconds to minutes: waiting for it
+    would hang an interrupted map) and reap them."""
+    procs = list(getattr(ex, "_processes", {}).values())   # private, but the only handle on the workers
+    ex.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(5)
 
 
 def _run_dask(tasks, on_result, scheduler):

@@ -1,0 +1,53 @@
+"""Files and staging directories left by a killed run are removed by a later run, only when
+provably ours (robolobes' own naming) and dead (no process holds their ``flock`` any more)."""
+
+import subprocess
+import sys
+import textwrap
+
+from robolobes.core.io import atomic_path
+from robolobes.core.outdir import OutputDir
+
+INPUTS = {"command": "test", "x": 1}
+
+
+def _die_inside(code: str, cwd):
+    """Run ``code`` in a fresh interpreter that dies (os._exit, no clean-up) at its end."""
+    src = "import os\n" + textwrap.dedent(code) + "\nos._exit(9)\n"
+    res = subprocess.run([sys.executable, "-c", src], cwd=cwd, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 9, res.stderr
+
+
+def test_stale_staging_directory_removed_live_one_kept(tmp_path):
+    _die_inside("""
+        from robolobes.core.outdir import OutputDir
+        out = OutputDir("out", "test", {"command": "test", "x": 1})
+        out.open()
+        (out.path / "half.txt").write_text("half")
+    """, tmp_path)
+    stale = [p for p in tmp_path.iterdir() if ".robolobes-stage-" in p.name]
+    assert len(stale) == 1
+    live = OutputDir(tmp_path / "out", "test", INPUTS)
+    live.open()                      # this run's own staging directory, locked
+    again = OutputDir(tmp_path / "out", "test", INPUTS)   # another run: removes only the dead one
+    assert not stale[0].exists() and live.path.is_dir()
+    with again:
+        (again.path / "a.txt").write_text("a")
+    live.discard()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_stale_part_file_removed_by_the_next_write(tmp_path):
+    _die_inside("""
+        from robolobes.core.io import atomic_path
+        cm = atomic_path("fig.png")
+        tmp = cm.__enter__()
+        tmp.write_bytes(b"half a png")
+    """, tmp_path)
+    parts = [p for p in tmp_path.iterdir() if p.name.startswith(".fig.png.") and p.name.endswith(".part.png")]
+    assert len(parts) == 1
+    (tmp_path / ".fig.png.mine.part.png").write_text("a user's file with a similar name")
+    with atomic_path(tmp_path / "fig.png") as tmp:
+        tmp.write_bytes(b"png")
+    assert not parts[0].exists()
+    assert (tmp_path / ".fig.png.mine.part.png").exists() and (tmp_path / "fig.png").read_bytes() == b"png"
