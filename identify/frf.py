@@ -46,7 +46,7 @@ __all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METR
 METRIC = ("held-out (leave-one-pose-out) RMS over lines of |H_model - H_measured| / RMS |H_measured|, "
           "receptance in m/N, not squared")
 SHORTLIST = 3
-RESIDUAL_PEAKS = 3    # measured poles offered to a tool-mode fit as start frequencies
+RESIDUAL_PEAKS = 4    # measured poles offered to a tool-mode fit as start frequencies
 #: A servo's rotor inertia, reflected through the gearbox, is matched to the load it drives: inertia
 #: matching puts it within 0.1-10x the link-side inertia of the axis. A fit far above that is not a
 #: drive but a surrogate for something else.
@@ -288,27 +288,39 @@ def diagnose(poses: list[PoseData], effects: list) -> dict:
 
 
 def residual_peaks(poses: list[PoseData], effects: list, edges: np.ndarray, n_peaks: int = RESIDUAL_PEAKS) -> list:
-    """The measured poles the model lacks: up to ``n_peaks`` local maxima of the whitened residual power
-    ``|H_model - H|^2 / sigma^2`` (mean over the lines of log-spaced bins, averaged over the poses) that
-    stand above the noise (bin mean above 2, twice a noise-only residual's), largest first, each as
-    ``(freq_hz, amplitude m/N)`` with the amplitude the largest bin mean of ``|H_model - H|`` over the poses.
-    Tool-mode fits start from these frequencies, so a fit cannot settle away from a pole the data show."""
+    """The measured poles the model lacks: up to ``n_peaks`` local maxima, largest first, of the residual's
+    amplitude ``|H_model - H|`` (mean over the lines of log-spaced bins, each pose's divided by its RMS
+    |H|, averaged over the poses), among the bins where the residual stands above the noise (mean
+    ``|r|^2`` over mean ``sigma^2`` above 2, twice a noise-only residual's). Each as ``(freq_hz,
+    amplitude m/N)``, the amplitude the largest bin mean of ``|r|`` over the poses. A missing mode's
+    residual peaks at its resonance; tool-mode fits start from these frequencies, so a fit cannot
+    settle away from a pole the data show."""
     nb = len(edges) - 1
     power = np.zeros(nb)
+    noise = np.zeros(nb)
+    rel = np.zeros(nb)
     amp = np.zeros(nb)
     for pd in poses:
         r = predict(pd, effects) - pd.H
-        b = np.clip(np.searchsorted(edges, pd.omega[pd.index] / (2 * math.pi)) - 1, 0, nb - 2)
+        b = np.clip(np.searchsorted(edges, pd.omega[pd.index] / (2 * math.pi)) - 1, 0, nb - 1)
         n = np.maximum(np.bincount(b, minlength=nb), 1)
-        power += np.bincount(b, np.abs(r) ** 2 / pd.sigma ** 2, nb) / n / len(poses)
-        amp = np.maximum(amp, np.bincount(b, np.abs(r), nb) / n)
-    sm = np.convolve(power, np.ones(3) / 3, mode="same")
-    idx = [i for i in range(1, nb - 1) if sm[i] >= sm[i - 1] and sm[i] > sm[i + 1] and sm[i] > 2.0]
+        power += np.bincount(b, np.abs(r) ** 2, nb) / n
+        noise += np.bincount(b, pd.sigma ** 2, nb) / n
+        a = np.bincount(b, np.abs(r), nb) / n
+        rel += a / np.sqrt(np.mean(np.abs(pd.H) ** 2)) / len(poses)
+        amp = np.maximum(amp, a)
+    above = power > 2.0 * np.maximum(noise, 1e-300)
+    sm = np.convolve(rel, np.ones(3) / 3, mode="same")
+    idx = [i for i in range(1, nb - 1) if above[i] and sm[i] >= sm[i - 1] and sm[i] > sm[i + 1]]
     idx.sort(key=lambda i: -sm[i])
-    out = []
-    for i in idx[:n_peaks]:
-        j = i - 1 + int(np.argmax(power[i - 1:i + 2]))
-        out.append((float(math.sqrt(edges[j] * edges[j + 1])), float(amp[j])))
+    out: list = []
+    for i in idx:
+        j = i - 1 + int(np.argmax(rel[i - 1:i + 2]))
+        f = float(math.sqrt(edges[j] * edges[j + 1]))
+        if all(abs(f / g - 1) > 0.02 for g, _ in out):
+            out.append((f, float(amp[j])))
+        if len(out) == n_peaks:
+            break
     return out
 
 

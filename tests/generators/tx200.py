@@ -11,10 +11,10 @@ perturbations identification fits. Basic variant: motion-axis springs ``k (q - t
 
 Effects (``Effects``, all optional):
 
-* ``tool_modes``: oscillators at the TCP, each along a direction of the TCP frame: a prismatic
-  joint (spring ``k``, damper ``2 zeta sqrt(k m)``) carrying a point mass ``m = k / w0^2`` taken from
-  the payload at the TCP (so the total mass is unchanged); two chained joints along TCP x and y make
-  the usual two-direction holder mode.
+* ``tool_modes``: a point mass ``m = k / w0^2`` at the TCP, taken from the payload there (so the total
+  mass is unchanged), on a chain of prismatic joints, one per direction of the TCP frame (spring
+  ``k``, damper ``2 zeta sqrt(k m)`` each; every entry must give the same ``m``): two joints along
+  TCP x and y make the usual two-direction holder mode, frequency ``sqrt(k / m)`` along each.
 * ``joint_scale``: {axis: (stiffness factor, damping factor)}.
 * ``payload_factor``: the payload mass times this factor (the difference a point mass at its
   centre of mass).
@@ -124,14 +124,18 @@ class TX200:
             payload = payload + pin.Inertia(pm - PAYLOAD_MASS, PAYLOAD_AG, np.zeros((3, 3)))
         tcp_rot = _rot_y(TCP_ROT_Y_DEG)
         mode_mass = [k / (2 * math.pi * f) ** 2 for f, _, k, _ in e.tool_modes]
-        if mode_mass:                   # taken from the payload at the TCP: total mass unchanged
-            payload = payload + pin.Inertia(-sum(mode_mass), PAYLOAD_TCP, np.zeros((3, 3)))
+        if mode_mass:                   # one mass, taken from the payload at the TCP: total mass unchanged
+            if max(mode_mass) > min(mode_mass) * (1 + 1e-9):
+                raise ValueError(f"chained tool modes share one mass: k / w0^2 = {mode_mass} kg differ")
+            payload = payload + pin.Inertia(-mode_mass[0], PAYLOAD_TCP, np.zeros((3, 3)))
         model.appendBodyToJoint(parent, payload, face)
         tcp = face * pin.SE3(tcp_rot, PAYLOAD_TCP)       # flange joint -> TCP
-        for (f, z, k, d), m in zip(e.tool_modes, mode_mass):
-            # a prismatic joint along d at the TCP (joint frame = TCP axes), carrying the point mass
+        for r, (f, z, k, d) in enumerate(e.tool_modes):
+            # a prismatic joint along d at the TCP (joint frame = TCP axes); the last carries the point
+            # mass, the others are massless links of the chain (the mass moves along every direction)
             d = np.asarray(d, float) / np.linalg.norm(d)
-            parent = model.addJoint(parent, pin.JointModelPrismaticUnaligned(d), tcp, f"mode_{len(model.names)}")
+            parent = model.addJoint(parent, pin.JointModelPrismaticUnaligned(d), tcp, f"mode_{r}")
+            m = mode_mass[0] if r == len(e.tool_modes) - 1 else 0.0
             model.appendBodyToJoint(parent, pin.Inertia(m, np.zeros(3), np.zeros((3, 3))), pin.SE3.Identity())
             tcp = pin.SE3.Identity()          # the next mode joint sits on this body, same point and axes
         frame = model.addFrame(pin.Frame("tcp", parent, tcp, pin.FrameType.OP_FRAME))
