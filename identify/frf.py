@@ -635,7 +635,8 @@ def _unexplained(poses: list[PoseData], residual: np.ndarray, sigma: np.ndarray,
     parts = []   # (kind, label, mask)
     splits = _splits(poses)
     for pd, sl in zip(poses, splits):
-        m = np.zeros(len(residual), bool); m[sl] = True
+        m = np.zeros(len(residual), bool)
+        m[sl] = True
         parts.append(("poses", pd.name, m))
     labels = sorted({_pair_label(pd, int(k)) for pd in poses for k in np.unique(pd.pair)})
     pair_of = np.concatenate([[_pair_label(pd, int(k)) for k in pd.pair] for pd in poses])

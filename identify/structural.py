@@ -149,8 +149,12 @@ class TcpModeEffect(StructuralEffect):
         M[:n, :n] = pm.M                     # + m J^T J (mode body) - m J^T J (taken from the payload)
         M[:n, n] = M[n, :n] = m * Jd
         M[n, n] = m
-        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = c
-        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K; K[n, n] = k
+        C = np.zeros((n + 1, n + 1))
+        C[:n, :n] = pm.C
+        C[n, n] = c
+        K = np.zeros((n + 1, n + 1))
+        K[:n, :n] = pm.K
+        K[n, n] = k
         return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, d[:, None]]),
                        J_payload=np.hstack([pm.J_payload, np.zeros((3, 1))]))
 
@@ -353,9 +357,14 @@ class ServoEffect(StructuralEffect):
         i, n = pm.motion_dofs[self.joint - 1], pm.M.shape[0]
         k = pm.joint_k[self.joint - 1]
         J, kp, kd = self.physical(k, params)
-        M = np.zeros((n + 1, n + 1)); M[:n, :n] = pm.M; M[n, n] = J
-        C = np.zeros((n + 1, n + 1)); C[:n, :n] = pm.C; C[n, n] = kd
-        K = np.zeros((n + 1, n + 1)); K[:n, :n] = pm.K
+        M = np.zeros((n + 1, n + 1))
+        M[:n, :n] = pm.M
+        M[n, n] = J
+        C = np.zeros((n + 1, n + 1))
+        C[:n, :n] = pm.C
+        C[n, n] = kd
+        K = np.zeros((n + 1, n + 1))
+        K[:n, :n] = pm.K
         K[i, n] = K[n, i] = -k
         K[n, n] = k + kp
         z = np.zeros((3, 1))

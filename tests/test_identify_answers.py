@@ -19,13 +19,12 @@ import math
 
 import numpy as np
 import pytest
-from scipy.stats import binom, norm
-
 from generators.draws import CASES, run_case
 from generators.tx200 import POSE_OFFSETS_DEG, POSE_TAB7_DEG, TX200, Effects
-from robolobes.identify.evidence import below_threshold, credibility, determined, margin
 from robolobes.identify.effects import Parameter
+from robolobes.identify.evidence import below_threshold, credibility, determined, margin
 from robolobes.identify.selection import Trial, stepwise_select, z_threshold
+from scipy.stats import binom, norm
 
 # ------------------------------------------------------------------------------------------------
 # the generator against robolobes' model (both ways: neither is the reference of the other)
@@ -34,7 +33,12 @@ from robolobes.identify.selection import Trial, stepwise_select, z_threshold
 def test_generator_matches_robolobes_model():
     from robolobes.cases import load_case
     from robolobes.linearize import build_model, linearize
-    from robolobes.linearize.extra_elements import JointCorrection, PayloadMass, ServoDrive, TcpMode
+    from robolobes.linearize.extra_elements import (
+        JointCorrection,
+        PayloadMass,
+        ServoDrive,
+        TcpMode,
+    )
 
     case = load_case("tx200-aluminium")
     f = np.linspace(2.0, 300.0, 300)
