@@ -198,7 +198,7 @@ def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any,
         fits.append(EffectFit(name=best_name, params=dict(best.params), uncertainty=dict(best.uncertainty),
                               evidence={**best.evidence, "heldout_error_without": current.error,
                                         "heldout_error_with": best.error, "z": float(z), "z_threshold": thr,
-                                        "alternatives": _alternatives(results, usable, best_name, best, thr)}))
+                                        "alternatives": _alternatives(results, rejected, best_name, best, thr)}))
         chosen.append(best_c)
         current = best
         if drop is not None:
@@ -208,17 +208,19 @@ def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any,
                      chosen=tuple(chosen), n_tests=n_tests, threshold=thr)
 
 
-def _alternatives(results: dict, usable: list, best_name: str, best: Trial, thr: float) -> list:
+def _alternatives(results: dict, rejected: dict, best_name: str, best: Trial, thr: float) -> list:
     """Candidates of the same step the held-out data cannot tell from the best: the best's gain over
-    them is not significant (``significance(r_other, r_best) <= thr``, the same rule)."""
+    them is not significant (``significance(r_other, r_best) <= thr``, the same rule). A candidate that
+    could not be a finding is listed too (``finding: false`` and the reason): a servo whose rotor sits
+    on its frequency bound is a joint correction the data cannot tell apart."""
     out = []
-    for k in usable:
-        if k == best_name:
+    for k, (_, t) in results.items():
+        if k == best_name or t.evidence.get("screened_out"):
             continue
-        t = results[k][1]
         z = significance(t.residual, best.residual, best.sigma)
-        if z <= thr and not t.evidence.get("screened_out"):
-            out.append({"name": k, "heldout_error": t.error, "z_best_over_it": float(z), "params": dict(t.params)})
+        if z <= thr:
+            out.append({"name": k, "heldout_error": t.error, "z_best_over_it": float(z), "params": dict(t.params),
+                        "finding": k not in rejected, **({"why_not": rejected[k]} if k in rejected else {})})
     return out
 
 
