@@ -124,8 +124,11 @@ class TcpModeEffect(StructuralEffect):
                   doc="spindle / tool-holder modes: 1-10 % (Schmitz & Smith); above 15 % not a holder mode"),
         Parameter("stiffness_n_per_m", 1e4, 1e9, None, None, log=True,
                   doc="detectable when 1 / (2 zeta k) exceeds the robot's receptance at freq_hz by the noise"),
-        Parameter("polar_rad", 0.0, math.pi, doc="direction: angle from the tool axis (TCP z)"),
-        Parameter("azimuth_rad", -math.pi, math.pi, doc="direction: angle about the tool axis from TCP x"),
+        # a direction's angles: the ends of their ranges are not physical bounds (d and -d are the same
+        # mode, the azimuth wraps), so a value there is not "on a bound" (identify.evidence)
+        Parameter("polar_rad", 0.0, math.pi, periodic=True, doc="direction: angle from the tool axis (TCP z)"),
+        Parameter("azimuth_rad", -math.pi, math.pi, periodic=True,
+                  doc="direction: angle about the tool axis from TCP x"),
     )
     observed_by = {"frf": "an extra peak, same frequency at every pose: 1 / (2 zeta k) above ~3x the noise of "
                           "the measured receptance at that frequency",
