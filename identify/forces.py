@@ -8,11 +8,14 @@
    trains, the second is held out. Each block's time-synchronous average (TSA) is compared with the
    model's average over the same pass times (the linearized pass, :mod:`identify.force_model`),
    after a circular shift that aligns the unknown spindle phase (fitted on the training block).
-3. Greedy selection over the force-side library (:mod:`identify.cutting_effects`) by
+3. Forward selection over the force-side library (:mod:`identify.cutting_effects`) by
    :func:`identify.selection.forward_select`: each candidate is fitted on the training TSA (bounded
-   least squares, the phase shift a nuisance parameter) and scored on the held-out TSA. The
+   least squares, the phase shift a nuisance parameter), the effects already chosen kept at their
+   values (no joint refit and no backward step for force series), and scored on the held-out TSA;
+   a candidate that is not credible or below its own detection threshold cannot be chosen
+   (:func:`identify.evidence.accept`). The
    significance rule is the framework's (gain of squared held-out residual against the noise of
-   the held-out average, Bonferroni over the candidates, family-wise 1 %); the noise per bin and
+   the held-out average, Bonferroni over ``2 max_effects`` steps x the candidates, family-wise 1 %); the noise per bin and
    axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
 4. Diagnosis (:mod:`identify.signatures`): the named signatures of the starting model's held-out
    residual (mean offset, once-per-revolution lines, ringing, roll-off), each against the noise of

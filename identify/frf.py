@@ -16,11 +16,16 @@ exponential variable, ``|d|^2`` of complex Gaussian noise, is ``ln 2`` times its
 near a sharp peak, where the FRF's own curvature enters ``d``, are a minority of every window, so
 the median ignores them; any bias left makes ``sigma`` larger, i.e. the selection more cautious.
 
-Selection is leave-one-pose-out (:mod:`identify.selection`); each candidate is first fitted on
-all the data and only the ``SHORTLIST`` best by that training fit, whose training gain could pass
-the test (``sqrt(gain / 2) >= z_threshold / 2``, see ``_Trials._shortlisted``), are fitted fold by
-fold (the others keep the current model's held-out residual, so they cannot be chosen). The
-significance threshold still counts every candidate of the library.
+Selection is leave-one-pose-out and forward-backward (:func:`identify.selection.stepwise_select`):
+each candidate is fitted jointly with every effect already in the model (all refitted), first on
+all the data; only the ``SHORTLIST`` best by that training fit, whose training gain could pass the
+test (``sqrt(gain / 2) >= z_threshold / 2``, see ``_Trials._shortlisted``), are fitted fold by fold
+(the others keep the current model's held-out residual, so they cannot be chosen). The
+significance threshold counts every candidate of the library at every forward step the search may
+make (``2 max_effects L`` tests). ``tcp_mode`` may enter more than once (a mode per direction);
+its fits start from the measured poles (:func:`residual_peaks`). After the selection:
+``final_effects`` (credible, determined, surrogate) and ``_unexplained`` (the verdict on the final
+residual against :func:`noise_floor`, and where it stays above the noise), see :mod:`identify.evidence`.
 """
 
 from __future__ import annotations
