@@ -15,7 +15,8 @@
    a candidate that is not credible or below its own detection threshold cannot be chosen
    (:func:`identify.evidence.accept`). The
    significance rule is the framework's (gain of squared held-out residual against the noise of
-   the held-out average, Bonferroni over ``2 max_effects`` steps x the candidates, family-wise 1 %); the noise per bin and
+   the held-out average, Bonferroni over ``2 max_effects`` steps x the candidates, family-wise
+   1 %); the noise per bin and
    axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
 4. Diagnosis (:mod:`identify.signatures`): the named signatures of the starting model's held-out
    residual (mean offset, once-per-revolution lines, ringing, roll-off), each against the noise of
