@@ -27,11 +27,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=5, help="draws per case (default 5)")
     ap.add_argument("--nulls", type=int, default=20, help="null draws (default 20)")
     ap.add_argument("--cases", default=",".join(CASES), help="comma-separated cases")
+    ap.add_argument("--first-seed", type=int, default=1, help="seeds start here (default 1)")
     args = ap.parse_args(argv)
     cases = [c for c in args.cases.split(",") if c]
     plan = []
-    for s in range(1, max(args.seeds, args.nulls) + 1):
-        plan += [(c, s) for c in cases if s <= (args.nulls if c == "null" else args.seeds)]
+    for k in range(max(args.seeds, args.nulls)):
+        s = args.first_seed + k
+        plan += [(c, s) for c in cases if k < (args.nulls if c == "null" else args.seeds)]
     got: dict = {c: [] for c in cases}
     with tempfile.TemporaryDirectory() as tmp:
         for c, s in plan:
