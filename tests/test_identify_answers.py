@@ -195,3 +195,20 @@ def test_nulls_clean_in_at_least_19_of_20(tmp_path):
     got = [run_case("null", seed, tmp_path) for seed in range(1, 21)]
     assert sum(r["right"] for r in got) >= 19, [(r["seed"], r["why"]) for r in got if not r["right"]]
     assert all(r["floor_ok"] for r in got), [r["floor_ratio"] for r in got]
+
+
+def test_joint_and_servo_share_the_static_stiffness_scale():
+    # a servo (kp = 3 k) and a joint correction x0.75 of the same axis: the shared quantity is the
+    # static stiffness scale kp / (k + kp) = 0.75, reported with the alternative's own value
+    from robolobes.identify.effects import REGISTRY, effects_for
+    from robolobes.identify.frf import _shared
+
+    effects_for("frf")
+    servo = REGISTRY["servo_a3"]
+    params = {"kp_scale": 3.0, "rotor_freq_hz": 3000.0, "rotor_damping_ratio": 0.005}
+    alt = [{"name": "joint_correction_a3", "params": {"stiffness_scale": 0.75, "damping_scale": 1.0}}]
+    got = _shared(servo, params, np.diag([0.01 ** 2, 1.0, 1.0]), alt)
+    assert got[0]["value"] == pytest.approx(0.75)
+    assert got[0]["sd"] == pytest.approx(3.0 / 16.0 * 0.01)            # d(kp/(1+kp))/d ln kp = kp/(1+kp)^2
+    assert got[0]["indistinguishable_from"] == [{"name": "joint_correction_a3", "value": 0.75}]
+    assert _shared(servo, params, np.eye(3), [{"name": "joint_correction_a2", "params": {"stiffness_scale": 0.7}}]) == []
