@@ -120,5 +120,11 @@ def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects
     kind = measurement.kind
     if kind not in PIPELINES:
         raise BadInput(f"measurement kind {kind!r}; valid: {', '.join(PIPELINES)}")
-    return _load(PIPELINES, kind)(measurement, model, alpha=alpha, max_effects=max_effects, progress=progress,
-                                  **options)
+    from threadpoolctl import threadpool_limits
+
+    # the fits' matrices are small (a few thousand rows by a few columns, 7-20 DOF): threaded BLAS only
+    # adds contention (a least-squares SVD took 30x the CPU with two threads on a loaded machine)
+    # (the pipeline is imported first: a BLAS loaded inside the context would keep its threads)
+    pipeline = _load(PIPELINES, kind)
+    with threadpool_limits(1):
+        return pipeline(measurement, model, alpha=alpha, max_effects=max_effects, progress=progress, **options)

@@ -147,9 +147,14 @@ def run_identify_cli(args) -> int:
         return 0
     print(f"{result.kind} set {measurement.path}: {len(result.effects)} effect(s); held-out error "
           f"{result.error_before:.4g} -> {result.error_after:.4g} (noise floor {result.noise_floor:.3g})")
+    u = result.unexplained or {}
+    if u:
+        print(f"residual {'UNEXPLAINED' if u['unexplained'] else 'within the noise'}: held-out error "
+              f"{u['ratio_to_noise_floor']:.3g}x the noise floor (margin {u['margin']:.3g}x)")
     for e in result.effects:
         ps = ", ".join(f"{k} = {v:.5g} +- {e.uncertainty.get(k, float('nan')):.2g}" for k, v in e.params.items())
-        print(f"  {e.name}: {ps}")
+        label = "not credible" if not e.credible else "surrogate" if e.surrogate else "identified"
+        print(f"  {e.name} ({label}): {ps}")
     print(f"metric: {result.metric}")
     if report is not None:
         print(f"report: {report.target}/report.md")

@@ -82,6 +82,9 @@ class Parameter:
     periodic : bool
         An angle (period 2 pi): its range is a search range, not a physical bound, so a fitted value
         at its end is not "on a bound" (reported wrapped to (-pi, pi]).
+    plausible : (float, float) or None
+        The physical range, when narrower than the fit's bounds: a fitted value outside it is not
+        credible (:mod:`identify.evidence`).
     """
 
     name: str
@@ -92,6 +95,7 @@ class Parameter:
     log: bool = False
     doc: str = ""
     periodic: bool = False
+    plausible: tuple | None = None
 
     def __post_init__(self):
         if not (math.isfinite(self.lower) and math.isfinite(self.upper) and self.lower < self.upper):
@@ -165,6 +169,7 @@ class Effect:
     name: str = "effect"
     stage: str = "element"
     candidate: bool = True     # tried by default; False: only when named (``robolobes identify --effects``)
+    repeatable: bool = False   # may enter a model more than once (a second tool mode)
     parameters: tuple = ()
     observed_by: Mapping[str, str] = {}
     signatures: tuple = ()

@@ -8,11 +8,15 @@
    trains, the second is held out. Each block's time-synchronous average (TSA) is compared with the
    model's average over the same pass times (the linearized pass, :mod:`identify.force_model`),
    after a circular shift that aligns the unknown spindle phase (fitted on the training block).
-3. Greedy selection over the force-side library (:mod:`identify.cutting_effects`) by
+3. Forward selection over the force-side library (:mod:`identify.cutting_effects`) by
    :func:`identify.selection.forward_select`: each candidate is fitted on the training TSA (bounded
-   least squares, the phase shift a nuisance parameter) and scored on the held-out TSA. The
+   least squares, the phase shift a nuisance parameter), the effects already chosen kept at their
+   values (no joint refit and no backward step for force series), and scored on the held-out TSA;
+   a candidate that is not credible or below its own detection threshold cannot be chosen
+   (:func:`identify.evidence.accept`). The
    significance rule is the framework's (gain of squared held-out residual against the noise of
-   the held-out average, Bonferroni over the candidates, family-wise 1 %); the noise per bin and
+   the held-out average, Bonferroni over ``2 max_effects`` steps x the candidates, family-wise
+   1 %); the noise per bin and
    axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
 4. Diagnosis (:mod:`identify.signatures`): the named signatures of the starting model's held-out
    residual (mean offset, once-per-revolution lines, ringing, roll-off), each against the noise of
@@ -50,6 +54,7 @@ from .force_signals import (ERROR_METRIC, align_shift, apply_transfer, estimate_
                             revolutions, shift_average, spectrum_lines, sync_average)
 from .model_toml import model_toml
 from .result import EffectFit, Identification
+from .evidence import accept, credibility, determined
 from .selection import Trial, forward_select
 from .signatures import annotate, force_signatures
 
@@ -133,6 +138,7 @@ class _Fit:
     train: np.ndarray  # aligned model average of the training block (bins, 3)
     heldout: np.ndarray  # aligned model average of the held-out block
     on_bound: bool
+    cov: np.ndarray | None = None   # covariance of the values (P, P), SI
 
 
 def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> _Fit:
@@ -170,12 +176,14 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     try:
         cov = np.linalg.inv(best.jac.T @ best.jac) * (2 * best.cost / max(n - p, 1))
         sig = np.sqrt(np.clip(np.diag(cov)[:-1], 0, None)) * scale
+        cov_v = cov[:-1, :-1] * np.outer(scale, scale)
     except np.linalg.LinAlgError:
         sig = np.full(len(v), np.inf)
+        cov_v = np.full((len(v), len(v)), np.inf)
     avgs = model(v)
     on_bound = _on_bound(x[:-1], [effect], 1e-6)
     return _Fit(values=v, sigma=sig, shift=float(x[-1]), train=shift_average(avgs[0], x[-1]),
-                heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound)
+                heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound, cov=cov_v)
 
 
 def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
@@ -215,14 +223,18 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
                      params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
                      evidence={"signature": [SIGNATURES[k] for k in eff.signatures], "on_bound": fit.on_bound,
                                "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift,
+                               "determined": force_determined(eff, st.case.tool, fit.values, fit.cov),
                                **(eff.identified(st.case.tool, fit.values) if hasattr(eff, "identified")
                                   else {})})
 
     library = [e for e in (effects if effects is not None else effects_for("forces", state))
                if hasattr(e, "family") and e.applicable(state)]
-    sel = forward_select(state, library, trial, alpha=alpha, max_effects=max_effects, progress=progress)
+    sel = forward_select(state, library, trial, alpha=alpha, max_effects=max_effects, progress=progress,
+                         accept=accept)
     _, floor = heldout_error(aligned[id(state)], ctx.heldout)
     final_ho = aligned[id(sel.state)]
+    verdict = _force_unexplained(ctx, final_ho, sel.error_after, floor, alpha, case.tool.teeth)
+    fits = tuple(_finished(f, library, verdict["unexplained"]) for f in sel.effects)
     extra = {"spindle_hz": ctx.spindle_hz, "spindle_rpm": ctx.spindle_hz * 60.0,
              "phase_shift_rev": shifts[id(sel.state)], "bins_per_rev": ctx.bins,
              "revolutions": {"train": ctx.train.n, "heldout": ctx.heldout.n},
@@ -232,13 +244,69 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
              "not_applicable": {e.name: e.reason_not_applicable(state) for e in FORCE_EFFECTS
                                 if not e.applicable(state)},
              "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
-    res = Identification(kind="forces", effects=sel.effects, error_before=sel.error_before,
+    res = Identification(kind="forces", effects=fits, error_before=sel.error_before,
                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
-                         model_toml=model_toml(sel.state), extra=extra,
+                         model_toml=model_toml(sel.state), extra=extra, unexplained=verdict,
                          arrays={"heldout_measured_n": ctx.heldout.mean, "model_before_n": aligned[id(state)],
                                  "model_after_n": final_ho, "heldout_noise_n": ctx.heldout.noise})
     detected = force_signatures(ctx.heldout.mean, aligned[id(state)], ctx.heldout.noise, case.tool.teeth, alpha=alpha)
     return annotate(res, detected, library)
+
+
+def force_determined(eff, tool, values, cov) -> dict:
+    """What a force fit determines (:func:`identify.evidence.determined`, log variables for log
+    parameters); for runout also the tooth-radius differences ``r_j - r_0`` (what the forces see)
+    with their standard deviations (delta method on the fit's covariance)."""
+    values = np.asarray(values, float)
+    if cov is None:
+        return {}
+    jac = np.array([1.0 / v if p.log and v > 0 else 1.0 for p, v in zip(eff.parameters, values)])
+    out = determined([(p.name, p) for p in eff.parameters], list(values), cov * np.outer(jac, jac))
+    if eff.name == "runout" and np.all(np.isfinite(cov)):
+        from robolobes.cases.milling import eccentric_runout
+
+        def diff(v):
+            r = np.asarray(eccentric_runout(tool, float(v[0]), float(v[1])), float)
+            return r[1:] - r[0]
+        d0 = diff(values)
+        G = np.column_stack([(diff(values + h) - d0) / h[k] for k, h in
+                             enumerate((np.array([1e-9, 0.0]), np.array([0.0, 1e-6])))])
+        sd = np.sqrt(np.clip(np.diag(G @ cov @ G.T), 0, None))
+        out["shared"] = [{"quantity": f"tooth {j + 1} radius minus tooth 0's (m)", "value": float(d0[j]),
+                          "sd": float(sd[j])} for j in range(len(d0))]
+        out["meaning"] = ("the forces depend on the teeth's radius differences; the offset's amplitude and phase "
+                          "are reported only where the combinations above say they are determined")
+    return out
+
+
+def _finished(fit: EffectFit, library, surrogate: bool) -> EffectFit:
+    """The force effect with ``credible``, ``determined`` and ``surrogate`` set."""
+    eff = next(e for e in library if e.name == fit.name)
+    ok, why = credibility(eff, fit.params)
+    return replace(fit, credible=ok, not_credible_because=tuple(why), determined=fit.evidence.get("determined", {}),
+                   surrogate=bool(surrogate))
+
+
+def _force_unexplained(ctx, final_ho: np.ndarray, error: float, floor: float, alpha: float, teeth: int) -> dict:
+    """The verdict on the final held-out residual of a force series (:func:`identify.evidence.unexplained`)
+    and where it stays above the noise: force axes (ratio of RMS residual to RMS noise against their own
+    margin, Bonferroni over the axes) and the signatures of the final residual."""
+    from .evidence import ESTIMATOR_TOL, margin, unexplained
+
+    meas, noise = ctx.heldout.mean[:, :2], ctx.heldout.noise[:, :2]
+    r = final_ho[:, :2] - meas
+    out = unexplained(error, floor, r.size, alpha, False, ESTIMATOR_TOL["forces"])
+    where: dict = {"axes": []}
+    for a, name in enumerate("xy"):
+        ratio = float(np.sqrt(np.mean(r[:, a] ** 2) / np.mean(noise[:, a] ** 2)))
+        lim = margin(r.shape[0], alpha / 2, False, ESTIMATOR_TOL["forces"])
+        if ratio > lim:
+            where["axes"].append({"name": f"F{name}", "ratio_to_noise": ratio, "margin": lim})
+    if out["unexplained"]:
+        det = force_signatures(ctx.heldout.mean, final_ho, ctx.heldout.noise, teeth, alpha=alpha)
+        where["signatures"] = [k for k, v in det.items() if v.present]
+    out["where"] = where
+    return out
 
 
 # ---------------------------------------------------------------------------------------------

@@ -16,11 +16,16 @@ exponential variable, ``|d|^2`` of complex Gaussian noise, is ``ln 2`` times its
 near a sharp peak, where the FRF's own curvature enters ``d``, are a minority of every window, so
 the median ignores them; any bias left makes ``sigma`` larger, i.e. the selection more cautious.
 
-Selection is leave-one-pose-out (:mod:`identify.selection`); each candidate is first fitted on
-all the data and only the ``SHORTLIST`` best by that training fit, whose training gain could pass
-the test (``sqrt(gain / 2) >= z_threshold / 2``, see ``_Trials._shortlisted``), are fitted fold by
-fold (the others keep the current model's held-out residual, so they cannot be chosen). The
-significance threshold still counts every candidate of the library.
+Selection is leave-one-pose-out and forward-backward (:func:`identify.selection.stepwise_select`):
+each candidate is fitted jointly with every effect already in the model (all refitted), first on
+all the data; only the ``SHORTLIST`` best by that training fit, whose training gain could pass the
+test (``sqrt(gain / 2) >= z_threshold / 2``, see ``_Trials._shortlisted``), are fitted fold by fold
+(the others keep the current model's held-out residual, so they cannot be chosen). The
+significance threshold counts every candidate of the library at every forward step the search may
+make (``2 max_effects L`` tests). ``tcp_mode`` may enter more than once (a mode per direction);
+its fits start from the measured poles (:func:`residual_peaks`). After the selection:
+``final_effects`` (credible, determined, surrogate) and ``_unexplained`` (the verdict on the final
+residual against :func:`noise_floor`, and where it stays above the noise), see :mod:`identify.evidence`.
 """
 
 from __future__ import annotations
@@ -38,7 +43,7 @@ from robolobes.linearize.linear import _state_matrix
 
 from .effects import ModelState, effects_for
 from .result import Identification
-from .selection import Trial, forward_select, heldout_error
+from .selection import Trial, heldout_error
 from .structural import PoseMatrices, ServoEffect, StructuralEffect, pose_matrices
 
 __all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METRIC", "SHORTLIST"]
@@ -46,6 +51,11 @@ __all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METR
 METRIC = ("held-out (leave-one-pose-out) RMS over lines of |H_model - H_measured| / RMS |H_measured|, "
           "receptance in m/N, not squared")
 SHORTLIST = 3
+RESIDUAL_PEAKS = 4    # measured poles offered to a tool-mode fit as start frequencies
+#: A servo's rotor inertia, reflected through the gearbox, is matched to the load it drives: inertia
+#: matching puts it within 0.1-10x the link-side inertia of the axis. A fit far above that is not a
+#: drive but a surrogate for something else.
+MAX_ROTOR_RATIO = 10.0
 MAX_LINES = 500_000   # lines over all poses and pairs (the 1200-line, 24-pair bench has 28 800)
 _NOISE_WINDOW = 41
 
@@ -80,19 +90,49 @@ class PoseData:
     pair_in: np.ndarray
 
 
-def line_noise(H: np.ndarray) -> np.ndarray:
-    """Noise standard deviation of each line of one FRF (F,), from its second differences (module doc)."""
+def line_noise(H: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
+    """Noise standard deviation of each line of one FRF (F,), from fourth differences (module doc).
+
+    ``residual``: difference the residual ``H_model - H`` (same lines) instead of ``H``: the model
+    takes the FRF's own curvature out, so near sharp peaks the differences are noise only (the
+    noise-floor estimator, :func:`noise_floor`). The noise is still judged relative to ``|H|``.
+    """
     H = np.asarray(H)
+    x = H if residual is None else np.asarray(residual)
     if len(H) < 5:
         return np.full(len(H), np.inf)
-    d = np.zeros(len(H), dtype=complex)
-    d[2:-2] = (H[:-4] - 4 * H[1:-3] + 6 * H[2:-2] - 4 * H[3:-1] + H[4:]) / math.sqrt(70.0)
+    d = np.zeros(len(x), dtype=complex)
+    d[2:-2] = (x[:-4] - 4 * x[1:-3] + 6 * x[2:-2] - 4 * x[3:-1] + x[4:]) / math.sqrt(70.0)
     d[:2], d[-2:] = d[2], d[-3]
     # |H|^2 averaged over 5 lines: a weight from the line's own |H| would down-weight the lines whose
     # noise happened to raise |H| and bias the fit (peaks too low)
     mag2 = np.maximum(uniform_filter1d(np.abs(H) ** 2, size=5, mode="nearest"), 1e-300)
     rel = median_filter(np.abs(d) ** 2 / mag2, size=min(_NOISE_WINDOW, len(H) | 1), mode="nearest")
     return np.sqrt(rel * mag2 / math.log(2))
+
+
+def residual_sigma(poses: list[PoseData], residual: np.ndarray) -> np.ndarray:
+    """Per-line noise (N,) from the fourth differences of ``residual`` (all poses' lines concatenated,
+    as the held-out trials give them), pair by pair in frequency order."""
+    out = np.empty(len(residual))
+    for pd, sl in zip(poses, _splits(poses)):
+        r = residual[sl]
+        for k in np.unique(pd.pair):
+            idx = np.flatnonzero(pd.pair == k)
+            order = idx[np.argsort(pd.omega[pd.index[idx]])]
+            out[sl.start + order] = line_noise(pd.H[order], r[order])
+    return out
+
+
+def noise_floor(poses: list[PoseData], residual: np.ndarray) -> tuple[float, np.ndarray]:
+    """The noise floor: the error a model equal to the truth would have on these lines.
+
+    Estimator: ``sqrt(mean sigma_r^2) / RMS |H|`` over every line, ``sigma_r`` from the fourth
+    differences of the held-out residual of the final model (:func:`residual_sigma`; running median
+    over 41 lines of ``|d|^2 / |H|^2``, divided by ln 2). Returns the floor and ``sigma_r`` (N,)."""
+    sig = residual_sigma(poses, residual)
+    H = np.concatenate([pd.H for pd in poses])
+    return float(np.sqrt(np.mean(sig ** 2)) / np.sqrt(np.mean(np.abs(H) ** 2))), sig
 
 
 def _frame_axes(frame: str, pm: PoseMatrices, feed_direction) -> np.ndarray:
@@ -150,37 +190,26 @@ def predict(pose: PoseData, effects: list) -> np.ndarray:
 
 
 def _layout(effects: list) -> list:
-    return [(e, p) for e in effects for p in e.parameters]
+    """``[(k, effect, parameter)]``: the fit variables, ``k`` the effect's position (an effect may repeat)."""
+    return [(k, e, p) for k, e in enumerate(effects) for p in e.parameters]
 
 
 def _to_x(layout, values: list[dict]) -> np.ndarray:
-    flat = [v[p.name] for v, (e, p) in zip(_expand(layout, values), layout)]
-    return np.array([math.log(v) if p.log else v for v, (e, p) in zip(flat, layout)])
-
-
-def _expand(layout, values):
-    out, k = [], 0
-    for e in dict.fromkeys(e for e, _ in layout):
-        n = len(e.parameters)
-        out += [values[k]] * n
-        k += 1
-    return out
+    return np.array([math.log(values[k][p.name]) if p.log else float(values[k][p.name]) for k, _, p in layout])
 
 
 def _from_x(layout, x) -> list:
-    res, cur, last = [], None, None
-    for xi, (e, p) in zip(x, layout):
-        if e is not last:
-            cur = {}
-            res.append((e, cur))
-            last = e
-        cur[p.name] = math.exp(xi) if p.log else float(xi)
+    res: list = []
+    for xi, (k, e, p) in zip(x, layout):
+        if k == len(res):
+            res.append((e, {}))
+        res[k][1][p.name] = math.exp(xi) if p.log else float(xi)
     return res
 
 
 def _bounds(layout):
-    lo = np.array([math.log(p.lower) if p.log else p.lower for _, p in layout])
-    hi = np.array([math.log(p.upper) if p.log else p.upper for _, p in layout])
+    lo = np.array([math.log(p.lower) if p.log else p.lower for _, _, p in layout])
+    hi = np.array([math.log(p.upper) if p.log else p.upper for _, _, p in layout])
     return lo, hi
 
 
@@ -259,7 +288,45 @@ def diagnose(poses: list[PoseData], effects: list) -> dict:
     every_pose = bool(all(pp[k] > math.log(1.5) for pp in per_pose))
     return {"extra_peak_hz": f_peak, "extra_peak_m_per_n": float(amp[k]),
             "extra_peak_log_ratio": float(mean[k]), "extra_peak_in_every_pose": every_pose,
-            "extra_peak_direction_tcp": _peak_direction(poses, effects, f_peak)}
+            "extra_peak_direction_tcp": _peak_direction(poses, effects, f_peak),
+            "residual_peaks": residual_peaks(poses, effects, edges)}
+
+
+def residual_peaks(poses: list[PoseData], effects: list, edges: np.ndarray, n_peaks: int = RESIDUAL_PEAKS) -> list:
+    """The measured poles the model lacks: up to ``n_peaks`` local maxima, largest first, of the residual's
+    amplitude ``|H_model - H|`` (mean over the lines of log-spaced bins, each pose's divided by its RMS
+    |H|, averaged over the poses), among the bins where the residual stands above the noise (mean
+    ``|r|^2`` over mean ``sigma^2`` above 2, twice a noise-only residual's). Each as ``(freq_hz,
+    amplitude m/N)``, the amplitude the largest bin mean of ``|r|`` over the poses. A missing mode's
+    residual peaks at its resonance; tool-mode fits start from these frequencies, so a fit cannot
+    settle away from a pole the data show."""
+    nb = len(edges) - 1
+    power = np.zeros(nb)
+    noise = np.zeros(nb)
+    rel = np.zeros(nb)
+    amp = np.zeros(nb)
+    for pd in poses:
+        r = predict(pd, effects) - pd.H
+        b = np.clip(np.searchsorted(edges, pd.omega[pd.index] / (2 * math.pi)) - 1, 0, nb - 1)
+        n = np.maximum(np.bincount(b, minlength=nb), 1)
+        power += np.bincount(b, np.abs(r) ** 2, nb) / n
+        noise += np.bincount(b, pd.sigma ** 2, nb) / n
+        a = np.bincount(b, np.abs(r), nb) / n
+        rel += a / np.sqrt(np.mean(np.abs(pd.H) ** 2)) / len(poses)
+        amp = np.maximum(amp, a)
+    above = power > 2.0 * np.maximum(noise, 1e-300)
+    sm = np.convolve(rel, np.ones(3) / 3, mode="same")
+    idx = [i for i in range(1, nb - 1) if above[i] and sm[i] >= sm[i - 1] and sm[i] > sm[i + 1]]
+    idx.sort(key=lambda i: -sm[i])
+    out: list = []
+    for i in idx:
+        j = i - 1 + int(np.argmax(rel[i - 1:i + 2]))
+        f = float(math.sqrt(edges[j] * edges[j + 1]))
+        if all(abs(f / g - 1) > 0.02 for g, _ in out):
+            out.append((f, float(amp[j])))
+        if len(out) == n_peaks:
+            break
+    return out
 
 
 def _peak_direction(poses: list[PoseData], effects: list, f_hz: float):
@@ -362,7 +429,8 @@ class _Trials:
         the held-out z is about ``gain / sqrt(2 sum|d|^2) = sqrt(gain / 2)``; held-out gains are
         smaller than training gains, so a candidate with ``sqrt(gain / 2) < z_thr / 2`` cannot pass
         and is not refitted fold by fold."""
-        fits = {c.name: self._full(state, c) for c in self.candidates if c.name not in {e.name for e, _ in state}}
+        fits = {c.name: self._full(state, c) for c in self.candidates
+                if c.repeatable or c.name not in {e.name for e, _ in state}}
         ranked = sorted((v[1], k) for k, v in fits.items() if v is not None)
         if effect.name not in [k for _, k in ranked[:SHORTLIST]]:
             return False
@@ -384,6 +452,14 @@ class _Trials:
             meas.append(pd.H)
             sig.append(pd.sigma)
         return np.concatenate(res), np.concatenate(meas), np.concatenate(sig)
+
+    def drop(self, state, k: int) -> list:
+        """``state`` without its ``k``-th effect, the others refitted jointly on all the data."""
+        rest = [x for j, x in enumerate(state) if j != k]
+        if not rest:
+            return []
+        params, _, _ = fit(self.poses, [], [e for e, _ in rest], [[dict(p) for _, p in rest]])
+        return params
 
     def __call__(self, state, effect) -> Trial:
         state = list(state or [])
@@ -410,7 +486,20 @@ class _Trials:
         if isinstance(effect, ServoEffect):   # the element's SI values (what the model TOML gets)
             J, kp, kd = effect.physical(float(self.poses[0].pm.joint_k[effect.joint - 1]), params[-1][1])
             ev["servo_drive"] = {"rotor_inertia_kg_m2": J, "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": kd}
+            ratio = rotor_inertia_ratio(self.poses, effect.joint, J)
+            ev["rotor_to_link_inertia"] = ratio
+            if ratio > MAX_ROTOR_RATIO:
+                ev["not_credible_because"] = [f"rotor inertia {J:.3g} kg m^2 is {ratio:.3g}x the largest link-side "
+                                              f"inertia of axis {effect.joint} over the poses (at most "
+                                              f"{MAX_ROTOR_RATIO:g}x for a reflected rotor)"]
         return Trial(r, m, s, state=params, params=dict(params[-1][1]), uncertainty=unc, evidence=ev)
+
+
+def rotor_inertia_ratio(poses: list[PoseData], joint: int, J: float) -> float:
+    """A servo's rotor inertia ``J`` (kg m^2) over the largest link-side inertia of the axis over the
+    poses (``M[i, i]`` of the linearized model, kg m^2)."""
+    link = max(float(pd.pm.M[pd.pm.motion_dofs[joint - 1], pd.pm.motion_dofs[joint - 1]]) for pd in poses)
+    return float(J / link) if link > 0 else math.inf
 
 
 def _splits(poses):
@@ -443,26 +532,142 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     chosen = effects_for("frf", model) if effects is None else list(effects)
     candidates = [e for e in chosen if isinstance(e, StructuralEffect)]
     poses = prepare(measurement, model, progress)
-    from .selection import z_threshold
-    trials = _Trials(poses, candidates, progress, z_threshold(alpha, len(candidates)))
-    sel = forward_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress)
+    from .evidence import accept
+    from .selection import stepwise_select, z_threshold
+    n_tests = 2 * max(1, max_effects) * max(1, len(candidates))
+    trials = _Trials(poses, candidates, progress, z_threshold(alpha, n_tests))
+    sel = stepwise_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress,
+                          repeatable=lambda c: c.repeatable, drop=trials.drop, accept=accept)
+    final = list(sel.state)
+    floor, sig_r = noise_floor(poses, sel.final.residual)
+    verdict = _unexplained(poses, sel.final.residual, sig_r, floor, sel.error_after, alpha, final)
+    fits = final_effects(poses, final, sel.effects, surrogate=verdict["unexplained"])
     state = model
-    for eff, params in sel.state:
+    for eff, params in final:
         state = eff.apply(state, params)
-    noise = float(np.sqrt(np.mean(sel.base.sigma ** 2)) / np.sqrt(np.mean(np.abs(sel.base.measured) ** 2)))
     extra = {"n_poses": len(poses), "n_lines": int(sum(len(pd.H) for pd in poses)),
-             "correlation_before": correlation(poses, []), "correlation_after": correlation(poses, list(sel.state)),
-             "diagnosis": diagnose(poses, []), "n_candidates": len(candidates)}
+             "correlation_before": correlation(poses, []), "correlation_after": correlation(poses, final),
+             "diagnosis": diagnose(poses, []), "n_candidates": len(candidates),
+             "selection": {"rule": "forward-backward, joint refit, Bonferroni over 2 max_effects x candidates",
+                           "n_tests": sel.n_tests, "z_threshold": sel.threshold},
+             "noise_floor_estimator": "sqrt(mean sigma_r^2) / RMS |H_measured|, sigma_r from fourth differences of "
+                                      "the final model's held-out residual (running median, / ln 2)"}
     if poles:
         from .modal import compare_poles
         if progress:
             progress("modal fit (LSCF/LSFD)")
-        got = compare_poles(poses, {"before": [], "after": list(sel.state)}, extra["diagnosis"]["extra_peak_hz"])
+        got = compare_poles(poses, {"before": [], "after": final}, extra["diagnosis"]["extra_peak_hz"])
         extra["poles_before"], extra["poles_after"] = got["before"], got["after"]
-    res = Identification(kind="frf", effects=sel.effects, error_before=sel.error_before, error_after=sel.error_after,
-                         metric=METRIC, noise_floor=noise, steps=sel.steps, model_toml=model_toml(state), extra=extra)
+    res = Identification(kind="frf", effects=fits, error_before=sel.error_before, error_after=sel.error_after,
+                         metric=METRIC, noise_floor=floor, steps=sel.steps, model_toml=model_toml(state), extra=extra,
+                         unexplained=verdict)
     from .modal import _model_modes
     from .signatures import annotate, frf_pose_residual, frf_signatures
     detected = frf_signatures([frf_pose_residual(pd, predict(pd, []), _model_modes(pd, [])) for pd in poses],
                               alpha=alpha)
     return annotate(res, detected, candidates)
+
+
+def final_effects(poses: list[PoseData], final: list, selected: tuple, surrogate: bool) -> tuple:
+    """The selected :class:`EffectFit` s at the final joint fit: parameters, one sigma, ``credible``,
+    ``determined`` (Fisher information of the joint fit, :func:`identify.evidence.determined`) and the
+    quantities shared with indistinguishable alternatives."""
+    from dataclasses import replace as _replace
+
+    from .evidence import credibility, determined
+
+    if not final:
+        return ()
+    effs = [e for e, _ in final]
+    _, _, cov = fit(poses, [], effs, [[dict(p) for _, p in final]])
+    layout = _layout(effs)
+    out, k = [], 0
+    for (eff, params), sel in zip(final, selected):
+        n = len(eff.parameters)
+        block = cov[k:k + n, k:k + n]
+        unc = _uncertainty([(eff, params)], layout[k:k + n], block)
+        ok, why = credibility(eff, params, sel.evidence.get("not_credible_because"))
+        det = determined([(p.name, p) for p in eff.parameters], [params[p.name] for p in eff.parameters], block)
+        shared = _shared(eff, params, block, sel.evidence.get("alternatives", []))
+        if shared:
+            det["shared"] = shared
+        out.append(_replace(sel, params=dict(params), uncertainty=unc, credible=ok, not_credible_because=tuple(why),
+                            determined=det, surrogate=bool(surrogate)))
+        k += n
+    return tuple(out)
+
+
+def _shared(eff, params: dict, block: np.ndarray, alternatives: list) -> list:
+    """What an effect and the alternatives the data cannot tell from it agree on: for a joint
+    correction and a servo of the same axis, the axis's static stiffness scale (value, one sigma)."""
+    from .effects import REGISTRY
+
+    if not hasattr(eff, "static_stiffness_scale"):
+        return []
+    value = eff.static_stiffness_scale(params)
+    if isinstance(eff, ServoEffect):   # kp_scale / (1 + kp_scale), kp_scale fitted in log: d/dln = kp/(1+kp)^2
+        kp = params["kp_scale"]
+        sd = kp / (1 + kp) ** 2 * math.sqrt(max(block[0, 0], 0.0))
+    else:                               # stiffness_scale fitted in log
+        sd = value * math.sqrt(max(block[0, 0], 0.0))
+    same_axis = [a for a in alternatives if a["name"] in REGISTRY and getattr(REGISTRY[a["name"]], "joint", None)
+                 == getattr(eff, "joint", -1) and hasattr(REGISTRY[a["name"]], "static_stiffness_scale")]
+    if not same_axis:
+        return []
+    return [{"quantity": f"axis {eff.joint} static stiffness / joint table's", "value": value, "sd": float(sd),
+             "indistinguishable_from": [{"name": a["name"],
+                                         "value": REGISTRY[a["name"]].static_stiffness_scale(a["params"])}
+                                        for a in same_axis],
+             "meaning": "below the rotor resonance a joint's stiffness and its servo's gain act in series and the "
+                        "FRFs cannot tell them apart; only this combination is determined"}]
+
+
+def _pair_label(pd: PoseData, k: int) -> str:
+    def lab(v):
+        i = int(np.argmax(np.abs(v)))
+        return ("-" if v[i] < 0 else "") + "xyz"[i]
+    return lab(pd.pair_out[k]) + lab(pd.pair_in[k])
+
+
+def _unexplained(poses: list[PoseData], residual: np.ndarray, sigma: np.ndarray, floor: float, error: float,
+                 alpha: float, final: list) -> dict:
+    """The verdict on the final residual (:func:`identify.evidence.unexplained`) and, when unexplained,
+    where it is: poses, pairs, octave bands whose RMS residual over RMS noise exceeds their own margin
+    (Bonferroni over the parts tested), and the signatures of the final residual."""
+    from .evidence import ESTIMATOR_TOL, margin, unexplained
+
+    out = unexplained(error, floor, len(residual), alpha, True, ESTIMATOR_TOL["frf"])
+    parts = []   # (kind, label, mask)
+    splits = _splits(poses)
+    for pd, sl in zip(poses, splits):
+        m = np.zeros(len(residual), bool)
+        m[sl] = True
+        parts.append(("poses", pd.name, m))
+    labels = sorted({_pair_label(pd, int(k)) for pd in poses for k in np.unique(pd.pair)})
+    pair_of = np.concatenate([[_pair_label(pd, int(k)) for k in pd.pair] for pd in poses])
+    for lab in labels:
+        parts.append(("pairs", lab, pair_of == lab))
+    f = np.concatenate([pd.omega[pd.index] / (2 * math.pi) for pd in poses])
+    lo = 2.0 ** np.floor(np.log2(max(f.min(), 1e-3)))
+    while lo < f.max():
+        m = (f >= lo) & (f < 2 * lo)
+        if m.sum() >= 10:
+            parts.append(("bands_hz", [float(lo), float(2 * lo)], m))
+        lo *= 2
+    where: dict = {"poses": [], "pairs": [], "bands_hz": []}
+    n_parts = len(parts)
+    for kind, label, m in parts:
+        ratio = float(np.sqrt(np.mean(np.abs(residual[m]) ** 2) / np.mean(sigma[m] ** 2)))
+        lim = margin(int(m.sum()), alpha / n_parts, True, ESTIMATOR_TOL["frf"])
+        if ratio > lim:
+            where[kind].append({"name": label, "ratio_to_noise": ratio, "margin": lim})
+    for v in where.values():
+        v.sort(key=lambda x: -x["ratio_to_noise"])
+    if out["unexplained"]:
+        from .modal import _model_modes
+        from .signatures import frf_pose_residual, frf_signatures
+        det = frf_signatures([frf_pose_residual(pd, predict(pd, final), _model_modes(pd, final)) for pd in poses],
+                             alpha=alpha)
+        where["signatures"] = [k for k, v in det.items() if v.present]
+    out["where"] = where
+    return out

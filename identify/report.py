@@ -66,6 +66,7 @@ def _summary_lines(title: str, result, provenance: dict) -> list[str]:
              f"noise floor (from the data): {result.noise_floor:.4g}",
              f"- provenance: robolobes {provenance.get('robolobes_version')}, inputs sha256 "
              f"{provenance.get('inputs_sha256')}", ""]
+    lines += answer_sentences(result)
     if result.effects:
         lines += ["## Effects found (best first)", "", "| effect | parameter | value | 1 sigma |", "|---|---|---|---|"]
         for e in result.effects:
@@ -83,6 +84,55 @@ def _summary_lines(title: str, result, provenance: dict) -> list[str]:
         lines.append(f"| {i} | {s.kept or '-'} | {_g(s.statistic, '.3g')} | {_g(s.threshold, '.3g')} | "
                      f"{_g(s.error_before, '.4g')} | {_g(s.error_after, '.4g')} |")
     return lines
+
+
+def answer_sentences(result) -> list[str]:
+    """The answer in sentences, each computed from the result's numbers (Markdown lines)."""
+    out = ["## Answer", ""]
+    u = result.unexplained or {}
+    if u:
+        ratio, m = u.get("ratio_to_noise_floor", float("nan")), u.get("margin", float("nan"))
+        if u.get("unexplained"):
+            where = u.get("where", {})
+            parts = []
+            for key, label in (("poses", "poses"), ("pairs", "FRF pairs"), ("axes", "force axes"),
+                               ("bands_hz", "bands (Hz)")):
+                items = where.get(key) or []
+                if items:
+                    names = [f"{x['name'][0]:g}-{x['name'][1]:g}" if key == "bands_hz" else str(x["name"])
+                             for x in items[:4]]
+                    parts.append(f"{label} {', '.join(names)}")
+            if where.get("signatures"):
+                parts.append("signatures " + ", ".join(where["signatures"]))
+            out.append(f"The residual is **unexplained**: the held-out error is {ratio:.3g}x the noise floor, above "
+                       f"the margin {m:.3g}x. It stays above the noise in " + ("; ".join(parts) or "no single part")
+                       + ". Every effect below lowers the error but is a **surrogate**: it is not shown to be the "
+                         "physical cause.")
+        else:
+            out.append(f"The model explains the data within the noise: the held-out error is {ratio:.3g}x the noise "
+                       f"floor (margin {m:.3g}x).")
+    for e in result.effects:
+        if not e.credible:
+            out.append(f"- {e.name} is **not credible** ({'; '.join(e.not_credible_because)}): not an identified "
+                       f"effect.")
+            continue
+        det = e.determined or {}
+        undetermined = [k for k, v in (det.get("parameters") or {}).items() if not v]
+        s = f"- {e.name}{' (surrogate)' if e.surrogate else ''}: lowers the held-out error from " \
+            f"{e.evidence.get('heldout_error_without', float('nan')):.4g} to " \
+            f"{e.evidence.get('heldout_error_with', float('nan')):.4g} (z = {e.evidence.get('z', float('nan')):.3g}, " \
+            f"threshold {e.evidence.get('z_threshold', float('nan')):.3g})."
+        if undetermined:
+            s += f" Not determined by the data: {', '.join(undetermined)}."
+        for sh in det.get("shared") or []:
+            alt = ", ".join(a["name"] for a in sh.get("indistinguishable_from", []))
+            s += f" Determined: {sh['quantity']} = {sh['value']:.4g} +- {sh['sd']:.2g}" + \
+                 (f", which {alt} gives too: the data cannot tell them apart." if alt else ".")
+        alts = [a["name"] for a in e.evidence.get("alternatives") or []]
+        if alts and not det.get("shared"):
+            s += f" The held-out data cannot tell it from {', '.join(alts)}."
+        out.append(s)
+    return out + [""]
 
 
 def _g(x, fmt: str) -> str:

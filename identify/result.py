@@ -27,22 +27,44 @@ class EffectFit:
         One standard deviation of each parameter (same keys and units).
     evidence : dict
         Why it was chosen: the signature it explains, the held-out error with and without it, the
-        test statistic and its threshold.
+        test statistic and its threshold, the candidates the data could not tell from it
+        (``alternatives``).
+    credible : bool
+        False when a parameter sits on a bound or outside its physical range (``not_credible_because``
+        says which, with the bound): then it is not an identified effect (:mod:`identify.evidence`).
+    determined : dict
+        What the data determine (:func:`identify.evidence.determined`): per parameter, the
+        combinations of the Fisher information with their standard deviation, and physical
+        combinations shared with indistinguishable alternatives (``shared``).
+    surrogate : bool
+        True when the final residual stays unexplained: the effect lowers the error but is not shown
+        to be the physical cause.
     """
 
     name: str
     params: dict
     uncertainty: dict
     evidence: dict
+    credible: bool = True
+    not_credible_because: tuple = ()
+    determined: dict = field(default_factory=dict)
+    surrogate: bool = False
 
     def to_json(self) -> dict:
         return {"name": self.name, "params": dict(self.params), "uncertainty": dict(self.uncertainty),
+                "credible": self.credible, "not_credible_because": list(self.not_credible_because),
+                "determined": dict(self.determined), "surrogate": self.surrogate,
                 "evidence": dict(self.evidence)}
 
 
 @dataclass(frozen=True)
 class SelectionStep:
-    """One greedy step: candidates tried, their held-out errors, the one kept (or none)."""
+    """One selection step: candidates tried, their held-out errors, the one kept (or none).
+
+    ``action``: ``"add"`` (a forward step) or ``"drop"`` (a backward step that removed ``removed``,
+    whose gain ``statistic`` no longer passed ``threshold``). ``rejected``: candidates that could not
+    be findings (not credible, or below their detection threshold), name -> reason.
+    """
 
     candidates: dict  # name -> held-out error with that effect added
     kept: str | None
@@ -50,6 +72,9 @@ class SelectionStep:
     error_after: float
     statistic: float
     threshold: float
+    action: str = "add"
+    removed: str | None = None
+    rejected: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return dict(self.__dict__)
@@ -75,6 +100,10 @@ class Identification:
         The updated case / robot TOML (loads under the strict key check).
     extra : dict
         Kind-specific numbers (per-pose errors, FRAC, poles...).
+    unexplained : dict
+        ``unexplained`` (bool): the final held-out error exceeds the noise floor by more than
+        ``margin`` (the rule in ``rule``); ``ratio_to_noise_floor``; ``where``: the poses, pairs or
+        axes, frequency bands and signatures where the residual stays above the noise.
     arrays : dict
         Arrays for ``--report``, not written to the JSON. Force series: ``heldout_measured_n``,
         ``model_before_n``, ``model_after_n`` (M, 3) N, the held-out synchronous average and the model's
@@ -92,9 +121,16 @@ class Identification:
     model_toml: str = ""
     extra: dict = field(default_factory=dict)
     arrays: dict = field(default_factory=dict, repr=False, compare=False)
+    unexplained: dict = field(default_factory=dict)
+
+    @property
+    def identified(self) -> tuple:
+        """Names of the effects that are findings: credible and not surrogates."""
+        return tuple(e.name for e in self.effects if e.credible and not e.surrogate)
 
     def to_json(self) -> dict:
         return {"kind": self.kind, "effects": [e.to_json() for e in self.effects],
+                "identified": list(self.identified),
                 "error_before": self.error_before, "error_after": self.error_after, "metric": self.metric,
-                "noise_floor": self.noise_floor, "steps": [s.to_json() for s in self.steps],
-                "model": self.model_toml, **self.extra}
+                "noise_floor": self.noise_floor, "unexplained": dict(self.unexplained),
+                "steps": [s.to_json() for s in self.steps], "model": self.model_toml, **self.extra}

@@ -1,8 +1,11 @@
-"""Greedy forward selection of effects by held-out error, with a significance rule against the noise.
+"""Stepwise (forward-backward) selection of effects by held-out error, with a significance rule against the noise.
 
 Generic over the measurement kind: the pipeline supplies ``trial(state, effect)``, which fits
-``effect`` on the training part of every fold and returns the residuals on the held-out part
-(:class:`Trial`); ``trial(state, None)`` returns the held-out residuals of ``state`` itself.
+``effect`` together with every effect already in ``state`` (a joint refit) on the training part of
+every fold and returns the residuals on the held-out part (:class:`Trial`); ``trial(state, None)``
+returns the held-out residuals of ``state`` itself. A pipeline that can take an effect out of a
+state supplies ``drop(state, k)`` (the state without its ``k``-th effect, the others refitted
+jointly); the search is then forward-backward, else forward only.
 
 The metric: ``e = RMS_heldout |model - measured| / RMS_heldout |measured|``, not squared.
 
@@ -14,18 +17,29 @@ the current model and ``r1 = r0 + d`` that of the candidate, whose change ``d`` 
 data (so is independent of the held-out noise). If the candidate effect is absent (the current
 model is right, ``r0 = -n``), the gain ``G = sum|r0|^2 - sum|r1|^2 = -sum|d|^2 + 2 Re sum conj(d) n``
 has mean ``-sum|d|^2 <= 0`` and variance ``2 sum sigma^2 |d|^2`` (complex lines; ``4 sum sigma^2 d^2``
-for real samples). So ``z = G / sqrt(var)`` exceeds the one-sided normal quantile ``z_(a/L)``
-with probability at most ``a/L``; testing all ``L`` candidates of a step at ``a/L`` (Bonferroni)
-bounds the family-wise false-positive rate of the step by ``a`` (default ``a = 1 %``). Selection
-stops at the first step whose best candidate fails the test, so the first false effect can only
-enter at that step: the rate over the whole run is at most ``a`` too.
+for real samples). So ``z = G / sqrt(var)`` exceeds the one-sided normal quantile ``z_(a/T)``
+with probability at most ``a/T``.
 
-An effect is added only when it passes the test *and* lowers the held-out error; the best candidate
-of a step is the one with the lowest held-out error.
+The correction for the size of the search: a false effect can only enter the model through a
+forward test that passes. The search makes at most ``S = 2 max_effects`` forward steps (a backward
+step, which only removes, can give back a step), each testing at most ``L`` candidates (the
+library; a repeatable effect such as ``tcp_mode`` is one candidate per step however many copies
+the model holds). Every forward test is made at ``a / T`` with ``T = S L`` (Bonferroni over every
+(step, candidate) test the search can make), so the family-wise false-positive rate over the whole
+search is at most ``a`` (default ``a = 1 %``): ``z_thr = z_(a / (2 max_effects L))``. A backward
+step removes an effect whose gain, tested the same way against the model without it, no longer
+passes ``z_thr`` (an effect kept must stay significant once the later effects are in).
+
+Before a candidate can be chosen it must be a possible finding (``accept(effect, trial)``, see
+:mod:`identify.evidence`): credible (no parameter on a bound that is not its neutral value, none
+outside its physical range) and above its own detection threshold. The best candidate of a step is
+the acceptable one with the lowest held-out error; it is added when it passes the test and lowers
+the held-out error.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -34,7 +48,7 @@ from scipy.stats import norm
 
 from .result import EffectFit, SelectionStep
 
-__all__ = ["Trial", "Selection", "forward_select", "heldout_error", "significance", "z_threshold"]
+__all__ = ["Trial", "Selection", "forward_select", "stepwise_select", "heldout_error", "significance", "z_threshold"]
 
 
 @dataclass(frozen=True)
@@ -94,13 +108,22 @@ def significance(r0: np.ndarray, r1: np.ndarray, sigma: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class Selection:
-    """Outcome of :func:`forward_select`."""
+    """Outcome of :func:`forward_select` / :func:`stepwise_select`.
+
+    ``effects``: one :class:`EffectFit` per effect of the final model, in the order they entered
+    (their ``params`` are those of the step that added them; a pipeline that refits jointly replaces
+    them with the final joint fit). ``chosen``: the candidate objects of the final model, same order.
+    ``n_tests``: ``T`` of the Bonferroni correction (module doc).
+    """
 
     effects: tuple          # EffectFit, in the order added (best first)
     steps: tuple            # SelectionStep
     state: Any              # the final model
     base: Trial             # held-out trial of the starting model
     final: Trial            # held-out trial of the final model
+    chosen: tuple = ()
+    n_tests: int = 1
+    threshold: float = 0.0
 
     @property
     def error_before(self) -> float:
@@ -111,42 +134,123 @@ class Selection:
         return self.final.error
 
 
-def forward_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any, Any], Trial], *,
-                   alpha: float = 0.01, max_effects: int = 3, name: Callable[[Any], str] = lambda e: e.name,
-                   progress: Callable[[str], None] | None = None) -> Selection:
-    """Add effects greedily while one clearly lowers the held-out error.
+def _always(effect, trial) -> tuple[bool, str]:
+    return True, ""
+
+
+def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any, Any], Trial], *,
+                    alpha: float = 0.01, max_effects: int = 3, name: Callable[[Any], str] = lambda e: e.name,
+                    progress: Callable[[str], None] | None = None,
+                    repeatable: Callable[[Any], bool] = lambda e: False,
+                    drop: Callable[[Any, int], Any] | None = None,
+                    accept: Callable[[Any, Trial], tuple[bool, str]] = _always) -> Selection:
+    """Forward-backward selection with a joint refit at every step (see the module doc).
 
     Parameters
     ----------
     state : the starting model (whatever ``trial`` takes).
-    candidates : effects to try; each is tried at most once.
-    trial : ``trial(state, effect_or_None) -> Trial``.
-    alpha : family-wise false-positive rate (default 0.01), Bonferroni over the candidates of a step.
-    max_effects : at most this many effects are added.
+    candidates : the library (``L`` effects).
+    trial : ``trial(state, effect_or_None) -> Trial``; the effect is fitted jointly with ``state``'s.
+    alpha : family-wise false-positive rate (default 0.01), Bonferroni over ``2 max_effects L`` tests.
+    max_effects : the final model holds at most this many effects.
+    repeatable : whether a candidate may enter more than once (a second tool mode).
+    drop : ``drop(state, k) -> state`` without its ``k``-th effect (others refitted); None: forward only.
+    accept : ``accept(effect, trial) -> (ok, reason)``: whether the fitted effect can be a finding.
     """
+    n_forward = 2 * max(1, max_effects)
+    n_tests = n_forward * max(1, len(candidates))
+    thr = z_threshold(alpha, n_tests)
     base = current = trial(state, None)
-    remaining = list(candidates)
-    effects, steps = [], []
-    while remaining and len(effects) < max_effects:
-        thr = z_threshold(alpha, len(remaining))
-        results = {}
-        for c in remaining:
+    chosen: list = []
+    fits: list = []
+    steps: list = []
+    forward = 0
+    while forward < n_forward and len(chosen) < max_effects:
+        forward += 1
+        pool = [c for c in candidates if repeatable(c) or all(c is not x for x in chosen)]
+        if not pool:
+            break
+        results, rejected = {}, {}
+        for c in pool:
             if progress is not None:
                 progress(f"step {len(steps) + 1}: {name(c)}")
-            results[name(c)] = (c, trial(current.state if current.state is not None else state, c))
-        best_name = min(results, key=lambda k: results[k][1].error)
+            t = trial(current.state if current.state is not None else state, c)
+            ok, why = accept(c, t)
+            results[name(c)] = (c, t)
+            if not ok:
+                rejected[name(c)] = why
+        usable = [k for k in results if k not in rejected]
+        errors = {k: v[1].error for k, v in results.items()}
+        if not usable:
+            steps.append(SelectionStep(candidates=errors, kept=None, error_before=current.error,
+                                       error_after=current.error, statistic=float("nan"), threshold=thr,
+                                       rejected=rejected))
+            break
+        best_name = min(usable, key=lambda k: results[k][1].error)
         best_c, best = results[best_name]
         z = significance(current.residual, best.residual, best.sigma)
         kept = best_name if (z > thr and best.error < current.error) else None
-        steps.append(SelectionStep(candidates={k: v[1].error for k, v in results.items()}, kept=kept,
-                                   error_before=current.error, error_after=best.error if kept else current.error,
-                                   statistic=float(z), threshold=thr))
+        steps.append(SelectionStep(candidates=errors, kept=kept, error_before=current.error,
+                                   error_after=best.error if kept else current.error, statistic=float(z),
+                                   threshold=thr, rejected=rejected))
         if kept is None:
             break
-        effects.append(EffectFit(name=best_name, params=dict(best.params), uncertainty=dict(best.uncertainty),
-                                 evidence={**best.evidence, "heldout_error_without": current.error,
-                                           "heldout_error_with": best.error, "z": float(z), "z_threshold": thr}))
+        fits.append(EffectFit(name=best_name, params=dict(best.params), uncertainty=dict(best.uncertainty),
+                              evidence={**best.evidence, "heldout_error_without": current.error,
+                                        "heldout_error_with": best.error, "z": float(z), "z_threshold": thr,
+                                        "alternatives": _alternatives(results, rejected, best_name, best, thr)}))
+        chosen.append(best_c)
         current = best
-        remaining.remove(best_c)
-    return Selection(effects=tuple(effects), steps=tuple(steps), state=current.state if current.state is not None else state,
-                     base=base, final=current)
+        if drop is not None:
+            current = _backward(current, chosen, fits, steps, trial, drop, thr, name, progress)
+    final_state = current.state if current.state is not None else state
+    return Selection(effects=tuple(fits), steps=tuple(steps), state=final_state, base=base, final=current,
+                     chosen=tuple(chosen), n_tests=n_tests, threshold=thr)
+
+
+def _alternatives(results: dict, rejected: dict, best_name: str, best: Trial, thr: float) -> list:
+    """Candidates of the same step the held-out data cannot tell from the best: the best's gain over
+    them is not significant (``significance(r_other, r_best) <= thr``, the same rule). A candidate that
+    could not be a finding is listed too (``finding: false`` and the reason): a servo whose rotor sits
+    on its frequency bound is a joint correction the data cannot tell apart."""
+    out = []
+    for k, (_, t) in results.items():
+        if k == best_name or t.evidence.get("screened_out"):
+            continue
+        z = significance(t.residual, best.residual, best.sigma)
+        if z <= thr:
+            out.append({"name": k, "heldout_error": t.error, "z_best_over_it": float(z), "params": dict(t.params),
+                        "finding": k not in rejected, **({"why_not": rejected[k]} if k in rejected else {})})
+    return out
+
+
+def _backward(current: Trial, chosen: list, fits: list, steps: list, trial, drop, thr, name, progress) -> Trial:
+    """Remove, one at a time, the earlier effects that are no longer significant given the others."""
+    while len(chosen) > 1:
+        worst, worst_z, worst_t = None, math.inf, None
+        for k in range(len(chosen) - 1):          # the newest effect has just passed its test
+            if progress is not None:
+                progress(f"backward: without {name(chosen[k])}")
+            t = trial(drop(current.state, k), None)
+            z = significance(t.residual, current.residual, current.sigma)
+            if z < worst_z:
+                worst, worst_z, worst_t = k, z, t
+        if worst is None or worst_z > thr:
+            return current
+        removed = name(chosen[worst])
+        steps.append(SelectionStep(candidates={removed: worst_t.error}, kept=None, error_before=current.error,
+                                   error_after=worst_t.error, statistic=float(worst_z), threshold=thr,
+                                   action="drop", removed=removed))
+        del chosen[worst]
+        del fits[worst]
+        current = worst_t
+    return current
+
+
+def forward_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any, Any], Trial], *,
+                   alpha: float = 0.01, max_effects: int = 3, name: Callable[[Any], str] = lambda e: e.name,
+                   progress: Callable[[str], None] | None = None,
+                   accept: Callable[[Any, Trial], tuple[bool, str]] = _always) -> Selection:
+    """Forward-only selection (no ``drop``; each candidate at most once): :func:`stepwise_select`."""
+    return stepwise_select(state, candidates, trial, alpha=alpha, max_effects=max_effects, name=name,
+                           progress=progress, accept=accept)

@@ -126,15 +126,20 @@ def _direction(polar_rad: float, azimuth_rad: float) -> np.ndarray:
 
 class TcpModeEffect(StructuralEffect):
     name = "tcp_mode"
+    repeatable = True   # a holder has a mode in each radial direction, a spindle more than one
     doc = ("A spindle / tool-holder mode at the TCP: an oscillator (frequency, damping ratio, stiffness) "
            "along a direction fixed in the tool frame (polar angle from the tool axis, azimuth from TCP x).")
     parameters = (
         Parameter("freq_hz", 20.0, 3000.0, None, None, log=True, doc="natural frequency on a fixed base"),
-        Parameter("damping_ratio", 0.003, 0.3, None, None, log=True),
+        Parameter("damping_ratio", 0.003, 0.3, None, None, log=True, plausible=(0.003, 0.15),
+                  doc="spindle / tool-holder modes: 1-10 % (Schmitz & Smith); above 15 % not a holder mode"),
         Parameter("stiffness_n_per_m", 1e4, 1e9, None, None, log=True,
                   doc="detectable when 1 / (2 zeta k) exceeds the robot's receptance at freq_hz by the noise"),
-        Parameter("polar_rad", 0.0, math.pi, doc="direction: angle from the tool axis (TCP z)"),
-        Parameter("azimuth_rad", -math.pi, math.pi, doc="direction: angle about the tool axis from TCP x"),
+        # a direction's angles: the ends of their ranges are not physical bounds (d and -d are the same
+        # mode, the azimuth wraps), so a value there is not "on a bound" (identify.evidence)
+        Parameter("polar_rad", 0.0, math.pi, periodic=True, doc="direction: angle from the tool axis (TCP z)"),
+        Parameter("azimuth_rad", -math.pi, math.pi, periodic=True,
+                  doc="direction: angle about the tool axis from TCP x"),
     )
     observed_by = {"frf": "an extra peak, same frequency at every pose: 1 / (2 zeta k) above ~3x the noise of "
                           "the measured receptance at that frequency",
@@ -161,20 +166,27 @@ class TcpModeEffect(StructuralEffect):
                        J_payload=np.hstack([pm.J_payload, np.zeros((3, 1))]))
 
     def guesses(self, diagnosis):
+        """Starts from the measured poles: every peak of the current residual (``residual_peaks``:
+        frequency and amplitude, :func:`identify.frf.diagnose`) and the model-ratio peak, each along
+        TCP x, y, z and the residual's rank-one direction; ``fit`` optimizes from the cheapest two."""
+        peaks = list(diagnosis.get("residual_peaks") or [])
         f = diagnosis.get("extra_peak_hz")
-        amp = diagnosis.get("extra_peak_m_per_n")
-        if not f:
+        if f:
+            peaks.append((f, diagnosis.get("extra_peak_m_per_n")))
+        if not peaks:
             return []
-        f = float(np.clip(f, self.parameters[0].lower, self.parameters[0].upper))
         zeta = 0.03
-        k = float(np.clip(1.0 / (2 * zeta * amp), 1e4, 1e9)) if amp else 1e6
+        dirs = [(0.5 * math.pi, 0.0), (0.5 * math.pi, 0.5 * math.pi), (0.0, 0.0)]   # TCP x, y, z
         d = diagnosis.get("extra_peak_direction_tcp")
         if d is not None:     # from the residual's rank-one shape at the peak
-            starts = [(math.acos(max(-1.0, min(1.0, d[2]))), math.atan2(d[1], d[0]))]
-        else:
-            starts = [(0.5 * math.pi, 0.0), (0.5 * math.pi, 0.5 * math.pi), (0.0, 0.0)]   # TCP x, y, z
-        return [{"freq_hz": f, "damping_ratio": zeta, "stiffness_n_per_m": k, "polar_rad": p, "azimuth_rad": a}
-                for p, a in starts]
+            dirs.append((math.acos(max(-1.0, min(1.0, d[2]))), math.atan2(d[1], d[0])))
+        out = []
+        for fp, amp in peaks:
+            fp = float(np.clip(fp, self.parameters[0].lower, self.parameters[0].upper))
+            k = float(np.clip(1.0 / (2 * zeta * amp), 1e4, 1e9)) if amp else 1e6
+            out += [{"freq_hz": fp, "damping_ratio": zeta, "stiffness_n_per_m": k, "polar_rad": p, "azimuth_rad": a}
+                    for p, a in dirs]
+        return out
 
 
 class JointCorrectionEffect(StructuralEffect):
@@ -192,6 +204,10 @@ class JointCorrectionEffect(StructuralEffect):
             Parameter("stiffness_scale", 0.4, 2.5, neutral=1.0, detect=0.1, log=True),
             Parameter("damping_scale", 0.2, 5.0, neutral=1.0, detect=0.3, log=True),
         )
+
+    def static_stiffness_scale(self, params) -> float:
+        """The axis's static stiffness over the joint table's (what a joint correction and a servo share)."""
+        return float(params["stiffness_scale"])
 
     def guesses(self, diagnosis):
         # a scan of the stiffness: a mode shifted by more than its bandwidth is a local minimum
@@ -309,6 +325,11 @@ class ServoEffect(StructuralEffect):
                       doc="position-loop stiffness / joint stiffness (link side); seen when <= 9"),
             Parameter("rotor_freq_hz", 5.0, 3000.0, log=True, doc="sqrt((k + kp) / J) / 2 pi"),
             Parameter("rotor_damping_ratio", 0.005, 2.0, log=True, doc="kd / (2 sqrt((k + kp) J))"))
+
+    def static_stiffness_scale(self, params) -> float:
+        """The axis's static stiffness over the joint table's: the loop in series with the spring,
+        ``kp / (k + kp) = kp_scale / (1 + kp_scale)``."""
+        return float(params["kp_scale"] / (1.0 + params["kp_scale"]))
 
     @staticmethod
     def physical(k: float, params) -> tuple[float, float, float]:

@@ -1,0 +1,177 @@
+"""Seeded draws of FRF sets from the independent generator, run through ``robolobes identify``, and the
+rule that says whether an answer is right (stated here once, before any draw was run).
+
+Cases (``CASES``): ``mode_xy+joint``, ``mode_xy+payload``, ``joint+servo`` (pairs of library effects a
+user meets together; the tool-holder mode is in both radial directions, the usual case),
+``sensor_gain`` and ``base_z`` (effects no library element represents), ``null`` (nothing added).
+6 poses x 4 pairs (xx, yy, zz, xy), 400 lines 2-300 Hz, relative noise drawn in 1-3 %.
+
+What "right" means (:func:`judge`):
+
+* a library pair: every added effect is matched by an identified effect (``identified`` in the
+  JSON: credible, not a surrogate), and nothing else is identified:
+  - the tool mode: every identified ``tcp_mode`` within 3 % of a generated mode's frequency, and at
+    least one identified;
+  - a joint's stiffness x s: ``joint_correction_aN`` or ``servo_aN`` of that axis whose static stiffness
+    scale (``stiffness_scale``; ``kp_scale / (1 + kp_scale)`` for a servo) is within 2 sigma of s or 3 %;
+  - the servo (J, kp, kd) of axis N: ``servo_aN`` or ``joint_correction_aN``, the same static
+    stiffness scale covering ``kp / (k + kp)`` (the combination the data determine below the rotor
+    resonance);
+  - the payload mass x f: ``payload_mass`` with ``mass_scale`` within 2 sigma of f or 3 %;
+* an effect outside the library: nothing identified (the residual called unexplained, or every
+  effect kept labelled a surrogate);
+* a null: nothing identified and the residual not called unexplained.
+
+The noise-floor check (``floor_ok``): the reported noise floor within 20 % of the generating model's
+error on the data (``noise_error``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .tx200 import K_JOINT, Effects, write_frf_set
+
+__all__ = ["CASES", "draw", "run_identify", "judge", "run_case"]
+
+CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "null")
+N_POSES, N_LINES = 6, 400
+ROBOT_MASS_KG = 226 + 364 + 256 + 99 + 41 + 14 + 0.6 + 44.4
+
+
+def _either(rng, lo_hi_low, lo_hi_high) -> float:
+    return float(rng.uniform(*lo_hi_low) if rng.random() < 0.5 else rng.uniform(*lo_hi_high))
+
+
+def _modes_xy(rng) -> tuple:
+    f = float(rng.uniform(150.0, 260.0))
+    m = float(rng.uniform(0.15, 0.4))            # modal mass, kg: a holder mode well above the noise
+    zeta = float(rng.uniform(0.02, 0.05))
+    fy = f * float(rng.uniform(1.02, 1.06))      # nearly symmetric holder
+    return ((f, zeta, m * (2 * math.pi * f) ** 2, (1.0, 0.0, 0.0)),
+            (fy, zeta * float(rng.uniform(0.9, 1.1)), m * (2 * math.pi * fy) ** 2, (0.0, 1.0, 0.0)))
+
+
+def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
+    """``(effects, truth, rel_noise)`` of draw ``seed`` of ``case`` (parameters beyond the effects'
+    detection thresholds)."""
+    rng = np.random.default_rng(seed)
+    noise = float(rng.uniform(0.01, 0.03))
+    truth: dict = {}
+    if case in ("mode_xy+joint", "mode_xy+payload"):
+        modes = _modes_xy(rng)
+        truth["tool_modes_hz"] = [m[0] for m in modes]
+        if case == "mode_xy+joint":
+            j = int(rng.integers(1, 4))
+            s = _either(rng, (0.6, 0.85), (1.2, 1.6))
+            truth["axes"] = {j: s}
+            return Effects(tool_modes=modes, joint_scale={j: (s, 1.0)}), truth, noise
+        f = _either(rng, (0.75, 0.88), (1.12, 1.3))
+        truth["payload_factor"] = f
+        return Effects(tool_modes=modes, payload_factor=f), truth, noise
+    if case == "joint+servo":
+        j = int(rng.choice([1, 3]))
+        s = _either(rng, (0.6, 0.85), (1.2, 1.6))
+        kp_scale = float(rng.uniform(1.5, 4.0))
+        k = K_JOINT[1]
+        f_rotor = float(rng.uniform(60.0, 150.0))
+        J = (k + kp_scale * k) / (2 * math.pi * f_rotor) ** 2
+        kd = 2 * float(rng.uniform(0.1, 0.3)) * math.sqrt((k + kp_scale * k) * J)
+        truth["axes"] = {j: s, 2: kp_scale / (1 + kp_scale)}
+        return Effects(joint_scale={j: (s, 1.0)}, servo=(2, J, kp_scale * k, kd)), truth, noise
+    if case == "sensor_gain":
+        return Effects(sensor_gain=_either(rng, (0.93, 0.96), (1.04, 1.07))), truth, noise
+    if case == "base_z":
+        f = float(rng.uniform(40.0, 80.0))
+        k = ROBOT_MASS_KG * (2 * math.pi * f) ** 2
+        return Effects(base_z=(k, 2 * 0.05 * math.sqrt(k * ROBOT_MASS_KG))), truth, noise
+    if case == "null":
+        return Effects(), truth, noise
+    raise ValueError(f"case {case!r}; valid: {', '.join(CASES)}")
+
+
+def run_identify(directory, extra_args=()) -> tuple[dict, float]:
+    """``robolobes identify --measured DIR --json --quiet --no-poles`` in this process: (JSON, CPU s)."""
+    from robolobes.main import main
+
+    buf, err = io.StringIO(), io.StringIO()
+    t0 = time.process_time()
+    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):
+        rc = main(["identify", "--measured", str(directory), "--json", "--quiet", "--no-poles", *extra_args])
+    cpu = time.process_time() - t0
+    if rc != 0:
+        raise RuntimeError(f"robolobes identify exited {rc}: {err.getvalue()[-2000:]}")
+    return json.loads(buf.getvalue()), cpu
+
+
+def _static_scale(e: dict) -> tuple[float, float] | None:
+    p, u = e["params"], e["uncertainty"]
+    if e["name"].startswith("joint_correction_a"):
+        return p["stiffness_scale"], u["stiffness_scale"]
+    if e["name"].startswith("servo_a"):
+        kp, skp = p["kp_scale"], u["kp_scale"]
+        return kp / (1 + kp), skp / (1 + kp) ** 2
+    return None
+
+
+def _covers(est: float, sd: float, true: float) -> bool:
+    return abs(est - true) <= max(2 * sd, 0.03 * abs(true))
+
+
+def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
+    """Whether ``res`` (the identify JSON) is right for a draw of ``case`` (module doc), and why not."""
+    ident = [e for e in res["effects"] if e["name"] in res["identified"]]
+    if case in ("sensor_gain", "base_z"):
+        return (not ident), ("" if not ident else f"named {[e['name'] for e in ident]} as findings")
+    if case == "null":
+        ok = not ident and not res["unexplained"]["unexplained"]
+        return ok, "" if ok else f"named {[e['name'] for e in ident]}, unexplained {res['unexplained']['unexplained']}"
+    used, why = set(), []
+    modes = [e for e in ident if e["name"] == "tcp_mode"]
+    if "tool_modes_hz" in truth:
+        good = [e for e in modes if min(abs(e["params"]["freq_hz"] / f - 1) for f in truth["tool_modes_hz"]) <= 0.03]
+        if not good or len(good) < len(modes):
+            why.append(f"tool modes {[round(e['params']['freq_hz'], 1) for e in modes]} vs {truth['tool_modes_hz']}")
+        used |= {id(e) for e in modes}
+    for axis, s in truth.get("axes", {}).items():
+        hit = [e for e in ident if e["name"] in (f"joint_correction_a{axis}", f"servo_a{axis}")]
+        ok = [e for e in hit if _covers(*_static_scale(e), s)]
+        if not ok:
+            why.append(f"axis {axis} static scale {s:.3f} not covered by {[(e['name'], _static_scale(e)) for e in hit]}")
+        used |= {id(e) for e in hit}
+    if "payload_factor" in truth:
+        hit = [e for e in ident if e["name"] == "payload_mass"]
+        if not any(_covers(e["params"]["mass_scale"], e["uncertainty"]["mass_scale"], truth["payload_factor"])
+                   for e in hit):
+            why.append(f"payload x{truth['payload_factor']:.3f} not covered by {[e['params'] for e in hit]}")
+        used |= {id(e) for e in hit}
+    extra = [e["name"] for e in ident if id(e) not in used]
+    if extra:
+        why.append(f"also named {extra}")
+    if res["unexplained"]["unexplained"]:
+        why.append(f"residual unexplained ({res['unexplained']['ratio_to_noise_floor']:.3g}x the noise floor)")
+    return (not why), "; ".join(why)
+
+
+def run_case(case: str, seed: int, tmp: Path, n_poses: int = N_POSES, n_lines: int = N_LINES) -> dict:
+    """Write draw ``seed`` of ``case`` under ``tmp``, identify it, judge it. Returns a summary dict."""
+    effects, truth, noise = draw(case, seed)
+    d = Path(tmp) / f"{case}_{seed}"
+    t = write_frf_set(d, effects, n_poses=n_poses, f_hz=np.linspace(2.0, 300.0, n_lines), rel_noise=noise,
+                      seed=seed)
+    res, cpu = run_identify(d)
+    ok, why = judge(case, truth, res)
+    floor_ratio = res["noise_floor"] / t["noise_error"]
+    return {"case": case, "seed": seed, "right": ok, "why": why, "cpu_s": cpu, "rel_noise": noise,
+            "identified": res["identified"], "effects": [e["name"] for e in res["effects"]],
+            "unexplained": res["unexplained"]["unexplained"], "ratio": res["unexplained"]["ratio_to_noise_floor"],
+            "noise_floor": res["noise_floor"], "noise_error": t["noise_error"], "floor_ratio": floor_ratio,
+            "floor_ok": abs(floor_ratio - 1) <= 0.2, "error_before": res["error_before"],
+            "error_after": res["error_after"], "truth": truth}
