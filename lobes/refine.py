@@ -41,14 +41,18 @@ class RefinedSDM:
     Parameters
     ----------
     base : SemiDiscretization
-        The scheme, quadrature, slices ... and the first level ``base.m`` (default m = 40).
+        The scheme, quadrature, slices ... and the first level ``base.m``. Default m = 20: on the
+        benchmark of ``tests/test_lobes_accuracy.py`` and the TX200 diagrams, the pair 20/40
+        already meets 1 % at most speeds and starting at 20 costs no accuracy there (the rule
+        refines where it does not), for about half the CPU of starting at 40
+        (``docs/guide/lobes-accuracy.md``).
     tol : float
         Target relative error estimate of the critical depth, in (0, 0.5); default 0.01 (1 %).
     m_max : int
         Finest level (steps per principal period); a speed not converged there is "unconverged".
     """
 
-    base: SemiDiscretization = SemiDiscretization()
+    base: SemiDiscretization = SemiDiscretization(m=20)
     tol: float = 0.01
     m_max: int = 320
 
@@ -123,12 +127,3 @@ def level_pairs(m0: int, m_max: int) -> list[tuple[int, int]]:
         out.append((m, 2 * m))
         m *= 2
     return out
-
-
-def relative(err: float, value: float) -> float:
-    """``err / value`` (0 for an exact inf, inf when undefined)."""
-    if err == 0.0:
-        return 0.0
-    if not (math.isfinite(value) and value > 0):
-        return math.inf
-    return err / value

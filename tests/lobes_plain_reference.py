@@ -249,3 +249,36 @@ if __name__ == "__main__":
             json.dump(_jsonable(data), fh, indent=1)
         os.replace(tmp, DATA)
         print(f"wrote {DATA}")
+
+
+# ---------------------------------------------------------------------------------------------
+# the accuracy criterion of the tests and of bench/bench_lobes_accuracy.py
+SHIFT = 0.002      # speeds n' within 0.2 % of n
+SHIFT_SAMPLES = 9  # n' = n (1 + k SHIFT / 4), k = -4..4
+TOL = 0.01         # |b(n') - b_ref(n)| <= 1 % of b_ref(n)
+
+
+def shifted_speeds(rpm: np.ndarray) -> np.ndarray:
+    """(S, 9) speeds n' = n (1 + k 0.0005), k = -4..4, around each reference speed n."""
+    k = np.linspace(-1.0, 1.0, SHIFT_SAMPLES)
+    return np.asarray(rpm, dtype=float)[:, None] * (1.0 + SHIFT * k[None, :])
+
+
+def usable(rows: list) -> np.ndarray:
+    """Reference speeds whose own error estimate is at most REF_TOL of the value (or both inf)."""
+    d = np.array([r["depth_m"] for r in rows], dtype=float)
+    e = np.array([r["error_m"] for r in rows], dtype=float)
+    return (np.isinf(d) & (e == 0)) | (np.isfinite(d) & (e <= REF_TOL * d))
+
+
+def shifted_error(b_shifted: np.ndarray, b_ref: np.ndarray, depth_max: float = DEPTH_MAX) -> np.ndarray:
+    """Relative error of the criterion per reference speed (S,): ``min_k |b(n'_k) - b_ref| / b_ref``,
+    and 0 where two neighbouring samples ``b(n'_k), b(n'_k+1)`` bracket ``b_ref`` (the limit curve is
+    continuous between them, so some n' in between meets it exactly). Both capped at ``depth_max``.
+    ``b_shifted`` (S, 9), m; ``b_ref`` (S,), m."""
+    b = np.minimum(np.asarray(b_shifted, dtype=float), depth_max)
+    ref = np.minimum(np.asarray(b_ref, dtype=float), depth_max)[:, None]
+    rel = np.abs(b - ref) / ref
+    d = b - ref
+    bracket = np.any(d[:, :-1] * d[:, 1:] <= 0, axis=1)
+    return np.where(bracket, 0.0, rel.min(axis=1))

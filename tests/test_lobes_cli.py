@@ -46,10 +46,14 @@ def test_modal_json_and_png(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert_allclose(out["rpm"], np.linspace(18000, 19000, 11))
     assert len(out["depth_limit_m"]) == 11 and len(out["chatter_freq_hz"]) == 11 and len(out["bifurcation"]) == 11
-    # the symmetric 2-DOF benchmark at m = 40: flip minimum 0.849 mm near 18 700 rpm (test_lobes)
+    # the symmetric 2-DOF benchmark: converged flip minimum 0.8315 mm at 18 702 rpm (test_lobes; one
+    # level m = 40 gives 0.8493 mm, 2.1 % above); the default refines to an estimate <= 1 %
     j = int(np.argmin(out["depth_limit_m"]))
     assert out["bifurcation"][j] == "flip" and abs(out["rpm"][j] - 18700) <= 100
-    assert_allclose(out["depth_limit_m"][j], 0.8493e-3, rtol=2e-3)
+    assert_allclose(out["depth_limit_m"][j], 0.8315e-3, rtol=1e-2)
+    assert abs(out["depth_limit_m"][j] / 0.8493e-3 - 1) > 0.015
+    assert out["tol"] == 0.01 and out["status"] == ["converged"] * 11 and len(out["m_final"]) == 11
+    assert all(e <= 0.01 * d for e, d in zip(out["depth_error_m"], out["depth_limit_m"]))
     op = out["operating_point"]
     assert set(op) >= {"rpm", "depth_m", "spectral_radius", "stable", "verdict", "verdict_reason", "margin"}
     assert op["verdict"] == {True: "stable", False: "unstable"}[op["stable"]]
