@@ -17,7 +17,6 @@ One rule for the diagram (:func:`lobes.solve`) and the operating point (:func:`l
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Literal
 

@@ -61,7 +61,7 @@ class StabilityPoint:
         The multiplier of largest modulus (NaN for ZeroOrder).
     verdict : robolobes.core.verdict.Verdict
         Decided on the depth: ``depth < limit - err`` "stable", ``> limit + err`` "unstable", else
-        "undetermined" (the discretization error bound ``err`` of the Richardson limit straddles the
+        "undetermined" (the discretization error estimate ``err`` of the Richardson limit straddles the
         cut depth); ``verdict.reason`` says which, with the numbers.
     margin : float
         ``depth_limit / depth - 1`` (> 0 stable): how much deeper one may cut at this speed.
@@ -71,7 +71,7 @@ class StabilityPoint:
     radius_margin : float
         ``1 - spectral_radius`` (NaN for ZeroOrder).
     depth_limit_m, depth_limit_error_m : float
-        Critical depth at this speed (smallest unstable depth, m) and its error bound.
+        Critical depth at this speed (smallest unstable depth, m) and its error estimate (:mod:`lobes.refine`).
     chatter_freq_hz : float
         Frequency of the critical Floquet solution at the operating point, Hz.
     bifurcation : {"hopf", "flip", "fold", "none"}
@@ -153,7 +153,7 @@ class LobeResult:
     def __post_init__(self) -> None:
         for k in ("spindle_rpm", "depth_limit_m", "chatter_freq_hz", "depth_error_m"):
             object.__setattr__(self, k, readonly(getattr(self, k), float))
-        object.__setattr__(self, "bifurcation", readonly(getattr(self, "bifurcation"), "<U4"))
+        object.__setattr__(self, "bifurcation", readonly(self.bifurcation, "<U4"))
         S = len(self.spindle_rpm)
         status = np.full(S, "no-estimate") if self.status is None else self.status
         object.__setattr__(self, "status", readonly(status, "<U11"))
@@ -539,7 +539,7 @@ def _refined_diagram(problem: LobeProblem, method: RefinedSDM, rpm: np.ndarray, 
     (depth, freq, bif), _ = level(base.m, todo, None)
     freq_out, bif_out = freq.copy(), bif.copy()
     levels_used = [base.m]
-    for m, m2 in pairs:
+    for _, m2 in pairs:
         (d2, f2, b2), T = level(m2, todo, depth)
         levels_used.append(m2)
         v, e, ok = combine_levels(depth, d2, same_lobe(bif, freq, b2, f2, T), method.tol)
@@ -626,10 +626,10 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
 
 def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tuple[int, int],
                   depth_max_m: float = math.inf) -> Verdict:
-    """The lobes' decision rule: compare the cut depth with the limit and its error bound.
+    """The lobes' decision rule: compare the cut depth with the limit and its error estimate.
 
     ``depth < limit - error``: stable; ``depth > limit + error``: unstable; otherwise undetermined
-    (the discretization error bound of the Richardson limit straddles the depth). Depths in m;
+    (the discretization error estimate of the Richardson limit straddles the depth). Depths in m;
     ``m_levels`` (coarse, fine) and ``depth_max_m`` (the largest depth searched, when the limit is
     ``inf``) are named in the reason.
     """
@@ -641,7 +641,7 @@ def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tupl
         return Verdict("stable", f"depth {mm(depth_m)} below the limit {mm(limit_m)} - {mm(error_m)} ({ms})")
     if depth_m > limit_m + error_m:
         return Verdict("unstable", f"depth {mm(depth_m)} above the limit {mm(limit_m)} + {mm(error_m)} ({ms})")
-    return Verdict("undetermined", f"depth {mm(depth_m)} within the discretization error bound of the limit "
+    return Verdict("undetermined", f"depth {mm(depth_m)} within the discretization error estimate of the limit "
                                    f"{mm(limit_m)} +- {mm(error_m)} ({ms}); a larger m would decide")
 
 

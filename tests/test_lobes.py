@@ -430,7 +430,7 @@ def test_stability_point_margin_and_verdicts():
     # a point inside the discretization error band is "undetermined" (refined while adaptive)
     at = replace(p, cut=replace(p.cut, ap_m=0.3168e-3))
     v = stability(at, meth, adaptive=False).verdict
-    assert v.status == "undetermined" and "discretization error bound" in v.reason
+    assert v.status == "undetermined" and "discretization error estimate" in v.reason
     assert v.to_json()["stable"] is None and v.to_json()["verdict"] == "undetermined"
     # evaluate() on a result is stability() at that point
     res = solve(p, meth, [10126.0])

@@ -28,10 +28,10 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import lobes_plain_reference as ref  # noqa: E402
+import lobes_plain_reference as ref
 
-from robolobes.cases.milling import Cut, CuttingLaw, Tool  # noqa: E402
-from robolobes.lobes import LobeProblem, Mode, ModalStructure, RefinedSDM, SemiDiscretization, solve  # noqa: E402
+from robolobes.cases.milling import Cut, CuttingLaw, Tool
+from robolobes.lobes import LobeProblem, LobeResult, Mode, ModalStructure, RefinedSDM, SemiDiscretization, solve
 
 
 def lobe_problem(name: str) -> LobeProblem:
@@ -49,7 +49,7 @@ def reference_rows(name: str) -> list:
     return ref.load()["cases"][name]
 
 
-def criterion(name: str, method, rows: list) -> tuple[np.ndarray, object]:
+def criterion(name: str, method, rows: list) -> tuple[np.ndarray, LobeResult]:
     """Shifted relative errors (S,) of ``method`` at the usable reference speeds of ``rows``."""
     rows = [r for r, ok in zip(rows, ref.usable(rows)) if ok]
     rpm = np.array([r["rpm"] for r in rows])
@@ -62,7 +62,8 @@ def criterion(name: str, method, rows: list) -> tuple[np.ndarray, object]:
 def test_the_reference_is_independent_and_agrees_with_one_robolobes_level():
     """Same discretization (m = 80), two codes: the plain reference and robolobes' fast path agree
     to the bisection tolerance (1e-5) -- a check of the reference, not of the accuracy."""
-    assert "robolobes" not in Path(ref.__file__).read_text().replace("imports nothing from ``robolobes``", "")
+    lines = Path(ref.__file__).read_text().splitlines()
+    assert not [x for x in lines if x.lstrip().startswith(("import robolobes", "from robolobes"))]
     for name, rpm in (("1dof-slot", 7000.0), ("2dof-asym-aD0.5-up", 7000.0)):
         b_plain, _ = ref.critical_depth(ref.CASES[name], rpm, 80)
         b = solve(lobe_problem(name), SemiDiscretization(m=80), [rpm], rtol=1e-7).depth_limit_m[0]
@@ -70,28 +71,22 @@ def test_the_reference_is_independent_and_agrees_with_one_robolobes_level():
 
 
 @pytest.mark.parametrize("name, rpms", [
-    ("1dof-slot", (7000.0, 10000.0, 13800.0)),
-    ("1dof-aD0.05-down", (6800.0, 18200.0)),
-    ("2dof-sym-aD0.05-down", (7000.0, 18600.0)),
-    ("2dof-asym-aD0.5-up", (7000.0, 15000.0)),
+    ("1dof-aD0.05-down", (5200.0, 6400.0, 18200.0)),
+    ("1dof-slot", (5400.0, 6600.0, 6800.0)),
+    ("2dof-sym-aD0.05-down", (5000.0, 6400.0)),
+    ("2dof-asym-aD0.5-up", (5400.0, 5800.0)),
 ])
 def test_default_is_within_one_percent_where_m40_is_not(name, rpms):
-    """The default (RefinedSDM) meets the criterion at speeds of narrow lobes where one level m = 40
-    misses it by up to +19 % (slot, 7000 rpm; measured, printed)."""
+    """At the speeds where one level m = 40 misses the criterion most (1.8-15.6 %, measured over all
+    reference speeds), the default (RefinedSDM) meets it, and says it converged."""
     rows = [r for r in reference_rows(name) if r["rpm"] in rpms]
-    assert len(rows) == len(rpms)
+    assert len(rows) == len(rpms) and ref.usable(rows).all()
     err, res = criterion(name, RefinedSDM(), rows)
     err40, _ = criterion(name, SemiDiscretization(m=40), rows)
     print(f"\n{name} {rpms}: default {np.round(100 * err, 3)} %, m = 40 {np.round(100 * err40, 2)} %")
+    assert np.all(err40 > ref.TOL)  # the check can fail: it does for one level m = 40
     assert np.all(err <= ref.TOL)
     assert np.all(res.status == "converged")
-
-
-def test_m40_alone_misses_one_percent_on_the_slot():
-    """The check can fail: one level m = 40 is 19 % off at 7000 rpm in the slot."""
-    rows = [r for r in reference_rows("1dof-slot") if r["rpm"] == 7000.0]
-    err40, _ = criterion("1dof-slot", SemiDiscretization(m=40), rows)
-    assert err40[0] > 0.15
 
 
 @pytest.mark.slow
