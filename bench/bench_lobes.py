@@ -159,7 +159,7 @@ def bench_targets(quick: bool) -> None:
     cases = [("2-mode modal (2-DOF symmetric, a/D 0.05 down)", insperger_2dof(), np.linspace(5000, 25000, n), 0.5)]
     for name in ("tx200-steel", "tx200-aluminium"):
         cases.append((f"{name} 18-DOF orthogonal, Tab. 7 pose", tx200_problem(name), np.linspace(2000, 25000, n), 2.0))
-    fe = RefinedSDM(SemiDiscretization(m=20, scheme="free-exact"))
+    fe = RefinedSDM(SemiDiscretization(scheme="free-exact"))
     for label, p, speeds, target in cases:
         t40, r40 = cpu(solve, p, SemiDiscretization(m=40), speeds, depth_max_m=10e-3)
         t, r = cpu(solve, p, RefinedSDM(), speeds, depth_max_m=10e-3)

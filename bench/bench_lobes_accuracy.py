@@ -39,8 +39,8 @@ def methods():
         ("SDM m = 80 (one level)", SemiDiscretization(m=80)),
         ("SDM m = 160 (one level)", SemiDiscretization(m=160)),
         ("SDM m = 40/80 Richardson", SemiDiscretization(m=40, richardson=True)),
-        ("RefinedSDM m0 = 20, tol 1 % (default)", RefinedSDM()),
-        ("RefinedSDM m0 = 40, tol 1 %", RefinedSDM(SemiDiscretization(m=40))),
+        ("RefinedSDM m0 = 40, tol 1 % (default)", RefinedSDM()),
+        ("RefinedSDM m0 = 20, tol 1 %", RefinedSDM(SemiDiscretization(m=20))),
         ("RefinedSDM free-exact m0 = 20, tol 1 %", RefinedSDM(SemiDiscretization(m=20, scheme="free-exact"))),
         ("ZOA", ZeroOrder()),
     ]

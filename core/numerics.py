@@ -11,10 +11,12 @@ A quantity computed at two discretization levels, ``coarse`` with step ``h`` and
 ``error`` is Richardson's estimate of the error of the FINE level, ``|b_inf - fine|``, which is
 exact to leading order when the assumed order is the true one. In that asymptotic regime the
 extrapolated ``value`` is of higher order (its error ``O(h^(p+1))``), so ``error`` is a
-conservative estimate of ``|value - b_inf|``: on the milling benchmark of the tests (first-order
-semi-discretization, ``order = 2``, ``ratio = 2``: ``error = |b_2m - b_m| / 3``), the true error
-of ``value`` is below ``error`` at every speed where both levels find the same lobe
-(``tests/test_lobes_accuracy.py``, ``docs/guide/lobes-accuracy.md``).
+conservative estimate of ``|value - b_inf|``. It is an estimate, not a guaranteed bound: on the
+milling benchmark of the tests (first-order semi-discretization, ``order = 2``, ``ratio = 2``:
+``error = |b_2m - b_m| / 3``; the default refinement from m = 40), the values were within
+0.37 % of the independent reference at all 358 reference speeds with a finite limit, and the
+true error exceeded ``error`` at 16 of them, all at a/D = 0.05, all below 0.37 %
+(``docs/guide/lobes-accuracy.md``).
 
 Why not the larger ``|fine - coarse| / (ratio - 1)`` (a bound for ANY order ``p >= 1``): the
 order of the method is known. The first-order semi-discretization with exact step averages

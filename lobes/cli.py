@@ -65,7 +65,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--scheme", choices=("sdm", "free-exact"), default=None,
                    help="SDM scheme: sdm (Insperger-Stepan, default) or free-exact (exact free decay, faster)")
     p.add_argument("--m", type=int, default=None, help=f"SDM steps per principal period of the first level (default "
-                   f"20; 40 with --no-refine; at most {MAX_M}); refined per speed (m, 2m, ... up to {M_MAX_REFINE}) until the error "
+                   f"40, at most {MAX_M}); refined per speed (m, 2m, ... up to {M_MAX_REFINE}) until the error "
                    "estimate is below --tol-pct")
     p.add_argument("--tol-pct", type=float, default=None, help="target error estimate of the limit, %% of it "
                    f"(default 1, from {TOL_PCT_RANGE[0]:g} to {TOL_PCT_RANGE[1]:g})")
@@ -186,7 +186,7 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
 def _method(args):
     if args.method == "zoa":
         return ZeroOrder()
-    m = (40 if args.no_refine else RefinedSDM().m) if args.m is None else args.m
+    m = RefinedSDM().m if args.m is None else args.m
     if not 2 <= m <= MAX_M:
         raise LobeError(f"--m must be an integer from 2 to {MAX_M} (steps per principal period), got {m}")
     sdm = SemiDiscretization(m=m, scheme=args.scheme or "sdm")

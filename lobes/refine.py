@@ -40,18 +40,18 @@ class RefinedSDM:
     Parameters
     ----------
     base : SemiDiscretization
-        The scheme, quadrature, slices ... and the first level ``base.m``. Default m = 20: on the
-        benchmark of ``tests/test_lobes_accuracy.py`` and the TX200 diagrams, the pair 20/40
-        already meets 1 % at most speeds and starting at 20 costs no accuracy there (the rule
-        refines where it does not), for about half the CPU of starting at 40
-        (``docs/guide/lobes-accuracy.md``).
+        The scheme, quadrature, slices ... and the first level ``base.m`` (default m = 40). Starting
+        at m = 20 was measured and rejected: on the benchmark of ``tests/test_lobes_accuracy.py``
+        the pair 20/40 is not yet in the asymptotic regime at low immersion and in the slot (its
+        values were up to 1.5 % off at the reference speeds while their estimates said less); from
+        40/80 on, the values were within 0.37 % there (``docs/guide/lobes-accuracy.md``).
     tol : float
         Target relative error estimate of the critical depth, in (0, 0.5); default 0.01 (1 %).
     m_max : int
         Finest level (steps per principal period); a speed not converged there is "unconverged".
     """
 
-    base: SemiDiscretization = SemiDiscretization(m=20)
+    base: SemiDiscretization = SemiDiscretization()
     tol: float = 0.01
     m_max: int = 320
 

@@ -431,7 +431,7 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
     problem : LobeProblem
         Its cut gives the radial immersion, milling mode and feed (runout); speed and depth vary.
     method : RefinedSDM, SemiDiscretization or ZeroOrder
-        Default ``RefinedSDM()``: SDM levels m = 20, 40, ... per speed until the error estimate is
+        Default ``RefinedSDM()``: SDM levels m = 40, 80, ... per speed until the error estimate is
         below 1 % (:mod:`lobes.refine`). A ``SemiDiscretization`` is one level (no estimate).
     speeds_rpm : array (S,)
         Spindle speeds, rpm (> 0).
