@@ -110,3 +110,34 @@ def test_stored_reference_recomputes():
                 assert abs(new["depth_m"] - r["depth_m"]) <= 1e-9 * r["depth_m"]
             else:
                 assert not np.isfinite(new["depth_m"])
+
+
+def test_refinement_rule_on_hand_made_levels():
+    """lobes.refine on numbers with known answers: Richardson where the levels find the same lobe,
+    the finer level with the whole difference where they do not, converged only within tol."""
+    from robolobes.lobes.refine import combine_levels, same_lobe
+
+    T = np.array([0.01, 0.01, 0.01, 0.01, 0.01])  # principal frequency 100 Hz
+    same = same_lobe(["hopf", "hopf", "flip", "none", "hopf"], [900.0, 900.0, 950.0, np.nan, 900.0],
+                     ["hopf", "hopf", "hopf", "none", "hopf"], [910.0, 940.0, 900.0, np.nan, 900.0], T)
+    assert same.tolist() == [True, False, False, True, True]  # 10 Hz < 25 Hz; 40 Hz > 25 Hz; type; both none
+    coarse = np.array([1.3e-3, 1.3e-3, 1.3e-3, np.inf, 1.0e-3])
+    fine = np.array([1.0e-3, 1.0e-3, 1.0e-3, np.inf, np.inf])
+    v, e, ok = combine_levels(coarse, fine, same, 0.01)
+    assert v[0] == pytest.approx(0.9e-3) and e[0] == pytest.approx(0.1e-3) and not ok[0]  # 11 % > 1 %
+    assert v[1] == 1.0e-3 and e[1] == pytest.approx(0.3e-3) and not ok[1]  # other lobe: not extrapolated
+    assert v[3] == np.inf and e[3] == 0.0 and ok[3]
+    assert v[4] == np.inf and e[4] == np.inf and not ok[4]  # only one level found a limit
+    v, e, ok = combine_levels([1.003e-3], [1.0e-3], [True], 0.01)
+    assert ok[0] and e[0] == pytest.approx(1e-6)
+
+
+def test_a_speed_not_resolved_by_m_max_is_flagged_unconverged():
+    """Slot, 7000 rpm: with levels 10/20 only (m_max = 20) the estimate is far above 0.1 %, so the
+    speed is "unconverged", with its estimate, rather than reported as converged."""
+    p = lobe_problem("1dof-slot")
+    res = solve(p, RefinedSDM(SemiDiscretization(m=10), tol=0.001, m_max=20), [7000.0])
+    assert res.status[0] == "unconverged" and res.m_final[0] == 20
+    assert res.depth_error_m[0] > 0.001 * res.depth_limit_m[0]
+    ok = solve(p, RefinedSDM(), [7000.0])
+    assert ok.status[0] == "converged" and ok.depth_error_m[0] <= 0.01 * ok.depth_limit_m[0]
