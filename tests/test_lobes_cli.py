@@ -125,3 +125,17 @@ def test_robot_pose_operating_point(capsys):
     assert op["stable"] is True and op["verdict"] == "stable"
     assert_allclose(op["margin"], 2.1824, atol=5e-3)
     assert math.isclose(op["spectral_radius"], 0.99525, abs_tol=1e-4)
+
+
+@pytest.mark.parametrize("extra, match", [
+    (["--tol-pct", "0"], r"--tol-pct must be from 0.1 to 20"),
+    (["--tol-pct", "50"], r"--tol-pct must be from 0.1 to 20"),
+    (["--tol-pct", "1", "--no-refine"], r"--tol-pct has no effect with --no-refine"),
+    (["--method", "zoa", "--tol-pct", "1"], r"--tol-pct applies only to --method sdm"),
+])
+def test_refinement_options_are_checked_before_any_work(tmp_path, extra, match):
+    f = tmp_path / "modes.toml"
+    f.write_text(MODAL)
+    args = parser().parse_args(["lobes", "--modal", str(f), *TOOLARGS, "--n-rpm", "3", "--quiet", *extra])
+    with pytest.raises(LobeError, match=match):
+        args.run(args)
