@@ -64,6 +64,9 @@ def test_the_reference_is_independent_and_agrees_with_one_robolobes_level():
     to the bisection tolerance (1e-5) -- a check of the reference, not of the accuracy."""
     lines = Path(ref.__file__).read_text().splitlines()
     assert not [x for x in lines if x.lstrip().startswith(("import robolobes", "from robolobes"))]
+    # the spectral radius of test_lobes' benchmark point (robolobes, exact step averages, m = 40)
+    rho = ref.spectral_radius(ref.CASES["1dof-aD0.05-down"], 10000.0, 1e-3, 40)
+    assert abs(rho - 0.7068862713) <= 1e-9
     for name, rpm in (("1dof-slot", 7000.0), ("2dof-asym-aD0.5-up", 7000.0)):
         b_plain, _ = ref.critical_depth(ref.CASES[name], rpm, 80)
         b = solve(lobe_problem(name), SemiDiscretization(m=80), [rpm], rtol=1e-7).depth_limit_m[0]
@@ -102,12 +105,13 @@ def test_default_is_within_one_percent_at_every_speed(name):
 
 @pytest.mark.slow
 def test_stored_reference_recomputes():
-    """The plain code reproduces the stored reference at a few speeds (1e-9 relative)."""
+    """The plain code reproduces the stored reference at a few speeds (the file keeps 5 significant
+    digits: 1e-4 relative)."""
     for name in ref.CASES:
         for r in reference_rows(name)[::25]:
             new = ref.converged_depth(ref.CASES[name], r["rpm"])
             if np.isfinite(r["depth_m"]):
-                assert abs(new["depth_m"] - r["depth_m"]) <= 1e-9 * r["depth_m"]
+                assert abs(new["depth_m"] - r["depth_m"]) <= 1e-4 * r["depth_m"]
             else:
                 assert not np.isfinite(new["depth_m"])
 
