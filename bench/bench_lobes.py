@@ -1,6 +1,6 @@
 """Speed of the lobe solvers, as ratios against reference operations timed in the same process.
 
-Run: /tmp/venv/bin/python bench/bench_lobes.py [--quick]
+Run: .venv/bin/python bench/bench_lobes.py [--quick] [--targets]
 
 1. Insperger 2-DOF benchmark (symmetric, a/D = 0.05, down-milling), 200 speeds 5000-25000 rpm,
    depths 0-10 mm, SDM m = 40:
@@ -13,6 +13,9 @@ Run: /tmp/venv/bin/python bench/bench_lobes.py [--quick]
 2. TX200, 18-DOF ``orthogonal`` model at the Tab. 7 pose, aluminium case, 200 speeds 2000-25000
    rpm, depths to 10 mm, m = 40: wall time of the full lobe diagram (target < 10 s on one core)
    for both SDM schemes, and its ratio to one straightforward grid point of the same problem.
+3. The diagram targets in CPU seconds: the default (``RefinedSDM``, error estimate <= 1 % per
+   speed) against one level m = 40 in the same run, for a 2-mode modal model (target < 0.5 s) and
+   the TX200 steel and aluminium diagrams (target < 2 s each), 200 speeds.
 
 The process is pinned to one BLAS thread (set before numpy is imported).
 """
@@ -33,7 +36,8 @@ import numpy as np  # noqa: E402  (after the BLAS thread count is set)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from robolobes.cases.milling import Cut, CuttingLaw, Tool  # noqa: E402
-from robolobes.lobes import LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization, solve  # noqa: E402
+from robolobes.lobes import (LobeProblem, Mode, ModalStructure, PhysicalStructure, RefinedSDM,  # noqa: E402
+                             SemiDiscretization, solve)
 from robolobes.lobes.sdm import SDMEngine  # noqa: E402
 
 
@@ -129,12 +133,57 @@ def bench_tx200(quick: bool) -> None:
               f"{res.chatter_freq_hz[j]:.1f} Hz)")
 
 
+def tx200_problem(case_name: str) -> LobeProblem:
+    from robolobes import linearize
+    from robolobes.cases import load_case
+
+    case = load_case(case_name)
+    rob = linearize.build_model(case.robot, "orthogonal")
+    lin = linearize.linearize(rob, case.robot.poses_rad["tab7"])
+    return LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
+
+
+def cpu(f, *a, **k):
+    t = time.process_time()
+    r = f(*a, **k)
+    return time.process_time() - t, r
+
+
+def bench_targets(quick: bool) -> None:
+    """The diagram targets in CPU seconds of this process, default (RefinedSDM, error <= 1 %) against
+    one level m = 40 (the previous default) in the same run."""
+    n = 50 if quick else 200
+    print(f"3. diagram targets, CPU s of this process, {n} speeds; default = RefinedSDM (error estimate <= 1 %), "
+          "ratio to one level m = 40 (no estimate) in this run")
+    cases = [("2-mode modal (2-DOF symmetric, a/D 0.05 down)", insperger_2dof(), np.linspace(5000, 25000, n), 0.5)]
+    for name in ("tx200-steel", "tx200-aluminium"):
+        cases.append((f"{name} 18-DOF orthogonal, Tab. 7 pose", tx200_problem(name), np.linspace(2000, 25000, n), 2.0))
+    fe = RefinedSDM(SemiDiscretization(scheme="free-exact"))
+    for label, p, speeds, target in cases:
+        t40, r40 = cpu(solve, p, SemiDiscretization(m=40), speeds, depth_max_m=10e-3)
+        t, r = cpu(solve, p, RefinedSDM(), speeds, depth_max_m=10e-3)
+        tf, rf = cpu(solve, p, fe, speeds, depth_max_m=10e-3)
+        nu = int((r.status == "unconverged").sum())
+        fin = np.isfinite(r.depth_limit_m) & np.isfinite(r40.depth_limit_m)
+        off = np.max(np.abs(r40.depth_limit_m[fin] / r.depth_limit_m[fin] - 1)) if fin.any() else 0.0
+        ff = np.isfinite(r.depth_limit_m) & np.isfinite(rf.depth_limit_m)
+        dfe = np.max(np.abs(rf.depth_limit_m[ff] / r.depth_limit_m[ff] - 1)) if ff.any() else 0.0
+        print(f"   {label}: default {t:.2f} s (target < {target:g} s), m = 40 {t40:.2f} s, ratio default / m40 = "
+              f"{t / t40:.2f}; levels m = {r.stats['m_levels']}, unconverged {nu} / {len(speeds)}; m = 40 is up to "
+              f"{100 * off:.1f} % off the default's limits")
+        print(f"      refined free-exact scheme: {tf:.2f} s, ratio to m40 {tf / t40:.2f}, unconverged "
+              f"{int((rf.status == 'unconverged').sum())}, largest difference to the default {100 * dfe:.2f} %")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="smaller samples (smoke run)")
+    ap.add_argument("--targets", action="store_true", help="only section 3 (the diagram targets)")
     args = ap.parse_args(argv)
-    bench_insperger(args.quick)
-    bench_tx200(args.quick)
+    if not args.targets:
+        bench_insperger(args.quick)
+        bench_tx200(args.quick)
+    bench_targets(args.quick)
     return 0
 
 

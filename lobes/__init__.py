@@ -3,14 +3,15 @@
 Problem / method / solve, in the spirit of SciML::
 
     problem = LobeProblem(structure, tool, cut, law)          # cases.milling objects, SI units
-    result = solve(problem, SemiDiscretization(m=40), speeds_rpm=np.linspace(5e3, 25e3, 200))
-    point = stability(problem, SemiDiscretization())          # at problem.cut, decided robustly
+    result = solve(problem, speeds_rpm=np.linspace(5e3, 25e3, 200))   # RefinedSDM(): error < 1 %
+    point = stability(problem)                                # at problem.cut, same rule, decided
 
 ``structure`` is a :class:`PhysicalStructure` (M, C, K, tcp rows in the cut frame; from a robot
 with :meth:`PhysicalStructure.from_linear`), a :class:`ModalStructure` (hammer-test modes) or a
 :class:`ReducedStructure` (modal truncation with its error report). Methods:
-:class:`SemiDiscretization` (first-order SDM, or the exact-free-decay scheme) and
-:class:`ZeroOrder` (Altintas-Budak). Conventions: :mod:`cases.milling`.
+:class:`RefinedSDM` (the default: SDM levels refined per speed until the error estimate is below
+1 %, :mod:`lobes.refine`), :class:`SemiDiscretization` (one level of the first-order SDM, or the
+exact-free-decay scheme) and :class:`ZeroOrder` (Altintas-Budak). Conventions: :mod:`cases.milling`.
 """
 
 if __name__ != "robolobes.lobes":  # this folder imported by itself (from the repository root): a second copy
@@ -19,6 +20,7 @@ if __name__ != "robolobes.lobes":  # this folder imported by itself (from the re
 from ._errors import LobeError
 from .directional import DirectionalPlan, average_directional_matrix
 from .problem import LobeProblem
+from .refine import RefinedSDM
 from .sdm import Bifurcation, SemiDiscretization, classify_multiplier
 from .solver import LobeResult, Method, StabilityPoint, Verdict, depth_verdict, solve, stability
 from .measured import MeasuredStructure
@@ -29,7 +31,7 @@ from .zoa import ZeroOrder
 
 __all__ = [
     "LobeError", "LobeProblem", "Mode", "ModalStructure", "PhysicalStructure", "ReducedStructure",
-    "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "ZeroOrder", "Method",
+    "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "RefinedSDM", "ZeroOrder", "Method",
     "solve", "stability", "LobeResult", "StabilityPoint", "Verdict", "Bifurcation", "classify_multiplier",
     "DirectionalPlan", "average_directional_matrix", "depth_verdict", "ComplexMode", "MeasuredStructure", "ModalFit",
     "fit_modal", "in_series",

@@ -40,6 +40,7 @@ from ._errors import LobeError
 from .problem import LobeProblem
 from robolobes.linearize.cli import add_pose_arguments
 
+from .refine import RefinedSDM
 from .sdm import SemiDiscretization
 from .solver import solve, stability
 from .structure import ComplexMode, Mode, ModalStructure, PhysicalStructure, in_series
@@ -53,6 +54,11 @@ __all__ = ["register", "run", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
 MAX_M = 400
 MAX_N_RPM = 5000
 _FRF_ONLY = {"--frf-axes": "frf_axes", "--fit-modes": "fit_modes", "--fit-plot": "fit_plot"}
+#: finest level of the default refinement, and the accepted range of --tol-pct (%): below 0.1 % the
+#: levels needed pass m = 320 on the benchmark's narrow lobes (run time), above 20 % the estimate is
+#: no longer a small-error expansion
+M_MAX_REFINE = 320
+TOL_PCT_RANGE = (0.1, 20.0)
 _MODAL_ONLY = {"--teeth": "teeth", "--diameter-mm": "diameter_mm", "--ktc-mpa": "ktc_mpa", "--krc-mpa": "krc_mpa",
                "--kac-mpa": "kac_mpa", "--helix-deg": "helix_deg", "--pitch-deg": "pitch_deg"}
 _ROBOT_ONLY = {"--case": "case", "--variant": "variant", "--pose": "pose", "--path-s": "path_s", "--q-deg": "q_deg",
@@ -70,7 +76,12 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="sdm: first-order semi-discretization (default); zoa: Altintas-Budak zero-order")
     p.add_argument("--scheme", choices=("sdm", "free-exact"), default=None,
                    help="SDM scheme: sdm (Insperger-Stepan, default) or free-exact (exact free decay, faster)")
-    p.add_argument("--m", type=int, default=None, help=f"SDM steps per principal period (default 40, at most {MAX_M})")
+    p.add_argument("--m", type=int, default=None, help=f"SDM steps per principal period of the first level (default "
+                   f"40, at most {MAX_M}); refined per speed (m, 2m, ... up to {M_MAX_REFINE}) until the error "
+                   "estimate is below --tol-pct")
+    p.add_argument("--tol-pct", type=float, default=None, help="target error estimate of the limit, %% of it "
+                   f"(default 1, from {TOL_PCT_RANGE[0]:g} to {TOL_PCT_RANGE[1]:g})")
+    p.add_argument("--no-refine", action="store_true", help="one SDM level at --m, without error estimate")
     p.add_argument("--rpm-min", type=float, default=2000.0, help="lowest spindle speed, rpm (default 2000)")
     p.add_argument("--rpm-max", type=float, default=25000.0, help="highest spindle speed, rpm (default 25000)")
     p.add_argument("--n-rpm", type=int, default=200, help=f"number of speeds (default 200, at most {MAX_N_RPM})")
@@ -281,10 +292,19 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
 def _method(args):
     if args.method == "zoa":
         return ZeroOrder()
-    m = 40 if args.m is None else args.m
+    m = RefinedSDM().m if args.m is None else args.m
     if not 2 <= m <= MAX_M:
         raise LobeError(f"--m must be an integer from 2 to {MAX_M} (steps per principal period), got {m}")
-    return SemiDiscretization(m=m, scheme=args.scheme or "sdm")
+    sdm = SemiDiscretization(m=m, scheme=args.scheme or "sdm")
+    if args.no_refine:
+        if args.tol_pct is not None:
+            raise LobeError("--tol-pct has no effect with --no-refine (one level, no error estimate)")
+        return sdm
+    tol = 1.0 if args.tol_pct is None else args.tol_pct
+    if not (math.isfinite(tol) and TOL_PCT_RANGE[0] <= tol <= TOL_PCT_RANGE[1]):
+        raise LobeError(f"--tol-pct must be from {TOL_PCT_RANGE[0]:g} to {TOL_PCT_RANGE[1]:g} (% of the limit), "
+                        f"got {tol:g}")
+    return RefinedSDM(sdm, tol=tol / 100.0, m_max=max(M_MAX_REFINE, 2 * m))
 
 
 def _check_flags(args) -> None:
@@ -312,7 +332,8 @@ def _check_flags(args) -> None:
         if given:
             raise LobeError(f"{given[0]} selects the robot and has no effect with --modal FILE.toml or --frf")
     if args.method == "zoa":
-        given = [flag for flag, v in (("--m", args.m), ("--scheme", args.scheme)) if v is not None]
+        given = [flag for flag, v in (("--m", args.m), ("--scheme", args.scheme), ("--tol-pct", args.tol_pct),
+                                      ("--no-refine", args.no_refine or None)) if v is not None]
         if given:
             raise LobeError(f"{given[0]} applies only to --method sdm, not to zoa")
 
@@ -388,9 +409,14 @@ def run(args: argparse.Namespace) -> int:
             "structure": label,
             "method": method.name,
             "m": getattr(method, "m", None),
+            "tol": getattr(method, "tol", None),  # target relative error estimate (refined SDM)
+            "m_max": getattr(method, "m_max", None),
             "depth_max_m": args.depth_max_mm * 1e-3,
             "rpm": result.spindle_rpm,
             "depth_limit_m": result.depth_limit_m,  # null: stable up to depth_max_m
+            "depth_error_m": result.depth_error_m,  # estimate (lobes.refine); null: none
+            "status": result.status.tolist(),  # converged / unconverged / no-estimate
+            "m_final": result.m_final.tolist(),
             "chatter_freq_hz": result.chatter_freq_hz,
             "bifurcation": result.bifurcation.tolist(),
             "stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float, str))},
@@ -403,6 +429,7 @@ def run(args: argparse.Namespace) -> int:
                 "rpm": op.spindle_rpm, "depth_m": op.depth_m, "spectral_radius": op.spectral_radius,
                 **op.verdict.to_json(), "margin": op.margin,
                 "margin_error": op.margin_error, "depth_limit_m": op.depth_limit_m,
+                "depth_limit_error_m": op.depth_limit_error_m, "limit_status": op.limit_status,
                 "chatter_freq_hz": op.chatter_freq_hz, "bifurcation": op.bifurcation,
             }
         print(json.dumps(to_jsonable(out), indent=1))
@@ -420,6 +447,11 @@ def run(args: argparse.Namespace) -> int:
                   f"({result.bifurcation[j]}, chatter {result.chatter_freq_hz[j]:.5g} Hz)")
         else:
             print(f"stable at every speed up to {args.depth_max_mm:g} mm")
+        if isinstance(method, RefinedSDM):
+            nu = int((result.status == "unconverged").sum())
+            print(f"error estimate <= {100 * method.tol:g} % at {len(speeds) - nu} / {len(speeds)} speeds "
+                  f"(levels m = {'/'.join(str(x) for x in result.stats['m_levels'])})"
+                  + (f"; {nu} speeds unconverged at m = {method.m_max}" if nu else ""))
         if op is not None:
             print(f"operating point {op.spindle_rpm:.6g} rpm, {op.depth_m * 1e3:.4g} mm: {op.verdict.status}, "
                   f"margin {op.margin:+.4g} (+-{op.margin_error:.2g}), |mu| = {op.spectral_radius:.7f}, "

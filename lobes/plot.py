@@ -36,6 +36,7 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
     ax.fill_between(rpm, np.where(np.isfinite(d_mm), d_mm, dmax_mm), dmax_mm, color="tab:red", alpha=0.15,
                     label="unstable")
     ax.plot(rpm, shown, color="k", lw=1.2, label=f"limit ({result.method.name})")
+    _error_band(ax, result, rpm, d_mm, dmax_mm)
     bif = np.asarray(result.bifurcation)
     for kind, mk, col in (("flip", "v", "tab:purple"), ("fold", "s", "tab:green")):
         sel = bif == kind
@@ -65,3 +66,19 @@ def plot_lobes(result, path: str | os.PathLike, operating_point=None, title: str
         save_figure(fig, path, provenance=provenance, dpi=110)  # atomic: temp file + os.replace
     finally:
         plt.close(fig)
+
+
+def _error_band(ax, result, rpm: np.ndarray, d_mm: np.ndarray, dmax_mm: float) -> None:
+    """Shade ``limit +- depth_error_m`` (grey) and mark the unconverged speeds (orange ticks)."""
+    err_mm = np.asarray(result.depth_error_m) * 1e3
+    ok = np.isfinite(d_mm) & np.isfinite(err_mm)
+    if ok.any():
+        lo = np.where(ok, np.clip(d_mm - err_mm, 0, dmax_mm), np.nan)
+        hi = np.where(ok, np.clip(d_mm + err_mm, 0, dmax_mm), np.nan)
+        ax.fill_between(rpm, lo, hi, color="0.45", alpha=0.35, lw=0, label="error estimate")
+    status = np.asarray(getattr(result, "status", np.full(len(rpm), "no-estimate")))
+    bad = status == "unconverged"
+    if bad.any():
+        y = np.where(np.isfinite(d_mm[bad]), d_mm[bad], dmax_mm)
+        ax.plot(rpm[bad], y, "|", ms=10, mew=1.5, color="tab:orange", ls="none",
+                label=f"unconverged ({int(bad.sum())} speeds)")

@@ -83,7 +83,9 @@ class SemiDiscretization:
         converge to the same limit, which is a check of both.
     richardson : bool
         In :func:`lobes.solve`, also solve with ``2 m`` and return the Richardson extrapolation
-        ``b_2m + (b_2m - b_m) / 3`` with the error estimate ``|b_2m - b_m| / 3``.
+        ``b_2m + (b_2m - b_m) / 3`` with the error estimate ``|b_2m - b_m| / 3``
+        (:func:`robolobes.core.numerics.richardson`, the one definition), flagged by the rule of
+        :mod:`lobes.refine` (``RefinedSDM`` with ``m_max = 2 m``).
     prescan : bool or None
         In :func:`lobes.solve` with ``scheme="sdm"``, make the coarse depth scan with the cheap
         "free-exact" scheme and verify each bracket with the SDM (where the check fails, the SDM

@@ -9,26 +9,26 @@ from typing import Callable, Union
 
 import numpy as np
 
-from robolobes.core.numerics import richardson
 from robolobes.core.threads import blas_single_threaded
 from robolobes.core.verdict import Verdict
 from robolobes.core.validate import finite, integer, readonly
 
 from ._errors import LobeError
 from .problem import LobeProblem
+from .refine import RefinedSDM, combine_levels, level_pairs, same_lobe
 from .sdm import Bifurcation, SDMEngine, SemiDiscretization, classify_multiplier
 from .zoa import ZOAEngine, ZeroOrder
 
 __all__ = ["Method", "LobeResult", "StabilityPoint", "solve", "stability", "depth_verdict", "Verdict",
            "ProgressCallback"]
 
-Method = Union[SemiDiscretization, ZeroOrder]
+Method = Union[RefinedSDM, SemiDiscretization, ZeroOrder]
 ProgressCallback = Callable[[int, int], None]
 
 
 def _check_method(method) -> None:
-    if not isinstance(method, (SemiDiscretization, ZeroOrder)):
-        raise LobeError(f"method must be SemiDiscretization(...) or ZeroOrder(...), got {method!r}")
+    if not isinstance(method, (RefinedSDM, SemiDiscretization, ZeroOrder)):
+        raise LobeError(f"method must be RefinedSDM(...), SemiDiscretization(...) or ZeroOrder(...), got {method!r}")
 
 
 def _check_speeds(speeds_rpm) -> np.ndarray:
@@ -61,7 +61,7 @@ class StabilityPoint:
         The multiplier of largest modulus (NaN for ZeroOrder).
     verdict : robolobes.core.verdict.Verdict
         Decided on the depth: ``depth < limit - err`` "stable", ``> limit + err`` "unstable", else
-        "undetermined" (the discretization error bound ``err`` of the Richardson limit straddles the
+        "undetermined" (the discretization error estimate ``err`` of the Richardson limit straddles the
         cut depth); ``verdict.reason`` says which, with the numbers.
     margin : float
         ``depth_limit / depth - 1`` (> 0 stable): how much deeper one may cut at this speed.
@@ -71,7 +71,7 @@ class StabilityPoint:
     radius_margin : float
         ``1 - spectral_radius`` (NaN for ZeroOrder).
     depth_limit_m, depth_limit_error_m : float
-        Critical depth at this speed (smallest unstable depth, m) and its error bound.
+        Critical depth at this speed (smallest unstable depth, m) and its error estimate (:mod:`lobes.refine`).
     chatter_freq_hz : float
         Frequency of the critical Floquet solution at the operating point, Hz.
     bifurcation : {"hopf", "flip", "fold", "none"}
@@ -81,6 +81,9 @@ class StabilityPoint:
     limit_chatter_freq_hz : float
     history : tuple of dict
         Per discretization level: ``m``, ``depth_limit_m``, ``spectral_radius``, ``stable``.
+    limit_status : {"converged", "unconverged", "no-estimate"}
+        Of ``depth_limit_m`` at the last pair of levels, by the rule of :mod:`lobes.refine` (the same
+        as the diagram's); "no-estimate" for ZeroOrder.
     """
 
     spindle_rpm: float
@@ -99,6 +102,7 @@ class StabilityPoint:
     limit_chatter_freq_hz: float
     method: Method
     history: tuple = ()
+    limit_status: str = "no-estimate"
 
     @property
     def stable(self) -> bool | None:
@@ -118,13 +122,21 @@ class LobeResult:
     depth_limit_m : array (S,), m
         Smallest unstable axial depth at each speed (``inf``: stable up to ``stats['depth_max_m']``).
     depth_error_m : array (S,), m
-        Richardson error bound ``|b_2m - b_m|`` (:func:`robolobes.core.numerics.richardson`; NaN unless
-        ``SemiDiscretization(richardson=True)``; inf where only one level found a limit).
+        Error estimate of ``depth_limit_m`` (:mod:`lobes.refine`): ``|b_2m - b_m| / 3`` of the last
+        pair of levels where they found the same lobe, ``|b_2m - b_m|`` where they did not (inf where
+        only one found a limit, 0 where neither did); NaN for a single level (a
+        ``SemiDiscretization`` without ``richardson``) and for ZeroOrder.
     chatter_freq_hz : array (S,), Hz
     bifurcation : array (S,) of str in {"hopf", "flip", "fold", "none"}
     stats : dict
         ``wall_s``, ``evaluations`` (monodromy spectra computed), ``m``, ``steps_per_period``,
-        ``monodromy_size``, ``rounds``, ``max_bracket_rel`` (final relative bracket width), ...
+        ``monodromy_size``, ``rounds``, ``max_bracket_rel`` (final relative bracket width); refined:
+        ``m_levels``, ``m_max``, ``tol``, ``n_unconverged``, ...
+    status : array (S,) of str
+        "converged" (error estimate <= tol of the value, same lobe at both levels), "unconverged"
+        (not so at the finest level ``m_max``: the speed is not resolved) or "no-estimate".
+    m_final : array (S,) of int
+        Finer level of the pair that gave each speed's value (the single level without estimate).
     """
 
     problem: LobeProblem
@@ -135,11 +147,18 @@ class LobeResult:
     bifurcation: np.ndarray
     depth_error_m: np.ndarray
     stats: dict = field(default_factory=dict)
+    status: np.ndarray | None = None
+    m_final: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for k in ("spindle_rpm", "depth_limit_m", "chatter_freq_hz", "depth_error_m"):
             object.__setattr__(self, k, readonly(getattr(self, k), float))
         object.__setattr__(self, "bifurcation", readonly(self.bifurcation, "<U4"))
+        S = len(self.spindle_rpm)
+        status = np.full(S, "no-estimate") if self.status is None else self.status
+        object.__setattr__(self, "status", readonly(status, "<U11"))
+        m_final = np.zeros(S, int) if self.m_final is None else self.m_final
+        object.__setattr__(self, "m_final", readonly(m_final, int))
 
     def evaluate(self, spindle_rpm: float, depth_m: float, **kw) -> StabilityPoint:
         """Stability at ``(spindle_rpm, depth_m)`` with this result's problem and method."""
@@ -273,19 +292,42 @@ def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, 
     """SDM search whose coarse scan is made with the cheap exact-free-decay scheme, then VERIFIED.
 
     The two schemes discretize the same equation to O(dt^2), so their brackets agree except where
-    the spectral radius is within that error of 1 at a grid depth. Each prescan bracket is checked
-    with the SDM itself, in one batch: stable at ``lo`` (or ``lo = 0``), unstable at ``hi``; stable
-    at ``depth_max`` when no bracket was found. Where the SDM disagrees, the SDM walks along the
-    grid from there to its own sign change: up from ``hi`` when it is stable there, down from
-    ``lo`` (or ``depth_max``) when it is unstable there. (The prescan's stable verdicts at the grid
-    depths below are kept, as for a bracket that passed the check.) The refinement is all SDM, so
-    the result is the SDM's own limit, bracketed by SDM evaluations of both signs.
+    the spectral radius is within that error of 1 at a grid depth; :func:`_verified_search` checks
+    each bracket with the SDM itself. The result is the SDM's own limit, bracketed by SDM
+    evaluations of both signs.
     """
-    sdm = lambda s, d: engine.multipliers(s, d)[0]
     grid = _grid(depth_max, n_coarse)
     pst = {"evaluations": 0, "rounds": 0}
     lo, _, hi, _ = _coarse(lambda s, d: pre.multipliers(s, d)[0], rpm, rho0, grid, pst)
     stats["prescan_evaluations"] = stats.get("prescan_evaluations", 0) + pst["evaluations"]
+    return _verified_search(engine, rpm, rho0, lo, hi, grid, rtol, stats)
+
+
+def _grid_bracket(grid: np.ndarray, est: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Grid bracket ``(lo, hi)`` around estimated limits (S,): ``grid[j-1] < est <= grid[j]`` (lo = 0
+    below the first depth; hi NaN where ``est`` is inf or beyond the grid)."""
+    est = np.asarray(est, dtype=float)
+    j = np.searchsorted(grid, np.where(np.isfinite(est), est, np.inf))
+    inside = j < len(grid)
+    hi = np.where(inside, grid[np.minimum(j, len(grid) - 1)], np.nan)
+    lo = np.where(j > 0, grid[np.maximum(j - 1, 0)], 0.0)
+    lo = np.where(inside, lo, grid[-1])
+    return lo, hi
+
+
+def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats):
+    """Refine brackets ``[lo, hi]`` on ``grid`` (from a cheaper scheme or a coarser level), VERIFIED.
+
+    Each bracket is checked with ``engine`` in one batch: stable at ``lo`` (or ``lo = 0``),
+    unstable at ``hi``; stable at ``depth_max`` (``grid[-1]``) when no bracket was given (``hi``
+    NaN). Where ``engine`` disagrees it walks along the grid from there to its own sign change: up
+    from ``hi`` when it is stable there, down from ``lo`` (or ``depth_max``) when it is unstable
+    there. (The stable verdicts at the grid depths below ``lo`` are kept.) Returns ``est, hi,
+    found`` as :func:`_search`.
+    """
+    sdm = lambda s, d: engine.multipliers(s, d)[0]
+    depth_max = grid[-1]
+    lo, hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
     S = len(rpm)
     glo = rho0 - 1.0
     ghi = np.full(S, np.nan)
@@ -335,7 +377,13 @@ def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, 
 
 
 def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: int, rtol: float,
-                stats: dict, progress: ProgressCallback | None, chunk: int, done0: int = 0, total: int | None = None):
+                stats: dict, progress: ProgressCallback | None, chunk: int, done0: int = 0, total: int | None = None,
+                start: np.ndarray | None = None):
+    """Critical depths (m), chatter frequencies (Hz) and bifurcations at ``rpm`` (S,) for one level.
+
+    ``start`` (S,): limits of a coarser level (m; inf: none found); their grid brackets are verified
+    and refined (:func:`_verified_search`) instead of a new coarse scan.
+    """
     S = len(rpm)
     total = total if total is not None else S
     depth = np.full(S, np.inf)
@@ -344,14 +392,18 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     lam = engine.ss.poles
     pre = None
     use_pre = engine.method.prescan if engine.method.prescan is not None else engine.ns >= 12
-    if engine.method.scheme == "sdm" and use_pre:
+    if engine.method.scheme == "sdm" and use_pre and start is None:
         pre = SDMEngine(engine.problem, replace(engine.method, scheme="free-exact",
                                                 m=engine.method.prescan_m or engine.method.m), depth_max)
     for c0 in range(0, S, chunk):
         r = rpm[c0:c0 + chunk]
         T = engine.period_s(r)
         rho0 = np.max(np.abs(np.exp(np.outer(T, lam))), axis=1)
-        if pre is not None:
+        if start is not None:
+            grid = _grid(depth_max, n_coarse)
+            lo, hi = _grid_bracket(grid, start[c0:c0 + chunk])
+            est, hi, found = _verified_search(engine, r, rho0, lo, hi, grid, rtol, stats)
+        elif pre is not None:
             est, hi, found = _prescanned_search(engine, pre, r, rho0, depth_max, n_coarse, rtol, stats)
         else:
             est, hi, found = _search(lambda s, d: engine.multipliers(s, d)[0], r, rho0, depth_max, n_coarse,
@@ -378,8 +430,9 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
     ----------
     problem : LobeProblem
         Its cut gives the radial immersion, milling mode and feed (runout); speed and depth vary.
-    method : SemiDiscretization or ZeroOrder
-        Default ``SemiDiscretization()``.
+    method : RefinedSDM, SemiDiscretization or ZeroOrder
+        Default ``RefinedSDM()``: SDM levels m = 40, 80, ... per speed until the error estimate is
+        below 1 % (:mod:`lobes.refine`). A ``SemiDiscretization`` is one level (no estimate).
     speeds_rpm : array (S,)
         Spindle speeds, rpm (> 0).
     depth_max_m : float
@@ -387,8 +440,8 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
     coarse_points : int
         Depths of the coarse bracketing scan (quadratically spaced), >= 2 (SDM only).
     rtol : float
-        Relative width of the final bracket on the critical depth (SDM only); the default 1e-3 is
-        below the discretization error of m = 40 (~0.1-2 %).
+        Relative width of the final bracket on the critical depth at each level (SDM only); the
+        default 1e-3 is well below the 1 % error target.
     progress : callable(done, total), optional
         Called after each chunk of speeds.
     chunk : int
@@ -409,7 +462,7 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
     >>> round(float(solve(p, SemiDiscretization(m=40), [18700.0]).depth_limit_m[0]) * 1e3, 2)  # mm
     0.85
     """
-    method = SemiDiscretization() if method is None else method
+    method = RefinedSDM() if method is None else method
     _check_method(method)
     if not isinstance(problem, LobeProblem):
         raise LobeError(f"problem must be a LobeProblem, got {type(problem).__name__}")
@@ -424,12 +477,17 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
     stats: dict = {"evaluations": 0, "rounds": 0, "depth_max_m": depth_max, "method": method.name}
     if isinstance(method, ZeroOrder):
         depth, freq, bif, err = _zoa_diagram(problem, method, rpm, depth_max, progress)
+        status, m_final = np.full(len(rpm), "no-estimate"), np.zeros(len(rpm), int)
+    elif isinstance(method, RefinedSDM):
+        depth, freq, bif, err, status, m_final = _refined_diagram(problem, method, rpm, depth_max, coarse_points,
+                                                                  rtol, stats, progress, chunk)
     else:
-        depth, freq, bif, err = _sdm_diagram(problem, method, rpm, depth_max, coarse_points, rtol, stats, progress,
-                                             chunk)
+        depth, freq, bif, err, status, m_final = _sdm_diagram(problem, method, rpm, depth_max, coarse_points, rtol,
+                                                              stats, progress, chunk)
     stats["wall_s"] = time.perf_counter() - t0
     return LobeResult(problem=problem, method=method, spindle_rpm=rpm, depth_limit_m=depth,
-                      chatter_freq_hz=freq, bifurcation=bif, depth_error_m=err, stats=stats)
+                      chatter_freq_hz=freq, bifurcation=bif, depth_error_m=err, stats=stats, status=status,
+                      m_final=m_final)
 
 
 def _zoa_diagram(problem: LobeProblem, method: ZeroOrder, rpm: np.ndarray, depth_max: float, progress):
@@ -444,21 +502,70 @@ def _zoa_diagram(problem: LobeProblem, method: ZeroOrder, rpm: np.ndarray, depth
 
 def _sdm_diagram(problem: LobeProblem, method: SemiDiscretization, rpm: np.ndarray, depth_max: float,
                  coarse_points: int, rtol: float, stats: dict, progress, chunk: int):
-    """SDM limits (m), chatter frequencies (Hz), bifurcations and Richardson error bounds (m; NaN
-    without ``method.richardson``) at ``rpm`` (S,); fills ``stats``."""
+    """One SDM level: limits (m), chatter frequencies (Hz), bifurcations, NaN errors, statuses and
+    levels at ``rpm`` (S,); fills ``stats``. ``richardson=True`` is the refinement limited to one
+    pair of levels (:class:`RefinedSDM` with ``m_max = 2 m``)."""
+    if method.richardson:
+        ref = RefinedSDM(replace(method, richardson=False), m_max=2 * method.m)
+        return _refined_diagram(problem, ref, rpm, depth_max, coarse_points, rtol, stats, progress, chunk)
     eng = SDMEngine(problem, method, depth_max)
+    _level_stats(stats, eng, method)
+    depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk)
+    S = len(rpm)
+    return depth, freq, bif, np.full(S, np.nan), np.full(S, "no-estimate"), np.full(S, method.m)
+
+
+def _level_stats(stats: dict, eng: SDMEngine, method: SemiDiscretization) -> None:
     stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
-                 axial_slices=eng.plan.slices, monodromy_size=eng.n_red, principal_period=eng.plan.period_name,
-                 engaged_steps=len(eng.cand))
-    total = len(rpm) * (2 if method.richardson else 1)
-    depth, freq, bif = _sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, 0, total)
-    if not method.richardson:
-        return depth, freq, bif, np.full(len(rpm), np.nan)
-    eng2 = SDMEngine(problem, replace(method, m=2 * method.m, richardson=False), depth_max)
-    d2, f2, b2 = _sdm_limits(eng2, rpm, depth_max, coarse_points, rtol, stats, progress, chunk, len(rpm), total)
-    stats["m_richardson"] = 2 * method.m
-    depth, err = richardson(depth, d2)
-    return depth, f2, b2, err
+                 axial_slices=eng.plan.slices, principal_period=eng.plan.period_name, engaged_steps=len(eng.cand))
+    stats["monodromy_size"] = max(stats.get("monodromy_size", 0), eng.n_red)
+
+
+def _refined_diagram(problem: LobeProblem, method: RefinedSDM, rpm: np.ndarray, depth_max: float,
+                     coarse_points: int, rtol: float, stats: dict, progress, chunk: int):
+    """The refinement rule of :mod:`lobes.refine` over the speeds ``rpm`` (S,): levels m, 2m, ...
+    per speed, each finer level only where the previous pair did not converge, its brackets taken
+    from the coarser level and verified. Returns limits (m), chatter frequencies (Hz),
+    bifurcations, error estimates (m), statuses and the finest level per speed."""
+    S = len(rpm)
+    base = method.base
+    pairs = level_pairs(base.m, method.m_max)
+    total = S * (len(pairs) + 1)
+    done = [0]
+
+    def level(m, idx, start):
+        meth = replace(base, m=m)
+        eng = SDMEngine(problem, meth, depth_max)
+        _level_stats(stats, eng, meth)
+        out = _sdm_limits(eng, rpm[idx], depth_max, coarse_points, rtol, stats, progress, chunk, done[0], total,
+                          start=start)
+        done[0] += len(idx)
+        return out, eng.period_s(rpm[idx])
+
+    value = np.full(S, np.nan)
+    err = np.full(S, np.inf)
+    status = np.full(S, "unconverged", dtype="<U11")
+    m_final = np.full(S, base.m, dtype=int)
+    todo = np.arange(S)
+    (depth, freq, bif), _ = level(base.m, todo, None)
+    freq_out, bif_out = freq.copy(), bif.copy()
+    levels_used = [base.m]
+    for _, m2 in pairs:
+        (d2, f2, b2), T = level(m2, todo, depth)
+        levels_used.append(m2)
+        v, e, ok = combine_levels(depth, d2, same_lobe(bif, freq, b2, f2, T), method.tol)
+        value[todo], err[todo], m_final[todo] = v, e, m2
+        freq_out[todo], bif_out[todo] = f2, b2
+        status[todo[ok]] = "converged"
+        keep = ~ok
+        todo, depth, freq, bif = todo[keep], d2[keep], f2[keep], b2[keep]
+        if len(todo) == 0:
+            break
+    if progress is not None:
+        progress(total, total)
+    stats.update(m=base.m, m_levels=levels_used, m_max=method.m_max, tol=method.tol,
+                 n_unconverged=int((status == "unconverged").sum()), m_richardson=int(m_final.max()))
+    return value, freq_out, bif_out, err, status, m_final
 
 
 @blas_single_threaded
@@ -466,11 +573,14 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
               adaptive: bool = True, m_max: int = 640, rtol: float = 1e-7, coarse_points: int = 24) -> StabilityPoint:
     """Stability of the problem's own cut (``cut.spindle_rpm``, ``cut.ap_m``), decided robustly.
 
-    For :class:`SemiDiscretization` the critical depth at this speed is computed for ``m``,
-    ``2m`` (and more when ``adaptive``) and extrapolated by :func:`robolobes.core.numerics.richardson`
-    (order 2): ``b = b_2m + (b_2m - b_m) / 3``, with its error bound ``err = |b_2m - b_m|`` (valid
-    for any convergence order >= 1). The verdict (:func:`depth_verdict`) compares the depth with ``b +- err``;
-    while it is "undetermined" and ``adaptive``, ``m`` is doubled up to ``m_max``. The spectral radius of the operating point
+    The critical depth at this speed is computed for ``m``, ``2m`` (and more when ``adaptive``) and
+    combined by the rule of :mod:`lobes.refine`, the same as the diagram's: Richardson (order 2)
+    ``b = b_2m + (b_2m - b_m) / 3`` with the estimate ``err = |b_2m - b_m| / 3`` where both levels
+    find the same lobe, else the finer level with ``err = |b_2m - b_m|``. The verdict
+    (:func:`depth_verdict`) compares the depth with ``b +- err``. With ``adaptive``, ``m`` is
+    doubled while the verdict is "undetermined" and, for :class:`RefinedSDM` (the default), also
+    while the limit is not converged (error above ``tol``); up to ``m_max`` (RefinedSDM: its own
+    ``m_max``). The spectral radius of the operating point
     is reported too, but it is not what decides: for a robot whose modes sit at ``|mu| ~ 1 - 1e-3``
     the radius differs from 1 in the fifth decimal, while the depth ratio stays far from 0.
 
@@ -481,13 +591,14 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     adaptive : bool
         Refine ``m`` while the verdict is undetermined.
     m_max : int
-        Largest ``m`` used by the adaptive refinement.
+        Largest ``m`` used by the adaptive refinement of a plain ``SemiDiscretization`` (a
+        ``RefinedSDM`` uses its own ``m_max``).
     rtol : float
         Relative bracket width of each critical depth.
     coarse_points : int
         Depths of the coarse bracketing scan.
     """
-    method = SemiDiscretization() if method is None else method
+    method = RefinedSDM() if method is None else method
     _check_method(method)
     if not isinstance(problem, LobeProblem):
         raise LobeError(f"problem must be a LobeProblem, got {type(problem).__name__}")
@@ -495,12 +606,21 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     dmax = _check_depth("depth_max_m", depth_max_m if depth_max_m is not None else max(10 * depth, 0.01))
     if isinstance(method, ZeroOrder):
         return _zoa_point(problem, method, dmax)
-    levels = [_sdm_level(problem, method, method.m, dmax, rtol, coarse_points)]
+    refined = isinstance(method, RefinedSDM)
+    sdm = method.base if isinstance(method, RefinedSDM) else method
+    tol = method.tol if isinstance(method, RefinedSDM) else RefinedSDM().tol
+    m_top = method.m_max if isinstance(method, RefinedSDM) else m_max
+    levels = [_sdm_level(problem, sdm, sdm.m, dmax, rtol, coarse_points)]
     while True:
-        levels.append(_sdm_level(problem, method, 2 * levels[-1]["m"], dmax, rtol, coarse_points))
-        b_ext, err = richardson(levels[-2]["depth_limit_m"], levels[-1]["depth_limit_m"])
-        verdict = depth_verdict(depth, b_ext, err, (levels[-2]["m"], levels[-1]["m"]), dmax)
-        if verdict.status != "undetermined" or not adaptive or 2 * levels[-1]["m"] > m_max:
+        levels.append(_sdm_level(problem, sdm, 2 * levels[-1]["m"], dmax, rtol, coarse_points))
+        c, f = levels[-2], levels[-1]
+        same = same_lobe([c["limit_bifurcation"]], [c["limit_chatter_freq_hz"]], [f["limit_bifurcation"]],
+                         [f["limit_chatter_freq_hz"]], [f["period_s"]])
+        v, e, ok = combine_levels([c["depth_limit_m"]], [f["depth_limit_m"]], same, tol)
+        b_ext, err = float(v[0]), float(e[0])
+        verdict = depth_verdict(depth, b_ext, err, (c["m"], f["m"]), dmax)
+        done = verdict.status != "undetermined" and (bool(ok[0]) or not refined)
+        if done or not adaptive or 2 * f["m"] > m_top:
             break
     last = levels[-1]
     return StabilityPoint(
@@ -512,15 +632,15 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
         depth_limit_error_m=err, chatter_freq_hz=last["chatter_freq_hz"],
         bifurcation=str(classify_multiplier(last["critical_multiplier"], method.angle_tol_rad)),
         limit_bifurcation=last["limit_bifurcation"], limit_chatter_freq_hz=last["limit_chatter_freq_hz"],
-        method=method, history=tuple(levels))
+        method=method, history=tuple(levels), limit_status="converged" if ok[0] else "unconverged")
 
 
 def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tuple[int, int],
                   depth_max_m: float = math.inf) -> Verdict:
-    """The lobes' decision rule: compare the cut depth with the limit and its error bound.
+    """The lobes' decision rule: compare the cut depth with the limit and its error estimate.
 
     ``depth < limit - error``: stable; ``depth > limit + error``: unstable; otherwise undetermined
-    (the discretization error bound of the Richardson limit straddles the depth). Depths in m;
+    (the discretization error estimate of the Richardson limit straddles the depth). Depths in m;
     ``m_levels`` (coarse, fine) and ``depth_max_m`` (the largest depth searched, when the limit is
     ``inf``) are named in the reason.
     """
@@ -532,7 +652,7 @@ def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tupl
         return Verdict("stable", f"depth {mm(depth_m)} below the limit {mm(limit_m)} - {mm(error_m)} ({ms})")
     if depth_m > limit_m + error_m:
         return Verdict("unstable", f"depth {mm(depth_m)} above the limit {mm(limit_m)} + {mm(error_m)} ({ms})")
-    return Verdict("undetermined", f"depth {mm(depth_m)} within the discretization error bound of the limit "
+    return Verdict("undetermined", f"depth {mm(depth_m)} within the discretization error estimate of the limit "
                                    f"{mm(limit_m)} +- {mm(error_m)} ({ms}); a larger m would decide")
 
 
@@ -561,7 +681,7 @@ def _sdm_level(problem: LobeProblem, method: SemiDiscretization, m: int, dmax: f
     rho0 = np.max(np.abs(np.exp(np.outer(eng.period_s(r), eng.ss.poles))), axis=1)
     est, hi, found = _search(lambda s, d: eng.multipliers(s, d)[0], r, rho0, dmax, coarse_points, rtol, st)
     rho, mu, fr = eng.critical(r, np.array([float(problem.cut.ap_m)]))
-    lvl = {"m": m, "depth_limit_m": float(est[0]), "spectral_radius": float(rho[0]),
+    lvl = {"m": m, "period_s": float(eng.period_s(r)[0]), "depth_limit_m": float(est[0]), "spectral_radius": float(rho[0]),
            "critical_multiplier": complex(mu[0]), "chatter_freq_hz": float(fr[0]),
            "stable": bool(rho[0] < 1.0), "evaluations": st["evaluations"],
            "limit_bifurcation": "none", "limit_chatter_freq_hz": math.nan}

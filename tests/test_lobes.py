@@ -437,7 +437,7 @@ def test_stability_point_margin_and_verdicts():
     # a point inside the discretization error band is "undetermined" (refined while adaptive)
     at = replace(p, cut=replace(p.cut, ap_m=0.3168e-3))
     v = stability(at, meth, adaptive=False).verdict
-    assert v.status == "undetermined" and "discretization error bound" in v.reason
+    assert v.status == "undetermined" and "discretization error estimate" in v.reason
     assert v.to_json()["stable"] is None and v.to_json()["verdict"] == "undetermined"
     # evaluate() on a result is stability() at that point
     res = solve(p, meth, [10126.0])
@@ -498,30 +498,32 @@ def test_bad_input_is_named(make, match):
 
 
 def test_adaptive_refinement_decides_an_undetermined_point():
-    """0.3185 mm at 10126 rpm is 0.7 % above the converged limit 0.31636 mm: m = 40/80 cannot tell
-    (bound |b80 - b40| = 4.4e-3 mm > 2.1e-3 mm), m = 80/160 can (bound 1.1e-3 mm)."""
-    p = problem(1.0, rpm=10126.0, depth=0.3185e-3)
+    """0.3175 mm at 10126 rpm is 0.36 % above the converged limit 0.31636 mm: m = 40/80 cannot tell
+    (estimate |b80 - b40| / 3 = 1.48e-3 mm > 1.14e-3 mm), m = 80/160 can (estimate 0.37e-3 mm)."""
+    p = problem(1.0, rpm=10126.0, depth=0.3175e-3)
     fixed = stability(p, SemiDiscretization(m=40), adaptive=False)
     assert fixed.verdict.status == "undetermined" and fixed.stable is None
     assert fixed.depth_limit_error_m > abs(fixed.depth_m - fixed.depth_limit_m)
     ad = stability(p, SemiDiscretization(m=40), adaptive=True, m_max=160)
     assert ad.verdict.status == "unstable" and [h["m"] for h in ad.history] == [40, 80, 160]
     assert_allclose(ad.depth_limit_m, 0.3163574e-3, rtol=2e-4)
+    assert ad.limit_status == "converged"
 
 
 def test_richardson_option_of_solve():
-    """solve(..., richardson=True) = b_80 + (b_80 - b_40) / 3 with error bound |b_80 - b_40| (the
-    convention of core.numerics, written out here by hand); for
-    full immersion (clean 1/m^2) it lands within 1e-4 of the converged 0.3163574 mm (measured
-    6.2e-5: the next term of the error expansion)."""
+    """solve(..., richardson=True) = b_80 + (b_80 - b_40) / 3 with the estimate |b_80 - b_40| / 3
+    (the convention of core.numerics, written out here by hand); for full immersion (clean 1/m^2)
+    it lands within 1e-4 of the converged 0.3163574 mm (measured 6.2e-5: the next term of the
+    error expansion), and the true error is below the estimate."""
     p = problem(1.0)
     r = solve(p, SemiDiscretization(m=40, richardson=True), [10126.0], rtol=1e-9)
     b40 = limit(p, SemiDiscretization(m=40), 10126.0)
     b80 = limit(p, SemiDiscretization(m=80), 10126.0)
     assert_allclose(r.depth_limit_m[0], b80 + (b80 - b40) / 3, rtol=1e-7)
-    assert_allclose(r.depth_error_m[0], abs(b80 - b40), rtol=1e-5)
+    assert_allclose(r.depth_error_m[0], abs(b80 - b40) / 3, rtol=1e-5)
     assert_allclose(r.depth_limit_m[0], 0.3163574e-3, rtol=1e-4)
-    assert r.stats["m_richardson"] == 80
+    assert abs(r.depth_limit_m[0] - 0.3163574e-3) < r.depth_error_m[0]
+    assert r.stats["m_richardson"] == 80 and r.status[0] == "converged" and r.m_final[0] == 80
 
 
 def test_depth_verdict_rule():

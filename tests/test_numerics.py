@@ -1,7 +1,9 @@
 """core.numerics.richardson against sequences with a known limit (closed forms, no code under test).
 
-b(h) = L + c h^p (+ d h^(p+1)) with chosen L, c, p: the extrapolation of order 2 is exact for p = 2,
-and its error bound |b(h/2) - b(h)| must contain L for every order p >= 1 (module doc).
+b(h) = L + c h^p with chosen L, c, p: the extrapolation of order 2 is exact for p = 2, its error
+estimate |b(h/2) - b(h)| / 3 is the fine level's error for p = 2 and bounds the extrapolation's
+error for every order p >= 2 (closed form: the ratio is |1 - 3 / (2^p - 1)|); well below the assumed
+order (p < 1.32) it is not a bound (module doc).
 """
 
 import math
@@ -22,25 +24,39 @@ def test_exact_for_the_assumed_order():
     # b = 1 + 3 h^2: value = b(h/2) + (b(h/2) - b(h)) / 3 = 1 exactly (up to rounding, 1e-15)
     v, e = richardson(seq(1.0, 3.0, 2, 0.1), seq(1.0, 3.0, 2, 0.05))
     assert_allclose(v, 1.0, rtol=1e-14)
-    assert_allclose(e, abs(3 * 0.05**2 - 3 * 0.1**2), rtol=1e-12)  # |b(h/2) - b(h)|, by hand
+    assert_allclose(e, abs(3 * 0.05**2 - 3 * 0.1**2) / 3, rtol=1e-12)  # |b(h/2) - b(h)| / 3, by hand
+    assert_allclose(e, 3 * 0.05**2, rtol=1e-12)  # = the fine level's own error, |b(h/2) - L|
 
 
-@pytest.mark.parametrize("p", [1.0, 1.3, 2.0, 3.0, 4.0])
-def test_bound_contains_the_limit_for_any_order_at_least_one(p):
+def _random_sequences(p):
     rng = np.random.default_rng(7)
     L = rng.uniform(-1, 1, 50)
     c = rng.uniform(-2, 2, 50)
     h = rng.uniform(0.01, 0.2, 50)
-    v, e = richardson(seq(L, c, p, h), seq(L, c, p, h / 2))
+    return L, richardson(seq(L, c, p, h), seq(L, c, p, h / 2))
+
+
+@pytest.mark.parametrize("p", [2.0, 2.5, 3.0, 4.0])
+def test_estimate_bounds_the_extrapolation_from_the_assumed_order_up(p):
+    L, (v, e) = _random_sequences(p)
     assert np.all(np.abs(v - L) <= e * (1 + 1e-12) + 1e-15)
 
 
+@pytest.mark.parametrize("p", [1.0, 1.2])
+def test_estimate_is_not_a_bound_below_the_assumed_order(p):
+    # closed form: |value - L| / error = |1 - 3 / (2^p - 1)|, > 1 for p < log2(2.5) = 1.32 (2 at p = 1)
+    L, (v, e) = _random_sequences(p)
+    ratio = np.abs(v - L) / e
+    assert_allclose(ratio, abs(3 / (2**p - 1) - 1), rtol=1e-9)
+    assert np.all(ratio > 1)
+
+
 def test_other_order_and_ratio():
-    # b = 2 + h^4, ratio 3, order 4: value exact; error = |diff| / (ratio - 1)
+    # b = 2 + h^4, ratio 3, order 4: value exact; error = |diff| / (ratio^order - 1) = (h / 3)^4
     h = 0.3
     v, e = richardson(2 + h**4, 2 + (h / 3) ** 4, order=4, ratio=3)
     assert_allclose(v, 2.0, rtol=1e-14)
-    assert_allclose(e, (h**4 - (h / 3) ** 4) / 2, rtol=1e-12)
+    assert_allclose(e, (h / 3) ** 4, rtol=1e-12)
 
 
 def test_non_finite_levels():

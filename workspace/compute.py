@@ -15,8 +15,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robolobes.lobes import (LobeProblem, ModalStructure, in_series, PhysicalStructure, ReducedStructure, SemiDiscretization,
-                             StateSpace, TruncationReport, solve)
+from robolobes.lobes import (LobeProblem, ModalStructure, PhysicalStructure, ReducedStructure, RefinedSDM,
+                             SemiDiscretization, StateSpace, TruncationReport, in_series, solve)
 
 from .forces import mean_force_cut_frame, static_deflection
 from .problem import MapMethod, MapProblem
@@ -114,6 +114,8 @@ def compute_chunk(problem: MapProblem, method: MapMethod, start: int, theta: np.
         robot = build_robot(problem)
         speeds = np.append(problem.speeds_rpm, problem.op_rpm)
         sdm = SemiDiscretization(m=method.m, prescan_m=method.prescan_m)
+        if method.tol is not None:
+            sdm = RefinedSDM(sdm, tol=method.tol, m_max=max(320, 2 * method.m))
         f_mean = mean_force_cut_frame(case.tool, case.cut, case.law)
         for i in range(P):
             if not reachable[i]:

@@ -214,6 +214,10 @@ class MapMethod:
         the default prescan to 6e-14.
     chunk_poses : int
         Poses per chunk (unit of work, of storage and of resume).
+    tol : float or None
+        None (default): one SDM level ``m`` per pose, no error estimate. A number in (0, 0.5): the
+        limits are refined per speed from ``m`` until their error estimate is below ``tol``
+        (``lobes.RefinedSDM``, the rule of ``robolobes lobes``), up to m = 320.
     """
 
     m: int = 40
@@ -223,6 +227,7 @@ class MapMethod:
     error_band_hz: tuple = (0.0, 1000.0)
     prescan_m: int | None = 12
     chunk_poses: int = 10
+    tol: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.m, bool) or not isinstance(self.m, int) or self.m < 2:
@@ -239,9 +244,12 @@ class MapMethod:
             raise BadInput(f"prescan_m must be an integer >= 2 or None, got {self.prescan_m!r}")
         if isinstance(self.chunk_poses, bool) or not isinstance(self.chunk_poses, int) or not 1 <= self.chunk_poses <= 1000:
             raise BadInput(f"chunk_poses must be an integer from 1 to 1000, got {self.chunk_poses!r}")
+        if self.tol is not None and (isinstance(self.tol, bool) or not isinstance(self.tol, (int, float))
+                                     or not 0 < self.tol < 0.5):
+            raise BadInput(f"tol must be None or a relative error target in (0, 0.5), got {self.tol!r}")
 
     def describe(self) -> dict:
         return {"m": self.m, "depth_max_m": self.depth_max_m, "rtol": self.rtol,
                 "reduce_max_freq_hz": self.reduce_max_freq_hz, "error_band_hz": list(self.error_band_hz),
                 "prescan_m": self.prescan_m,
-                "chunk_poses": self.chunk_poses}
+                "chunk_poses": self.chunk_poses, **({} if self.tol is None else {"tol": self.tol})}

@@ -1,0 +1,128 @@
+"""The refinement rule of the lobes: SDM levels m, 2m, 4m ... per speed until the error is small.
+
+One rule for the diagram (:func:`lobes.solve`) and the operating point (:func:`lobes.stability`):
+
+* at each speed the critical depth is computed at two levels ``m`` and ``2 m``; the value is their
+  Richardson extrapolation and its error estimate ``|b_2m - b_m| / 3``
+  (:func:`robolobes.core.numerics.richardson`, order 2: the SDM converges at second order);
+* the speed is **converged** when both levels find the same lobe (:func:`same_lobe`) and the
+  estimate is at most ``tol`` times the value (both levels finding no limit below the searched
+  depth is converged too, with error 0);
+* otherwise ``m`` is doubled at that speed (the other speeds are not recomputed), up to ``m_max``;
+* a speed still not converged at ``m_max`` is **unconverged**: where the last two levels found
+  different lobes, or only one of them a limit, the finer level's depth is reported as it is
+  (not extrapolated across lobes) with the error ``|b_2m - b_m|``; else the extrapolation with its
+  estimate, which is then above ``tol``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from robolobes.core.numerics import richardson
+from robolobes.core.validate import integer
+
+from ._errors import LobeError
+from .sdm import SemiDiscretization
+
+__all__ = ["RefinedSDM", "LimitStatus", "same_lobe", "combine_levels"]
+
+LimitStatus = Literal["converged", "unconverged", "no-estimate"]
+
+
+@dataclass(frozen=True)
+class RefinedSDM:
+    """The semi-discretization refined per speed until its error estimate is below ``tol``.
+
+    Parameters
+    ----------
+    base : SemiDiscretization
+        The scheme, quadrature, slices ... and the first level ``base.m`` (default m = 40). Starting
+        at m = 20 was measured and rejected: on the benchmark of ``tests/test_lobes_accuracy.py``
+        the pair 20/40 is not yet in the asymptotic regime at low immersion and in the slot (its
+        values were up to 1.5 % off at the reference speeds while their estimates said less); from
+        40/80 on, the values were within 0.37 % there (``docs/guide/lobes-accuracy.md``).
+    tol : float
+        Target relative error estimate of the critical depth, in (0, 0.5); default 0.01 (1 %).
+    m_max : int
+        Finest level (steps per principal period); a speed not converged there is "unconverged".
+    """
+
+    base: SemiDiscretization = SemiDiscretization()
+    tol: float = 0.01
+    m_max: int = 320
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.base, SemiDiscretization):
+            raise LobeError(f"RefinedSDM base must be a SemiDiscretization, got {self.base!r}")
+        if self.base.richardson:
+            raise LobeError("RefinedSDM base must not set richardson=True (the refinement makes the levels)")
+        t = self.tol
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not (0 < t < 0.5):
+            raise LobeError(f"RefinedSDM tol (relative error target) must be in (0, 0.5), got {t!r}")
+        integer("RefinedSDM m_max (finest steps per period)", self.m_max, minimum=2 * self.base.m, error=LobeError)
+
+    @property
+    def name(self) -> str:
+        return "sdm"
+
+    @property
+    def m(self) -> int:
+        """The first level."""
+        return self.base.m
+
+    @property
+    def angle_tol_rad(self) -> float:
+        return self.base.angle_tol_rad
+
+
+def same_lobe(bif_a, freq_a, bif_b, freq_b, period_s) -> np.ndarray:
+    """Whether two levels found the same lobe at each speed (arrays (S,)).
+
+    Same bifurcation type, and chatter frequencies closer than a quarter of the principal
+    frequency ``1 / T``: on one lobe the frequency moves with the discretization by its own
+    O(1/m^2) error, while the critical multipliers of two different lobes at one speed differ in
+    angle by an O(1) part of a turn, i.e. their frequencies by an O(1) part of ``1 / T`` (two flip
+    lobes by exactly ``1 / T``). Both levels stable up to the searched depth ("none") is the same.
+    """
+    bif_a, bif_b = np.asarray(bif_a), np.asarray(bif_b)
+    fa, fb = np.asarray(freq_a, dtype=float), np.asarray(freq_b, dtype=float)
+    T = np.asarray(period_s, dtype=float)
+    with np.errstate(invalid="ignore"):
+        close = np.abs(fa - fb) * T < 0.25
+    none = (bif_a == "none") & (bif_b == "none")
+    return none | ((bif_a == bif_b) & close)
+
+
+def combine_levels(coarse, fine, same, tol: float):
+    """Value, error (m), converged flag of two levels' critical depths (arrays (S,), m).
+
+    Richardson (order 2) where the levels find the same lobe; the finer depth with the whole
+    difference as its error where they do not (or where only one found a limit). Converged: same
+    lobe and error <= ``tol * value`` (both inf: converged, error 0).
+    """
+    coarse, fine = np.asarray(coarse, dtype=float), np.asarray(fine, dtype=float)
+    value, err = (np.asarray(x, dtype=float) for x in richardson(coarse, fine))
+    value, err = np.atleast_1d(value).copy(), np.atleast_1d(err).copy()
+    same = np.atleast_1d(np.asarray(same, bool))
+    with np.errstate(invalid="ignore"):
+        jump = np.where(np.isfinite(coarse) & np.isfinite(fine), np.abs(fine - coarse), np.inf)
+    value = np.where(same, value, fine)
+    err = np.where(same, err, np.where(coarse == fine, 0.0, jump))
+    both_inf = np.isinf(coarse) & np.isinf(fine)
+    with np.errstate(invalid="ignore"):
+        ok = same & (both_inf | (np.isfinite(value) & (err <= tol * value)))
+    return value, err, ok
+
+
+def level_pairs(m0: int, m_max: int) -> list[tuple[int, int]]:
+    """The (coarse, fine) level pairs of the refinement: (m0, 2 m0), (2 m0, 4 m0), ... up to m_max."""
+    out = []
+    m = m0
+    while 2 * m <= m_max:
+        out.append((m, 2 * m))
+        m *= 2
+    return out
