@@ -34,10 +34,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.linalg import expm
 
-from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, in_cut
+from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix
 from robolobes.core.frf import FRF
 from robolobes.core.numerics import richardson
-from robolobes.lobes import (LobeError, LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
+from robolobes.lobes import (LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
                    ZeroOrder, average_directional_matrix, classify_multiplier, solve, stability)
 from robolobes.lobes.sdm import SDMEngine
 
