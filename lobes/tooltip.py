@@ -40,7 +40,7 @@ def tool_modes_from_files(tool_modes: str | None = None, tool_frf: str | None = 
             raise LobeError("--tool-frf-axes applies only with --tool-frf FILE|DIR")
         if tool_modes is None:
             return ()
-        from .cli import read_modal_toml
+        from .modal_file import read_modal_toml
 
         return read_modal_toml(tool_modes).modes
     if tool_frf_axes is None:
