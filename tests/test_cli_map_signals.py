@@ -63,7 +63,7 @@ def _alive(pid: int) -> bool:
 
 
 def _signals(proc, sig, n: int, gap_s=0.3):
-    for k in range(n):
+    for _ in range(n):
         if proc.poll() is not None:
             break
         os.killpg(proc.pid, sig)

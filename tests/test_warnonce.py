@@ -6,11 +6,11 @@ from robolobes.core.warnonce import each_warning_once
 
 
 def _warn_from_two_places(text):
-    warnings.warn(text, UserWarning)  # first call site
+    warnings.warn(text, UserWarning, stacklevel=1)  # first call site
 
 
 def _warn_again(text):
-    warnings.warn(text, UserWarning)  # a second call site, same text
+    warnings.warn(text, UserWarning, stacklevel=1)  # a second call site, same text
 
 
 def _shown(block):
@@ -45,10 +45,10 @@ def test_without_the_wrapper_the_same_warning_is_shown_every_time():
 def test_different_texts_and_categories_are_each_shown():
     def run():
         with each_warning_once():
-            warnings.warn("a", UserWarning)
-            warnings.warn("b", UserWarning)
-            warnings.warn("a", RuntimeWarning)
-            warnings.warn("b", UserWarning)
+            warnings.warn("a", UserWarning, stacklevel=1)
+            warnings.warn("b", UserWarning, stacklevel=1)
+            warnings.warn("a", RuntimeWarning, stacklevel=1)
+            warnings.warn("b", UserWarning, stacklevel=1)
 
     assert _shown(run) == ["a", "b", "a"]
 
@@ -59,8 +59,8 @@ def test_each_run_shows_its_own_warnings_and_the_hook_is_restored():
     def run():
         for _ in range(2):
             with each_warning_once():
-                warnings.warn("once per run", UserWarning)
-                warnings.warn("once per run", UserWarning)
+                warnings.warn("once per run", UserWarning, stacklevel=1)
+                warnings.warn("once per run", UserWarning, stacklevel=1)
 
     assert _shown(run) == ["once per run"] * 2
     assert warnings.showwarning is before
@@ -71,7 +71,7 @@ def test_ignored_warnings_stay_ignored():
         with each_warning_once():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                warnings.warn("silenced", UserWarning)
-            warnings.warn("shown", UserWarning)
+                warnings.warn("silenced", UserWarning, stacklevel=1)
+            warnings.warn("shown", UserWarning, stacklevel=1)
 
     assert _shown(run) == ["shown"]

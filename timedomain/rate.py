@@ -87,8 +87,12 @@ def _longest_run(ok: np.ndarray) -> tuple[int, int]:
     return best
 
 
+#: the verdict's default rule (a frozen dataclass: one shared instance is safe)
+_DEFAULT_RULE = GrowthRule()
+
+
 def gated_growth_rate(t_s, x, period_s: float, *, t_start_s: float, t_end_s: float, loss=None,
-                      rule: GrowthRule = GrowthRule()) -> GatedRate:
+                      rule: GrowthRule = _DEFAULT_RULE) -> GatedRate:
     """Growth rate of ``x`` (n, m), m, over the gated periods of ``[t_start_s, t_end_s]`` (module docstring).
 
     Parameters
