@@ -33,12 +33,14 @@ def documented_commands() -> list[tuple[str, int, list[str]]]:
     for f in files:
         if not f.is_file():
             continue
-        inside, buf, start = False, "", 0
+        inside, output, buf, start = False, False, "", 0
         for k, line in enumerate(f.read_text(encoding="utf-8").splitlines(), start=1):
             if _FENCE.match(line):
                 inside, buf = not inside, ""
+                # a ```text block shows output or a synopsis, not a command to run
+                output = inside and line.strip().lstrip("`~").strip().lower() == "text"
                 continue
-            if not inside:
+            if not inside or output:
                 continue
             text = line.strip()
             if not buf:
