@@ -19,7 +19,7 @@ from pathlib import Path
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from generators.draws import CASES, run_case  # noqa: E402  (needs the tests/ path above)
+from generators.draws import CASES, run_case
 
 
 def main(argv=None) -> int:

@@ -88,7 +88,7 @@ def test_read_driving_points_only_says_xy_zero_and_directory(tmp_path):
     np.testing.assert_allclose(t.frf.H[1, 1], H[1, 1], rtol=1e-9)
 
 
-@pytest.mark.parametrize("content,expect", [("not a uff\n", "no FRF dataset"),
+@pytest.mark.parametrize("content,expect", [("not a uff\n", "not a UFF file"),
                                             (None, "driving point(s) yy are missing")])
 def test_bad_frf_file_one_line_exit_2(tmp_path, capsys, content, expect):
     bad = tmp_path / "bad.uff"

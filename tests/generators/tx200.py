@@ -64,8 +64,10 @@ PAYLOAD_INERTIA = (0.095, 0.106, 0.098, 0, 0.035, 0)
 TCP_ROT_Y_DEG = 60.0
 # ---- Tab. 7 pose and the poses of a set --------------------------------------------------------
 POSE_TAB7_DEG = np.array([-11.71, 20.78, -212.14, 82.76, 60.80, -166.96])
-POSE_OFFSETS_DEG = np.array([[0, 0, 0, 0, 0, 0], [12, 6, -4, 5, 8, -10], [-14, -4, 9, 12, -8, 25],
-                             [25, 9, -8, -18, 6, -25], [-25, 10, 6, 15, 12, 12], [8, -7, 11, -12, -6, -20]],
+# A3 at Tab. 7 is 2.86 deg past +145 deg (wrapped), so A3 only moves back into its range: identify
+# refuses a pose more than 5 deg past a limit, as every command does
+POSE_OFFSETS_DEG = np.array([[0, 0, 0, 0, 0, 0], [12, 6, -4, 5, 8, -10], [-14, -4, -9, 12, -8, 25],
+                             [25, 9, -8, -18, 6, -25], [-25, 10, -6, 15, 12, 12], [8, -7, -11, -12, -6, -20]],
                             dtype=float)
 PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1))   # (out, in) axes: xx, yy, zz, xy
 
@@ -130,7 +132,7 @@ class TX200:
             payload = payload + pin.Inertia(-mode_mass[0], PAYLOAD_TCP, np.zeros((3, 3)))
         model.appendBodyToJoint(parent, payload, face)
         tcp = face * pin.SE3(tcp_rot, PAYLOAD_TCP)       # flange joint -> TCP
-        for r, (f, z, k, d) in enumerate(e.tool_modes):
+        for r, (_f, _z, _k, d) in enumerate(e.tool_modes):
             # a prismatic joint along d at the TCP (joint frame = TCP axes); the last carries the point
             # mass, the others are massless links of the chain (the mass moves along every direction)
             d = np.asarray(d, float) / np.linalg.norm(d)
