@@ -48,6 +48,15 @@ def max_steps() -> int:
     return MAX_RECORD_BYTES // RECORD_BYTES_PER_STEP
 
 
+def _check_step_and_discs(deg_per_step: float, n_discs: int | None) -> None:
+    """The step (deg of spindle rotation, in (0, 10]) and axial disc count (1..MAX_DISCS, or None) of a method."""
+    d = finite("deg_per_step", deg_per_step, positive=True, error=SimulationError)
+    if d > 10:
+        raise SimulationError(f"deg_per_step must be in (0, 10] deg of spindle rotation per step, got {d}")
+    if n_discs is not None:
+        integer("n_discs", n_discs, minimum=1, maximum=MAX_DISCS, error=SimulationError)
+
+
 @dataclass(frozen=True)
 class _NewmarkMethod:
     deg_per_step: float = 2.0
@@ -55,11 +64,7 @@ class _NewmarkMethod:
     dx_m: float = 1e-6
 
     def __post_init__(self):
-        d = finite("deg_per_step", self.deg_per_step, positive=True, error=SimulationError)
-        if d > 10:
-            raise SimulationError(f"deg_per_step must be in (0, 10] deg of spindle rotation per step, got {d}")
-        if self.n_discs is not None:
-            integer("n_discs", self.n_discs, minimum=1, maximum=MAX_DISCS, error=SimulationError)
+        _check_step_and_discs(self.deg_per_step, self.n_discs)
         dx = finite("dx_m", self.dx_m, positive=True, error=SimulationError)
         if not 1e-7 <= dx <= 1e-4:
             raise SimulationError(f"dx_m (workpiece column spacing) must be in [1e-7, 1e-4] m, got {dx:g}")
@@ -139,11 +144,7 @@ class DelayNewmark:
     entry_exit: str = "exact"
 
     def __post_init__(self):
-        d = finite("deg_per_step", self.deg_per_step, positive=True, error=SimulationError)
-        if d > 10:
-            raise SimulationError(f"deg_per_step must be in (0, 10] deg of spindle rotation per step, got {d}")
-        if self.n_discs is not None:
-            integer("n_discs", self.n_discs, minimum=1, maximum=MAX_DISCS, error=SimulationError)
+        _check_step_and_discs(self.deg_per_step, self.n_discs)
         k = finite("kick_m", self.kick_m, positive=True, error=SimulationError)
         if not 1e-9 <= k <= 1e-3:
             raise SimulationError(f"kick_m (initial tool displacement) must be in [1e-9, 1e-3] m, got {k:g}")
