@@ -252,6 +252,7 @@ def run_map(args: argparse.Namespace) -> int:
 
             summary.update(lead_deg=0.0, lead_note=f"the sweep is over tilt (about the feed) only; lead is fixed at "
                                                   f"0 deg: {LEAD_REASON}")
+        summary = limits_for_json(summary, method.depth_max_m)
         write_json(out.path / "map.json", summary)
     if args.json:
         from robolobes.core.io import to_jsonable
@@ -262,10 +263,36 @@ def run_map(args: argparse.Namespace) -> int:
               f"{summary['n_unreachable']} unreachable, {summary['computed_poses']} computed, "
               f"{summary['wall_s']:.1f} s -> {out.target}")
         if summary["min_depth_limit_m"] is not None:
-            print(f"lowest limit {summary['min_depth_limit_m'] * 1e3:.4g} mm at pose {summary['worst_pose']}; "
-                  f"at {problem.op_rpm:.0f} rpm the limit ranges {summary['op_min_depth_limit_m'] * 1e3:.4g} to "
-                  f"{summary['op_max_depth_limit_m'] * 1e3:.4g} mm (cut {problem.case.cut.ap_m * 1e3:g} mm)")
+            mm = _limit_text(method.depth_max_m)
+            print(f"lowest limit {mm(summary['min_depth_limit_m'])} at pose {summary['worst_pose']}; "
+                  f"at {problem.op_rpm:.0f} rpm the limit ranges {mm(summary['op_min_depth_limit_m'])} to "
+                  f"{mm(summary['op_max_depth_limit_m'])} (cut {problem.case.cut.ap_m * 1e3:g} mm)")
     return 0
+
+
+#: the limits of ``map.json`` (m) that are infinite when no limit lies below the depth searched
+LIMIT_KEYS = ("min_depth_limit_m", "best_pose_min_depth_limit_m", "op_min_depth_limit_m", "op_max_depth_limit_m")
+#: how ``map.json`` writes an infinite limit (JSON has no infinity; ``float("inf")`` reads it back)
+STABLE = "inf"
+LIMIT_NOTE = (f'a limit of "{STABLE}" means stable at every speed up to depth_max_m (the store holds inf); '
+              "null means no reachable pose (the store holds NaN for an unreachable pose)")
+
+
+def limits_for_json(summary: dict, depth_max_m: float) -> dict:
+    """``summary`` with each infinite limit of :data:`LIMIT_KEYS` written as :data:`STABLE`, so that
+    "stable up to ``depth_max_m``" is never written as the null of "no reachable pose"."""
+    out = dict(summary)
+    for k in LIMIT_KEYS:
+        v = out.get(k)
+        if v is not None and math.isinf(v) and v > 0:
+            out[k] = STABLE
+    out.update(depth_max_m=depth_max_m, limit_note=LIMIT_NOTE)
+    return out
+
+
+def _limit_text(depth_max_m: float):
+    """A map.json limit (m, or :data:`STABLE`) as text in mm."""
+    return lambda v: f"none below {depth_max_m * 1e3:g} mm" if v == STABLE else f"{v * 1e3:.4g} mm"
 
 
 # ------------------------------------------------------------------------------------ optimize
