@@ -69,6 +69,7 @@ import fcntl
 import json
 import os
 import re
+import secrets
 import shutil
 import tempfile
 import time
@@ -292,9 +293,10 @@ class OutputDir:
         self._open = False
         self._lock: tuple[int, Path] | None = None
         self._stage_fd: int | None = None
-        self.check()
         if resume:
             self._lock = _acquire_lock(self.target, self._shown)
+        _finish_dead_swaps(self.target)   # before the check: it may put the previous output back
+        self.check()
         _remove_dead_stages(self.target)
 
     def release(self) -> None:
@@ -442,15 +444,15 @@ class OutputDir:
         from .interrupt import deferred
 
         with deferred():   # the swap and the removal of the old output are not cut by a Ctrl-C
+            old, old_fd = None, None
             try:
                 with user_path_errors(self.target):
                     self._write_marker(self.path, complete=True)
                     self.check()
-                    old = None
                     if self.target.exists():
-                        old = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.robolobes-old-",
-                                                    dir=self.target.parent))
-                        old.rmdir()
+                        # locked before it is renamed, so that a later run knows it is not a dead run's
+                        old_fd = _lock_dir(self.target, wait=True)
+                        old = self.target.parent / f".{self.target.name}{_OLD}{secrets.token_hex(4)}"
                         os.rename(self.target, old)
                     try:
                         os.rename(self.path, self.target)
@@ -459,20 +461,65 @@ class OutputDir:
                             os.rename(old, self.target)
                         raise
             except BaseException:
+                if old_fd is not None:
+                    os.close(old_fd)
                 self.discard()
                 raise
             self._open = False
             self.path = self.target
             if old is not None:
                 _remove_listed(old)
+            if old_fd is not None:
+                os.close(old_fd)
             self.release()
 
 
-def _lock_dir(d: Path) -> int:
-    """An open descriptor of directory ``d`` holding an exclusive ``flock`` on it."""
+def _lock_dir(d: Path, wait: bool = False) -> int:
+    """An open descriptor of directory ``d`` holding an exclusive ``flock`` on it (``wait``: block
+    until it is free, else raise ``BlockingIOError`` if another process holds it)."""
     fd = os.open(d, os.O_RDONLY)
-    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    except BaseException:
+        os.close(fd)
+        raise
     return fd
+
+
+#: infix of a replaced output while the swap runs: ``.NAME.robolobes-old-XXXXXXXX`` (8 hex digits)
+_OLD = ".robolobes-old-"
+
+
+def _finish_dead_swaps(target: Path) -> None:
+    """Finish the swap of a run that died inside :meth:`OutputDir.commit` (SIGKILL, power loss).
+
+    The previous output is renamed to ``.NAME.robolobes-old-XXXXXXXX`` while locked by the
+    committing run (an ``flock`` the kernel drops when that run dies). Such a directory, recognized
+    by its name AND a valid marker AND a free lock, is a dead run's: if the target exists, the
+    swap was done and only the files its marker lists are deleted (:func:`_remove_listed`); if the
+    target is missing, the run died between the two renames and the previous output is put back.
+    A directory of a live run, or one without a marker, is never touched."""
+    pattern = re.compile(re.escape(f".{target.name}{_OLD}") + r"[0-9a-f]{8}")
+    try:
+        entries = sorted(target.parent.iterdir())
+    except OSError:
+        return
+    for d in entries:
+        if not pattern.fullmatch(d.name) or d.is_symlink() or not d.is_dir() or _read_marker(d) is None:
+            continue
+        try:
+            fd = _lock_dir(d)
+        except OSError:
+            continue   # a live run's swap
+        try:
+            if target.exists() or target.is_symlink():
+                _remove_listed(d)
+            else:
+                os.rename(d, target)
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
 
 
 def _remove_dead_stages(target: Path) -> None:

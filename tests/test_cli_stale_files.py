@@ -51,3 +51,63 @@ def test_stale_part_file_removed_by_the_next_write(tmp_path):
         tmp.write_bytes(b"png")
     assert not parts[0].exists()
     assert (tmp_path / ".fig.png.mine.part.png").exists() and (tmp_path / "fig.png").read_bytes() == b"png"
+
+
+_FINISHED = """
+    from robolobes.core.outdir import OutputDir
+    out = OutputDir("out", "test", {"command": "test", "x": 1})
+    with out:
+        (out.path / "a.txt").write_text("old")
+"""
+#: a second run of the same inputs killed inside the final swap, after ``when`` renames of a directory
+_KILLED_IN_SWAP = """
+    import os
+    from robolobes.core.outdir import OutputDir
+    real, renames = os.rename, []
+    def rename(a, b):
+        real(a, b)
+        renames.append(b)
+        if len(renames) == {when}:
+            os._exit(9)
+    os.rename = rename
+    out = OutputDir("out", "test", {{"command": "test", "x": 1}})
+    with out:
+        (out.path / "a.txt").write_text("new")
+"""
+
+
+def _killed_in_swap(tmp_path, when: int):
+    subprocess.run([sys.executable, "-c", textwrap.dedent(_FINISHED)], cwd=tmp_path, check=True, timeout=120)
+    _die_inside(_KILLED_IN_SWAP.format(when=when), tmp_path)
+    return [p for p in tmp_path.iterdir() if ".robolobes-old-" in p.name]
+
+
+def test_killed_between_the_two_renames_the_previous_output_is_put_back(tmp_path):
+    old = _killed_in_swap(tmp_path, when=1)      # out -> .out.robolobes-old-X, then killed
+    assert len(old) == 1 and not (tmp_path / "out").exists()
+    OutputDir(tmp_path / "out", "test", INPUTS)  # the next run on the same --out
+    assert (tmp_path / "out" / "a.txt").read_text() == "old" and not old[0].exists()
+
+
+def test_killed_after_the_swap_the_replaced_output_is_removed(tmp_path):
+    old = _killed_in_swap(tmp_path, when=2)      # both renames done, killed before the clean-up
+    assert len(old) == 1 and (tmp_path / "out" / "a.txt").read_text() == "new"
+    similar = tmp_path / ".out.robolobes-old-0badf00d"       # named like ours, no marker: a user's
+    similar.mkdir()
+    (similar / "keep.txt").write_text("a user's")
+    OutputDir(tmp_path / "out", "test", INPUTS)
+    assert not old[0].exists() and (similar / "keep.txt").exists()
+    assert (tmp_path / "out" / "a.txt").read_text() == "new"
+
+
+def test_replaced_output_of_a_live_swap_is_left_alone(tmp_path):
+    import fcntl
+    import os
+    old = _killed_in_swap(tmp_path, when=2)
+    fd = os.open(old[0], os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)   # as a live run holds it during its swap
+    try:
+        OutputDir(tmp_path / "out", "test", INPUTS)
+        assert old[0].is_dir()
+    finally:
+        os.close(fd)
