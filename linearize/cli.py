@@ -14,7 +14,7 @@ from robolobes.core.outdir import check_output_file, cli_inputs, user_path_error
 
 from .variants import VARIANTS
 
-__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "MAX_FRF_POINTS"]
+__all__ = ["add_pose_arguments", "resolve_pose", "register", "run_modes", "run_frf", "validate_modes", "validate_frf", "MAX_FRF_POINTS"]
 
 MAX_FRF_POINTS = 100_000  # H is 3 x 3 x n complex (144 B per frequency): 14 MB; a direct solve per frequency
 
@@ -110,10 +110,14 @@ def run_modes(args) -> int:
     return 0
 
 
-def run_frf(args) -> int:
-    from .frf_io import plot_bode, write_frf
-    from .linear import linearize
+def validate_modes(args) -> None:
+    """Every check ``modes`` makes before any work (ROBOLOBES_VALIDATE_ONLY): case, variant, pose."""
+    resolve_pose(args)
 
+
+def _frf_checked(args):
+    """``frf``'s checks before any work: the band, ``--n``, the case, the pose and both output
+    files. Returns ``(case, robot, theta, label, inputs, out, png)``."""
     if not (math.isfinite(args.fmax_hz) and 0 <= args.fmin_hz < args.fmax_hz):
         raise BadInput(f"need 0 <= --fmin-hz < --fmax-hz (finite), got {args.fmin_hz}, {args.fmax_hz}")
     if not 2 <= args.n <= MAX_FRF_POINTS:
@@ -123,6 +127,19 @@ def run_frf(args) -> int:
     out = check_output_file(args.out, (".csv", ".uff", ".unv"), inputs)
     png = check_output_file(out.with_suffix(".png"), (".png",), inputs, name="the Bode plot beside --out,")
     case, robot, theta, label = resolve_pose(args, case)
+    return case, robot, theta, label, inputs, out, png
+
+
+def validate_frf(args) -> None:
+    """Every check ``frf`` makes before any work (ROBOLOBES_VALIDATE_ONLY)."""
+    _frf_checked(args)
+
+
+def run_frf(args) -> int:
+    from .frf_io import plot_bode, write_frf
+    from .linear import linearize
+
+    case, robot, theta, label, inputs, out, png = _frf_checked(args)
     lin = linearize(robot, theta)
     w = 2 * math.pi * np.linspace(args.fmin_hz, args.fmax_hz, args.n)
     frf = lin.frf(w, frame=args.frame, feed_direction=case.cut.feed_direction)
@@ -142,7 +159,7 @@ def register(sub) -> None:
                                    "and static TCP stiffness of the linearized flexible robot.")
     add_pose_arguments(p)
     p.add_argument("--json", action="store_true", help="print a JSON object (SI units, base frame)")
-    p.set_defaults(run=run_modes)
+    p.set_defaults(run=run_modes, validate=validate_modes)
 
     p = sub.add_parser("frf", help="tool-tip FRF at a pose (CSV or UFF58 + Bode PNG)",
                        description="Tool-tip receptance matrix (m/N) by direct solve; written as CSV or UFF58 "
@@ -154,4 +171,4 @@ def register(sub) -> None:
     p.add_argument("--frame", choices=("base", "cut"), default="base",
                    help="axes of the FRF: robot base, or the cut frame (feed, normal, axial)")
     p.add_argument("--out", required=True, help="output file: .csv, .uff or .unv")
-    p.set_defaults(run=run_frf)
+    p.set_defaults(run=run_frf, validate=validate_frf)

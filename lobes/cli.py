@@ -46,7 +46,7 @@ from .modal_file import read_modal_toml
 from .structure import ModalStructure, PhysicalStructure, in_series
 from .zoa import ZeroOrder
 
-__all__ = ["register", "run", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
+__all__ = ["register", "run", "validate_lobes", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
 
 # Bounds on what sets memory and run time (checked before any work). The SDM's monodromy matrix is
 # (2 n + m n_delay)^2 per speed and its cost grows as m^3: m = 400 is 10x the default and far past
@@ -121,7 +121,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     g.add_argument("--kac-mpa", type=float, default=None, help="axial cutting coefficient, MPa (default 0)")
     g.add_argument("--helix-deg", type=float, default=None, help="helix angle, deg (default 0)")
     g.add_argument("--pitch-deg", default=None, metavar="A,B,...", help="pitch angles, deg, summing to 360")
-    p.set_defaults(run=run, milling_mode=None, case=None, variant=None)  # None: not given (see _check_flags)
+    p.set_defaults(run=run, validate=validate_lobes, milling_mode=None, case=None, variant=None)  # None: not given (see _check_flags)
     return p
 
 
@@ -292,8 +292,9 @@ def _inputs(args) -> dict:
     return cli_inputs(args, case=load_case(args.case), files=files or None)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run ``robolobes lobes``; returns the exit code (0). Bad input raises ValueError."""
+def _checked(args: argparse.Namespace):
+    """``lobes``' checks of the options and output files before any work.
+    Returns ``(method, inputs, out_path, fit_path)``."""
     user = args.modal is not None or args.frf is not None
     if (args.at_rpm is None) != (args.at_depth_mm is None) and user:
         raise LobeError("give both --at-rpm and --at-depth-mm for an operating point")
@@ -314,6 +315,32 @@ def run(args: argparse.Namespace) -> int:
     inputs = _inputs(args)
     out_path = check_output_file(args.out, _FIGURE_SUFFIXES, inputs) if args.out else None
     fit_path = check_output_file(args.fit_plot, _FIGURE_SUFFIXES, inputs, name="--fit-plot") if args.fit_plot else None
+    return method, inputs, out_path, fit_path
+
+
+def validate_lobes(args: argparse.Namespace) -> None:
+    """Every check ``lobes`` makes before any work (ROBOLOBES_VALIDATE_ONLY): options, output
+    files, and the structure's inputs read and checked (case and pose, modal file, measured FRF,
+    tool modes); a measured FRF is read but not fitted."""
+    _checked(args)
+    if args.frf is not None:
+        from robolobes.linearize.frf_io import read_tool_frf
+
+        from .measured import MeasuredStructure
+
+        _check_tool_flags(args)
+        tf = read_tool_frf(args.frf, args.frf_axes)
+        _user_problem(args, MeasuredStructure(tf.frf.omega, tf.frf.H, cross_measured=tf.cross_measured,
+                                              source=str(args.frf)), "")
+    elif args.modal is not None:
+        _modal_problem(args)
+    else:
+        _robot_problem(args)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``robolobes lobes``; returns the exit code (0). Bad input raises ValueError."""
+    method, inputs, out_path, fit_path = _checked(args)
     frf_info = None
     if args.frf is not None:
         problem, label, frf_info = _frf_problem(args, fit_path, inputs)

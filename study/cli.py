@@ -6,7 +6,15 @@ import sys
 
 from robolobes.core.io import Progress
 
-__all__ = ["register", "run_study_cli"]
+__all__ = ["register", "run_study_cli", "validate_study"]
+
+
+def validate_study(args) -> None:
+    """Every check ``study`` makes before any work (ROBOLOBES_VALIDATE_ONLY): the built-in inputs
+    and ``--out``."""
+    from .run import study_output
+
+    study_output(args.out, args.quick)
 
 
 def run_study_cli(args) -> int:
@@ -37,4 +45,4 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true", help="coarser grids and shorter runs (under 3 minutes)")
     p.add_argument("--out", default="robolobes-study", help="output directory (default ./robolobes-study)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
-    p.set_defaults(run=run_study_cli)
+    p.set_defaults(run=run_study_cli, validate=validate_study)

@@ -8,7 +8,17 @@ from .compute import compute_study, load_inputs, study_inputs
 from .output import to_json, write_study
 from .settings import StudySettings
 
-__all__ = ["run_study"]
+__all__ = ["run_study", "study_output"]
+
+
+def study_output(out_dir: str | os.PathLike, quick: bool):
+    """The study's settings and its output directory, checked before any work (``OutputRefused``:
+    the target may not be written). Returns ``(StudySettings, core.outdir.OutputDir)``."""
+    from robolobes.core.outdir import OutputDir
+
+    settings = StudySettings.make(quick)
+    cs, _, paper = load_inputs()
+    return settings, OutputDir(out_dir, "study", study_inputs(settings, cs, paper))
 
 
 def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = False, progress=None) -> dict:
@@ -32,12 +42,8 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
     dict
         ``results.json``'s content.
     """
-    from robolobes.core.outdir import OutputDir
-
     prog = progress or (lambda f, note="": None)
-    settings = StudySettings.make(quick)
-    cs, _, paper = load_inputs()
-    out = OutputDir(out_dir, "study", study_inputs(settings, cs, paper))
+    settings, out = study_output(out_dir, quick)
     res = compute_study(settings, lambda f: prog(0.97 * f))
     prog(0.97, "report")
     with out:

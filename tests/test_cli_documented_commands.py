@@ -3,8 +3,9 @@
 The command lines are taken from fenced code blocks (``$`` prompts, ``\\`` continuations and
 comments handled; a pipe or redirection ends the command). Each runs through the real parser and
 every check the command makes before any work, with ``ROBOLOBES_VALIDATE_ONLY=1`` (``robolobes.main``
-stops right after the checks; commands that do not register a ``validate`` hook are only parsed),
-in a fresh directory. It must exit 0, or exit 2 only because an input file the documentation
+stops right after the checks: every subcommand registers a ``validate`` hook that makes them, files
+read and parsed included), in a fresh directory where the repository's ``tests/data`` and ``cases``
+are linked. It must exit 0, or exit 2 only because an input file the documentation
 expects the reader to have (or an earlier command to write) is absent, or because no Dask scheduler
 listens at an address given as an example. An unknown option, a stale value or a refused flag
 combination fails the test, naming the file and line.
@@ -78,6 +79,16 @@ def _robolobes_argv(text: str) -> list[str] | None:
 COMMANDS = documented_commands()
 
 
+def _fresh_dir_like_the_root(tmp_path: Path) -> Path:
+    """An empty directory where the repository's shipped inputs (``tests/data``, ``cases``, which
+    the docs name "from the repository root") are read-only links, so that a command naming them
+    is validated in full, its files read and parsed, and nothing is written into the checkout."""
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "data").symlink_to(ROOT / "tests" / "data", target_is_directory=True)
+    (tmp_path / "cases").symlink_to(ROOT / "cases", target_is_directory=True)
+    return tmp_path
+
+
 def test_the_docs_hold_commands():
     assert len(COMMANDS) >= 4, COMMANDS
 
@@ -85,7 +96,7 @@ def test_the_docs_hold_commands():
 @pytest.mark.parametrize("where,line,argv", COMMANDS, ids=[f"{w}:{n}" for w, n, _ in COMMANDS])
 def test_documented_command_validates(where, line, argv, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("ROBOLOBES_VALIDATE_ONLY", "1")
-    monkeypatch.chdir(tmp_path)
+    monkeypatch.chdir(_fresh_dir_like_the_root(tmp_path))
     try:
         rc = main(argv)
     except SystemExit as e:        # argparse: an unknown option or a bad value

@@ -12,7 +12,7 @@ from robolobes.core.io import Progress
 from robolobes.core.outdir import MARKER, OutputDir
 from robolobes.linearize.model import VARIANTS
 
-__all__ = ["register", "run_simulate"]
+__all__ = ["register", "run_simulate", "validate_simulate"]
 
 
 def _check_damping(args) -> None:
@@ -20,23 +20,38 @@ def _check_damping(args) -> None:
         raise BadInput(f"--damping-scale must be a finite number >= 0, got {args.damping_scale}")
 
 
-def run_simulate(args) -> int:
+def _checked(args):
+    """``simulate``'s checks before any work: the case, the damping scale, the library's bounds
+    (duration within the pass, deg per step, records <= 2 GiB) and ``--out``.
+    Returns ``(case, problem, method, out)``."""
     from robolobes.linearize.model import build_model
 
-    from .newmark import NewmarkInterrupted
-    from .output import save_result, summary_dict
     from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem, step_count
-    from .simulation import simulate
     from .summary import simulation_inputs
 
     case = load_case(args.case)
     _check_damping(args)
-    # the library's bounds (duration within the pass, deg per step, records <= 2 GiB), before any work
     method = (LinearizedNewmark if args.linearized else NonlinearNewmark)(deg_per_step=args.deg_per_step)
     robot = build_model(case.robot, args.variant, damping_scale=args.damping_scale)
-    problem = SimulationProblem(robot, case, t_end_s=args.duration)
+    try:
+        problem = SimulationProblem(robot, case, t_end_s=args.duration)
+    except BadInput as e:      # the library names its argument t_end_s; the user gave --duration
+        raise BadInput(f"--duration {args.duration:g} s: {e}" if "t_end_s" in str(e) else str(e)) from None
     step_count(problem, method)
-    out = OutputDir(args.out, "simulate", simulation_inputs(problem, method))
+    return case, problem, method, OutputDir(args.out, "simulate", simulation_inputs(problem, method))
+
+
+def validate_simulate(args) -> None:
+    """Every check ``simulate`` makes before any work (ROBOLOBES_VALIDATE_ONLY)."""
+    _checked(args)
+
+
+def run_simulate(args) -> int:
+    from .newmark import NewmarkInterrupted
+    from .output import save_result, summary_dict
+    from .simulation import simulate
+
+    case, problem, method, out = _checked(args)
     try:
         with Progress(f"simulate {case.name} [{args.variant}{', linearized' if args.linearized else ''}]",
                       enabled=not args.quiet) as bar:
@@ -88,4 +103,4 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the JSON summary")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.add_argument("--out", default="robolobes-simulate", help="output directory (default ./robolobes-simulate)")
-    p.set_defaults(run=run_simulate)
+    p.set_defaults(run=run_simulate, validate=validate_simulate)
