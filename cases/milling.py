@@ -45,6 +45,7 @@ from typing import Literal
 
 import numpy as np
 
+from robolobes.core.validate import shown
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite, integer
 
@@ -247,7 +248,7 @@ class Cut:
             raise MillingError(f"milling mode must be 'up' or 'down', got {self.mode!r}")
         f = np.asarray(self.feed_direction, dtype=float)
         if f.shape != (3,) or not np.all(np.isfinite(f)) or np.linalg.norm(f) == 0:
-            raise MillingError(f"feed_direction must be a finite non-zero 3-vector, got {self.feed_direction!r}")
+            raise MillingError(f"feed_direction must be a finite non-zero 3-vector, got {shown(self.feed_direction)}")
         object.__setattr__(self, "feed_direction", tuple((f / np.linalg.norm(f)).tolist()))
 
     @property
@@ -405,7 +406,7 @@ def eccentric_runout(tool: Tool, amplitude_m: float, phase_rad: float) -> np.nda
     Add the result to ``Tool.runout_m`` to model the offset.
     """
     if not (math.isfinite(amplitude_m) and math.isfinite(phase_rad)) or amplitude_m < 0:
-        raise MillingError(f"runout amplitude {amplitude_m!r} m must be finite and >= 0, phase {phase_rad!r} finite")
+        raise MillingError(f"runout amplitude {shown(amplitude_m)} m must be finite and >= 0, phase {shown(phase_rad)} finite")
     return amplitude_m * np.cos(np.asarray(tool.tooth_angle_rad) - phase_rad)
 
 

@@ -14,7 +14,30 @@ import numpy as np
 
 from .errors import BadInput
 
-__all__ = ["readonly", "finite", "finite_array", "integer"]
+__all__ = ["readonly", "finite", "finite_array", "integer", "shown"]
+
+
+def shown(value) -> str:
+    """``repr`` of a value for a user's message, numpy scalars and arrays as plain Python numbers:
+    ``(0.0, 0.0)``, never ``(np.float64(0.0), np.float64(0.0))`` (numpy >= 2 scalar repr).
+
+    >>> shown((np.float64(0.0), np.float64(1.5)))
+    '(0.0, 1.5)'
+    """
+    return repr(_plain(value))
+
+
+def _plain(v):
+    """``v`` with numpy scalars and arrays (also inside lists, tuples, dicts) as Python objects."""
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, (list, tuple)):
+        return type(v)(_plain(x) for x in v)
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    return v
 
 
 def readonly(a, dtype: Any = float, shape: tuple | None = None, name: str = "array", error=BadInput) -> np.ndarray:

@@ -612,6 +612,11 @@ def _wrap_joint(q: float, lo: float, hi: float, ref: float | None):
     return float(cands[k]), float(exc[k])
 
 
+def _angle_text(deg: float, sign: bool = True) -> str:
+    """An angle in deg for a message: 2 decimals, or 3 significant digits when huge (1e300 deg)."""
+    return f"{deg:{'+' if sign else ''}{'.2f' if abs(deg) < 1e6 else '.3g'}}"
+
+
 def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG, *, stacklevel: int = 2) -> np.ndarray:
     """Check joint angles against the joint ranges, modulo 2 pi.
 
@@ -661,8 +666,8 @@ def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG,
         rng = f"[{_deg(lo[j]):+.2f}, {_deg(hi[j]):+.2f}] deg"
         if exc > tol:
             raise JointLimitError(
-                f"joint {name}{sample} = {given:+.2f} deg{wrap_txt} is outside its range {rng} by "
-                f"{_deg(exc):.2f} deg, more than the tolerance of {tolerance_deg:g} deg")
+                f"joint {name}{sample} = {_angle_text(given)} deg{wrap_txt} is outside its range {rng} by "
+                f"{_angle_text(_deg(exc), sign=False)} deg, more than the tolerance of {tolerance_deg:g} deg")
         warnings.warn(
             f"joint {name}{sample} = {given:+.2f} deg{wrap_txt} is {_deg(exc):.2f} deg past its {side} limit "
             f"{_deg(lim):+.2f} deg (range {rng}); accepted within the tolerance of {tolerance_deg:g} deg",

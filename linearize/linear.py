@@ -27,6 +27,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
+from robolobes.core.validate import shown
 from robolobes.core.errors import BadInput
 from robolobes.core.frf import BASE_LABELS, CUT_LABELS, FRF
 from robolobes.core.threads import blas_single_threaded
@@ -142,7 +143,7 @@ def equilibrium(robot: FlexibleRobot, theta: np.ndarray, f_tcp: np.ndarray | Non
     data = robot.create_data() if data is None else data
     f = np.zeros(3) if f_tcp is None else np.asarray(f_tcp, dtype=float)
     if f.shape != (3,) or not np.all(np.isfinite(f)):
-        raise BadInput(f"f_tcp must be a finite force (3,) in N, got {f_tcp!r}")
+        raise BadInput(f"f_tcp must be a finite force (3,) in N, got {shown(f_tcp)}")
     s = robot.backlash_rad
     if s > 0:
         twin = robot.engaged_twin()

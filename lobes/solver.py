@@ -9,6 +9,7 @@ from typing import Callable, Union
 
 import numpy as np
 
+from robolobes.core.validate import shown
 from robolobes.core.threads import blas_single_threaded
 from robolobes.core.verdict import Verdict
 from robolobes.core.validate import finite, integer, readonly
@@ -40,7 +41,7 @@ def _check_speeds(speeds_rpm) -> np.ndarray:
         raise LobeError("speeds_rpm is empty; give at least one spindle speed in rpm (> 0)")
     bad = ~np.isfinite(s) | (s <= 0)
     if bad.any():
-        raise LobeError(f"speeds_rpm must be finite and > 0 rpm; got {s[bad][0]!r} at index {int(np.flatnonzero(bad)[0])}")
+        raise LobeError(f"speeds_rpm must be finite and > 0 rpm; got {shown(s[bad][0])} at index {int(np.flatnonzero(bad)[0])}")
     return s
 
 

@@ -18,6 +18,7 @@ from typing import Union
 
 import numpy as np
 
+from robolobes.core.validate import shown
 from robolobes.cases.milling import cut_frame
 from robolobes.core.frf import CUT_LABELS, FRF
 from robolobes.core.validate import finite, finite_array, readonly
@@ -380,9 +381,9 @@ class Mode:
         try:
             d = np.array(self.direction, dtype=float)
         except (TypeError, ValueError):
-            raise LobeError(f"mode direction must be [x, y], got {self.direction!r}") from None
+            raise LobeError(f"mode direction must be [x, y], got {shown(self.direction)}") from None
         if d.shape != (2,) or not np.all(np.isfinite(d)):
-            raise LobeError(f"mode direction must be a finite unit vector [x, y] in the cut frame, got {self.direction!r}")
+            raise LobeError(f"mode direction must be a finite unit vector [x, y] in the cut frame, got {shown(self.direction)}")
         nd = float(np.linalg.norm(d))
         if abs(nd - 1.0) > 1e-3:
             raise LobeError(
@@ -437,7 +438,7 @@ class ComplexMode:
         try:
             R = np.array(self.residue, dtype=complex)
         except (TypeError, ValueError):
-            raise LobeError(f"mode residue must be a 2 x 2 complex matrix, got {self.residue!r}") from None
+            raise LobeError(f"mode residue must be a 2 x 2 complex matrix, got {shown(self.residue)}") from None
         if R.shape != (2, 2) or not np.all(np.isfinite(R)) or not np.any(R):
             raise LobeError(f"mode residue must be a finite, non-zero 2 x 2 matrix (m/(N s)), got {R.tolist()}")
         object.__setattr__(self, "freq_hz", f)

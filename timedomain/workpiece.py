@@ -73,6 +73,7 @@ from typing import Literal
 
 import numpy as np
 
+from robolobes.core.validate import shown
 from robolobes.cases.milling import Cut, MillingError, Tool, check_cut
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite, readonly
@@ -571,7 +572,7 @@ class Workpiece:
     def _check_state(self, center_m, phi_rad, radius_m):
         c = np.asarray(center_m, dtype=float)
         if c.shape != (2,) or not np.all(np.isfinite(c)):
-            raise WorkpieceError(f"tool centre must be a finite (x_c, y_c) pair in m, got {center_m!r}")
+            raise WorkpieceError(f"tool centre must be a finite (x_c, y_c) pair in m, got {shown(center_m)}")
         phi = np.ascontiguousarray(phi_rad, dtype=float)
         if phi.ndim != 2 or phi.shape[1] != self._discs.count:
             raise WorkpieceError(
@@ -581,7 +582,7 @@ class Workpiece:
             raise WorkpieceError("immersion angles must be finite")
         r = np.ascontiguousarray(radius_m, dtype=float)
         if r.shape != (phi.shape[0],) or not np.all(r > 0) or not np.all(np.isfinite(r)):
-            raise WorkpieceError(f"tooth radii must be {phi.shape[0]} finite values > 0 m, got {radius_m!r}")
+            raise WorkpieceError(f"tooth radii must be {phi.shape[0]} finite values > 0 m, got {shown(radius_m)}")
         return c, phi, r
 
     def chip(self, center_m, phi_rad, radius_m) -> tuple[np.ndarray, np.ndarray]:
