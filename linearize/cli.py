@@ -167,7 +167,8 @@ def register(sub) -> None:
     add_pose_arguments(p)
     p.add_argument("--fmin-hz", type=float, default=1.0)
     p.add_argument("--fmax-hz", type=float, default=300.0)
-    p.add_argument("--n", type=int, default=600, help="number of frequencies (linear grid)")
+    p.add_argument("--n", type=int, default=600, help=f"number of frequencies (linear grid), 2..{MAX_FRF_POINTS} "
+                   "(default 600)")
     p.add_argument("--frame", choices=("base", "cut"), default="base",
                    help="axes of the FRF: robot base, or the cut frame (feed, normal, axial)")
     p.add_argument("--out", required=True, help="output file: .csv, .uff or .unv")

@@ -107,6 +107,22 @@ def test_three_sigints_while_the_store_is_created(tmp_path):
     assert (_stage(out) / "map.zarr" / "done").is_dir()   # the creation finished before the interruption
 
 
+@pytest.mark.slow
+def test_one_sigint_while_the_largest_allowed_map_creates_its_store(tmp_path):
+    """The largest map the bounds allow (--n 20000 poses, --n-rpm 1000 speeds: 160 MB per array);
+    one SIGINT to its process group (a terminal's Ctrl-C) while its store is created."""
+    from robolobes.workspace.cli import MAX_N, MAX_N_RPM
+
+    out = tmp_path / "m"
+    proc = _start(out, ["--over", "placement", "--n", str(MAX_N), "--n-rpm", str(MAX_N_RPM), "--quiet"])
+    _wait_for(proc, _stage(out) / ".map.zarr.partial", limit_s=900)
+    os.killpg(proc.pid, signal.SIGINT)
+    rc, _, err = _finish(proc, limit_s=600)
+    assert rc == 130
+    _one_line(err, "robolobes: interrupted")
+    _resumable(out)
+
+
 def _worker_pids(proc, n=2, limit_s=120):
     t0 = time.monotonic()
     while time.monotonic() - t0 < limit_s:

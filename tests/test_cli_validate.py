@@ -78,3 +78,20 @@ def test_a_documented_line_the_run_would_refuse_fails_the_docs_test(tmp_path):
                          cwd=tmp_path, capture_output=True, text=True, timeout=300,
                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "tests")})
     assert res.returncode == 1 and "docs/x.md:1" in res.stdout and "--n must be between" in res.stdout, res.stdout
+
+
+@pytest.mark.parametrize("command,lo,hi", [("map", 1, 20_000), ("frf", 2, 100_000)])
+def test_help_docs_and_checks_agree_on_the_range_of_n(command, lo, hi, tmp_path, monkeypatch, capsys):
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    helptext = " ".join(capsys.readouterr().out.split())
+    assert f"{lo}..{hi}" in helptext, helptext
+    docs = " ".join((ROOT / "docs" / "guide" / "inputs-and-interrupts.md").read_text().split())
+    assert f"`--n` of `{command}` counts" in docs and f"from {lo} to {hi:,}".replace(",", " ") in docs
+    extra = ["--over", "pass", "--scheduler", "serial"] if command == "map" else []
+    for n, rc in ((lo - 1, 2), (hi + 1, 2), (lo, 0), (hi, 0)):
+        if command == "map" and n == hi:
+            continue        # 20 000 pass poses: valid, but the check builds their table (slow)
+        got, err = _validate([command, *extra, "--n", str(n), "--out", "o.csv" if command == "frf" else "o"],
+                             tmp_path, monkeypatch, capsys)
+        assert got == rc, (n, err)
