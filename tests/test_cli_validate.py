@@ -23,6 +23,9 @@ def _validate(argv, tmp_path, monkeypatch, capsys):
     (tmp_path / "user.png").write_bytes(b"a user's picture")
     (tmp_path / "bad.toml").write_text("[[modes]]\nfreq_hz = 'fast'\n")
     (tmp_path / "half.uff").write_text("    -1\n    58\n")
+    case = (ROOT / "cases" / "data" / "tx200-aluminium.toml").read_text()     # a pass whose start pose
+    (tmp_path / "tilted.toml").write_text(case.replace('robot = "tx200"', f'robot = "{ROOT}/cases/data/tx200.toml"')
+                                          .replace('start_pose = "tab7"', "start_pose = [0, 60, 0, 0, 0, 0]"))
     rc = main(argv)
     return rc, capsys.readouterr().err
 
@@ -50,6 +53,7 @@ BAD = [
     (["simulate", "--duration", "1e6", "--out", "sim"], "duration"),
     (["simulate", "--damping-scale=-1", "--out", "sim"], "--damping-scale must be"),
     (["simulate", "--deg-per-step", "50", "--out", "sim"], "deg"),
+    (["simulate", "--case", "tilted.toml", "--out", "sim"], "is not perpendicular to the tool axis"),
 ]
 
 
@@ -57,7 +61,7 @@ BAD = [
 def test_valid_lines_are_checked_in_full(argv, tmp_path, monkeypatch, capsys):
     rc, err = _validate(argv, tmp_path, monkeypatch, capsys)
     assert rc == 0 and f"robolobes {argv[0]}: inputs valid" in err, err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "half.uff", "user.png"]   # nothing written
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "half.uff", "tilted.toml", "user.png"]
 
 
 @pytest.mark.parametrize("argv,why", BAD, ids=[" ".join(a) for a, _ in BAD])

@@ -21,10 +21,11 @@ def _check_damping(args) -> None:
 
 
 def _checked(args):
-    """``simulate``'s checks before any work: the case, the damping scale, the library's bounds
-    (duration within the pass, deg per step, records <= 2 GiB) and ``--out``.
+    """``simulate``'s checks before any work: the case and its pass, the damping scale, the
+    library's bounds (duration within the pass, deg per step, records <= 2 GiB) and ``--out``.
     Returns ``(case, problem, method, out)``."""
     from robolobes.linearize.model import build_model
+    from robolobes.linearize.path import Pass
 
     from .problem import LinearizedNewmark, NonlinearNewmark, SimulationProblem, step_count
     from .summary import simulation_inputs
@@ -38,6 +39,7 @@ def _checked(args):
     except BadInput as e:      # the library names its argument t_end_s; the user gave --duration
         raise BadInput(f"--duration {args.duration:g} s: {e}" if "t_end_s" in str(e) else str(e)) from None
     step_count(problem, method)
+    Pass.from_case(case)   # the pass itself: start pose in range, feed perpendicular to the tool axis
     return case, problem, method, OutputDir(args.out, "simulate", simulation_inputs(problem, method))
 
 
