@@ -56,6 +56,7 @@ def check_measurement(measurement, state, case_given: bool) -> None:
 
     from robolobes.core.errors import BadInput
     from robolobes.linearize import check_limits
+    from robolobes.linearize.kinematics import JointLimitWarning
 
     if measurement.kind in _MATERIAL_KINDS and not case_given and getattr(measurement, "case", None) is None:
         raise BadInput(f"--measured {measurement.path}: names no case (the material sets the cutting forces); "
@@ -76,7 +77,7 @@ def check_measurement(measurement, state, case_given: bool) -> None:
     else:
         angles = []
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")   # within the tolerance: accepted, as the case loader does
+        warnings.simplefilter("ignore", JointLimitWarning)   # within the tolerance: accepted, as the case loader does
         for where, q in angles:
             try:
                 check_limits(robot, q)

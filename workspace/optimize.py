@@ -165,10 +165,11 @@ class PassEvaluation:
 def _travel(case) -> float:
     import warnings
 
+    from robolobes.linearize.kinematics import JointLimitWarning
     from robolobes.linearize.path import Pass
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", JointLimitWarning)
         return Pass.from_case(case).travel_m
 
 
@@ -345,10 +346,10 @@ def strict_violation(spec, thetas) -> str:
     (modulo 2 pi), and by how much (deg), e.g. ``"A3 2.86 deg past +145 deg at 2 of 5 pass poses"``; "" if none."""
     import warnings
 
-    from robolobes.linearize.kinematics import check_limits
+    from robolobes.linearize.kinematics import JointLimitWarning, check_limits
 
     with warnings.catch_warnings():   # each angle's 2 pi representation nearest its range (no raise)
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", JointLimitWarning)
         th = np.atleast_2d(check_limits(spec, np.atleast_2d(np.asarray(thetas, dtype=float)), tolerance_deg=180.0))
     parts = []
     for j, js in enumerate(spec.joints):

@@ -140,10 +140,11 @@ class MapProblem:
         elif over == "pass":
             import warnings
 
+            from robolobes.linearize.kinematics import JointLimitWarning
             from robolobes.linearize.path import Pass
 
             with warnings.catch_warnings():  # the poses' limits are reported per pose (reason)
-                warnings.simplefilter("ignore")
+                warnings.simplefilter("ignore", JointLimitWarning)
                 travel = Pass.from_case(case).travel_m if n > 1 else 0.0
             axes = (("s_m", np.linspace(0.0, travel, int(n))),)
         elif over == "tool-rotation":

@@ -45,6 +45,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
     import warnings
     from dataclasses import replace
 
+    from robolobes.linearize.kinematics import JointLimitWarning
     from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
 
     from .compute import build_robot
@@ -54,8 +55,8 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
     case = replace(case, path=replace(case.path, start_q_rad=np.asarray(ev.theta[0])),
                    cut=replace(case.cut, feed_direction=tuple(float(v) for v in ev.feed), spindle_rpm=rpm,
                                ap_m=depth_m))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings():   # the candidate's joint limits were checked by the optimizer
+        warnings.simplefilter("ignore", JointLimitWarning)
         prob = SimulationProblem(build_robot(mp), case, t_end_s=None)
         t_end = min(t_end_s, prob.pass_duration_s)
         run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
