@@ -17,7 +17,9 @@ import argparse
 import importlib
 import os
 import re
+import signal
 import sys
+import threading
 import warnings
 
 # The work is many small matrices (18 x 18 robots, 2 x 2 cut planes): multi-threaded BLAS only
@@ -105,22 +107,48 @@ def _error(command: str, message) -> None:
     print(f"robolobes {command}: error: {message}", file=sys.stderr)
 
 
+def _early_interrupt(signum, frame) -> None:
+    """SIGINT / SIGTERM during start-up (numpy and the subcommand's modules are being imported,
+    before :func:`robolobes.core.interrupt.handling` is installed): the first one interrupts,
+    later ones are ignored, so start-up ends in the same one line as the work would."""
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
+    raise KeyboardInterrupt(128 + signum)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run one subcommand; returns the exit code.
+    """Run one subcommand; returns the exit code; a signal during start-up ends it the same way.
 
     Exit codes: 0 done; 2 bad input (:class:`~robolobes.core.errors.BadInput`, one line on stderr,
     raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C (SIGINT),
     143 SIGTERM (one line, however many signals follow); 1 out of memory (one line). Any other
     exception is an internal error and keeps its traceback.
     """
-    from robolobes.core import interrupt
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)} if in_main_thread else {}
+    for s in old:
+        signal.signal(s, _early_interrupt)
+    try:
+        from robolobes.core import interrupt   # imports numpy: seconds on a busy machine
+
+        argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
+        args = build_parser(argv).parse_args(argv)
+        return _run(args, interrupt)           # replaces the early handler while it runs
+    except KeyboardInterrupt as e:             # raised by _early_interrupt, before the work
+        print("\nrobolobes: interrupted", file=sys.stderr)
+        return e.args[0] if e.args and isinstance(e.args[0], int) else 130
+    finally:
+        for s, h in old.items():
+            if signal.getsignal(s) is _early_interrupt:
+                signal.signal(s, h)
+
+
+def _run(args, interrupt) -> int:
+    """Run the parsed subcommand inside :func:`robolobes.core.interrupt.handling` (see :func:`main`)."""
     from robolobes.core.errors import BadInput
     from robolobes.core.warnonce import each_warning_once
 
     warnings.formatwarning = _format_warning  # users see one plain line, not a source location
-    argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
-    parser = build_parser(argv)
-    args = parser.parse_args(argv)
     # SIGINT / SIGTERM: the first interrupts, later ones wait for the clean-up (core.interrupt)
     with interrupt.handling():
         try:
