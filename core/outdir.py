@@ -499,25 +499,33 @@ def _finish_dead_swaps(target: Path) -> None:
     swap was done and only the files its marker lists are deleted (:func:`_remove_listed`); if the
     target is missing, the run died between the two renames and the previous output is put back.
     A directory of a live run, or one without a marker, is never touched."""
-    pattern = re.compile(re.escape(f".{target.name}{_OLD}") + r"[0-9a-f]{8}")
+    for d in _dead_dirs(target, _OLD, r"[0-9a-f]{8}"):
+        if _read_marker(d) is None:
+            continue   # named like ours but not ours
+        with contextlib.suppress(OSError):
+            if target.exists() or target.is_symlink():
+                _remove_listed(d)
+            else:
+                os.rename(d, target)
+
+
+def _dead_dirs(target: Path, infix: str, tail: str) -> Iterator[Path]:
+    """The directories ``.NAME{infix}{tail}`` (``tail`` a regex) beside ``target`` whose ``flock``
+    no process holds (their run died); each is yielded while this process holds its lock."""
+    pattern = re.compile(re.escape(f".{target.name}{infix}") + tail)
     try:
         entries = sorted(target.parent.iterdir())
     except OSError:
         return
     for d in entries:
-        if not pattern.fullmatch(d.name) or d.is_symlink() or not d.is_dir() or _read_marker(d) is None:
+        if not pattern.fullmatch(d.name) or d.is_symlink() or not d.is_dir():
             continue
         try:
             fd = _lock_dir(d)
         except OSError:
-            continue   # a live run's swap
+            continue   # a live run's
         try:
-            if target.exists() or target.is_symlink():
-                _remove_listed(d)
-            else:
-                os.rename(d, target)
-        except OSError:
-            pass
+            yield d
         finally:
             os.close(fd)
 
@@ -528,27 +536,8 @@ def _remove_dead_stages(target: Path) -> None:
     A staging directory is ``.NAME.robolobes-stage-XXXXXXXX`` (made by :meth:`OutputDir.open`,
     entirely ours) and its run holds a ``flock`` on it while alive; one that can be locked now has
     no live holder, so it is removed. Staging directories of live runs and anything else are kept."""
-    pattern = re.compile(re.escape(f".{target.name}.robolobes-stage-") + r"[A-Za-z0-9_]{8}")
-    try:
-        entries = list(target.parent.iterdir())
-    except OSError:
-        return
-    for d in entries:
-        if not pattern.fullmatch(d.name) or d.is_symlink() or not d.is_dir():
-            continue
-        try:
-            fd = os.open(d, os.O_RDONLY)
-        except OSError:
-            continue
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(fd)
-            continue   # a live run's
-        try:
-            shutil.rmtree(d, ignore_errors=True)
-        finally:
-            os.close(fd)
+    for d in _dead_dirs(target, ".robolobes-stage-", r"[A-Za-z0-9_]{8}"):
+        shutil.rmtree(d, ignore_errors=True)
 
 
 def _acquire_lock(target: Path, shown: str) -> tuple[int, Path]:
