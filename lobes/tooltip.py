@@ -42,7 +42,7 @@ from robolobes.linearize.tool import TcpOscillator, chain_receptance
 from ._errors import LobeError
 from .structure import ComplexMode, ModalStructure, Mode
 
-__all__ = ["ToolSet", "tool_from_files", "oscillators_from_modes", "real_modes", "conversion_loss", "MAX_LOSS",
+__all__ = ["ToolSet", "tool_from_files", "tool_from_modes", "oscillators_from_modes", "real_modes", "conversion_loss", "MAX_LOSS",
            "ASSUMPTION"]
 
 #: largest conversion loss accepted (max |H_converted - H_given| / max |H_given| on the modes' band):
@@ -132,7 +132,9 @@ def conversion_loss(modes, oscillators) -> float:
     return float(np.abs(chain_receptance(oscillators, w) - H).max() / np.abs(H).max())
 
 
-def _from_modes(modes, source: str, what: str) -> ToolSet:
+def tool_from_modes(modes, source: str = "modes", what: str = "modes") -> ToolSet:
+    """A cut-frame :class:`ToolSet` of modes (Mode / ComplexMode, cut frame), with the conversion's
+    loss as its note; LobeError above :data:`MAX_LOSS`."""
     osc = oscillators_from_modes(modes)
     loss = conversion_loss(modes, osc)
     n_complex = sum(isinstance(m, ComplexMode) for m in modes)
@@ -160,7 +162,7 @@ def _read_toml(path: str) -> ToolSet:
     if "oscillators" not in data:
         from .modal_file import read_modal_toml
 
-        return _from_modes(read_modal_toml(path).modes, path, "modes")
+        return tool_from_modes(read_modal_toml(path).modes, path, "modes")
     tabs = data["oscillators"]
     if not isinstance(tabs, list) or not tabs or not all(isinstance(t, dict) for t in tabs):
         raise LobeError(f"{path}: [[oscillators]] must be tables with mass_kg, k1_n_per_m, k2_n_per_m, angle_rad, "
@@ -204,4 +206,4 @@ def tool_from_files(tool_modes: str | None = None, tool_frf: str | None = None, 
                     fit_modes)
     if not fit.credible:
         raise LobeError(f"{tool_frf}: the modal fit of the tool FRF is not credible ({'; '.join(fit.problems)})")
-    return _from_modes(fit.modes, str(tool_frf), "fitted modes")
+    return tool_from_modes(fit.modes, str(tool_frf), "fitted modes")
