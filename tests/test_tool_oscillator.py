@@ -154,7 +154,7 @@ def test_free_vibration_rings_at_the_oscillator_mode():
         t.append(st.t_s)
         x.append(kin(np.array(st.q))[1][ax] - p_eq)
 
-    integrate(res, q_eq + eps * phi.real, eps * (lam * phi).real, t0_s=0.0, h_s=h, n_steps=int(0.1 / h),
+    integrate(res, q_eq + eps * np.real(phi), eps * np.real(lam * phi), t0_s=0.0, h_s=h, n_steps=int(0.1 / h),
               tangent=tan, options=NewmarkOptions(atol=1e-14, rtol=1e-10), on_step=rec)
     f_sim, n = _crossing_freq_hz(np.array(t), np.array(x))
     assert n > 15
@@ -233,3 +233,62 @@ def _canonical(p, like=None):
     if like is None:
         q["angle_rad"] = a - math.copysign(0.5 * math.pi, a)
     return q
+
+
+# ------------------------------------------------------------------------------------------------
+# --tool-modes files: [[oscillators]] as they are, [[modes]] converted with the loss stated
+
+
+def _modes_toml(path, modes):
+    path.write_text("".join(f"[[modes]]\nfreq_hz = {f}\ndamping_ratio = {z}\nstiffness_n_per_m = {k}\n"
+                            f"direction = {list(d)}\n" for f, z, k, d in modes))
+    return str(path)
+
+
+def test_orthogonal_modes_convert_exactly_and_parallel_ones_are_refused(tmp_path):
+    from robolobes.lobes._errors import LobeError
+    from robolobes.lobes.tooltip import tool_from_files
+
+    x = (922.0, 0.011, 1.340049648e6, (1.0, 0.0))
+    y = (1100.0, 0.02, 2e6, (0.0, 1.0))
+    tool = tool_from_files(_modes_toml(tmp_path / "xy.toml", [x, y]))
+    assert tool is not None
+    assert tool.frame == "cut" and len(tool.oscillators) == 2
+    w = 2 * math.pi * np.linspace(400.0, 1600.0, 600)
+    ref = sum(_closed_form(k / (2 * math.pi * fn) ** 2, k, math.inf, math.atan2(d[1], d[0]), z, 0.0, w)
+              for fn, z, k, d in (x, y))
+    assert_allclose(chain_receptance(tool.oscillators, w), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+    assert "rigid-base receptance changed by" in tool.notes[0]
+    # the same two modes along x: the outer mass loads the inner mode (a 2-DOF chain, not a modal sum)
+    with pytest.raises(LobeError, match=r"more than 5 %"):
+        tool_from_files(_modes_toml(tmp_path / "xx.toml", [x, (1100.0, 0.02, 2e6, (1.0, 0.0))]))
+
+
+def test_oscillators_file_through_lobes_equals_solve_with_the_element(tmp_path, capsys):
+    import json
+
+    from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
+    from robolobes.main import main
+
+    osc = TcpOscillator(0.05, 0.05 * (2 * math.pi * 700.0) ** 2, 0.05 * (2 * math.pi * 760.0) ** 2, 0.6, 0.03, 0.03)
+    f = tmp_path / "tool.toml"
+    f.write_text("[[oscillators]]\n" + "".join(f"{k} = {getattr(osc, k)!r}\n" for k in
+                                               ("mass_kg", "k1_n_per_m", "k2_n_per_m", "angle_rad", "zeta1", "zeta2")))
+    speeds = [9000.0, 15000.0, 21000.0]
+    assert main(["lobes", "--tool-modes", str(f), "--rpm-min", "9000", "--rpm-max", "21000", "--n-rpm", "3",
+                 "--m", "20", "--no-refine", "--json", "--quiet"]) == 0
+    got = np.array(json.loads(capsys.readouterr().out)["depth_limit_m"], dtype=float)
+    lin = linearize(build_model(CASE.robot, "basic", extra_elements=(osc,)), CASE.path.start_q_rad)
+    p = LobeProblem(PhysicalStructure.from_linear(lin, CASE.cut.feed_direction), CASE.tool, CASE.cut, CASE.law)
+    want = np.asarray(solve(p, SemiDiscretization(m=20), speeds).depth_limit_m, dtype=float)
+    assert_allclose(got, want, rtol=1e-6)
+
+
+def test_bad_oscillators_file_is_one_line_exit_2(tmp_path, capsys):
+    from robolobes.main import main
+
+    f = tmp_path / "tool.toml"
+    f.write_text("[[oscillators]]\nmass_kg = 0.05\nk1_n_per_m = 1e6\nk2_n_per_m = 1e6\nstiffnes = 3\n")
+    assert main(["lobes", "--tool-modes", str(f), "--n-rpm", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "stiffnes" in err[0] and "tool.toml" in err[0], err
