@@ -52,14 +52,18 @@ def _series(robot_ss: StateSpace, tool_modes: tuple) -> StateSpace:
     return in_series(robot_ss, ModalStructure(tuple(tool_modes)).state_space())
 
 
-def _cutoff_hz(problem: MapProblem, max_freq_hz: float) -> float:
-    """The truncation frequency: the method's, raised to twice the tool's highest rigid-base
-    frequency when the tool is in the robot (its modes must stay; on the robot they rise by
-    ``sqrt(1 + m / M_apparent)``, far less than a factor 2 for any tool lighter than the robot's
-    apparent mass)."""
+def _cutoff_hz(robot, max_freq_hz: float) -> float:
+    """The truncation frequency: ``max_freq_hz``, raised to twice the highest rigid-base frequency
+    of a tool element in ``robot`` (TCP oscillators, TCP modes: their modes must stay; on the robot
+    they rise by ``sqrt(1 + m / M_apparent)``, far less than a factor 2 for a tool lighter than
+    the robot's apparent mass at the TCP)."""
+    from robolobes.linearize.extra_elements import TcpMode
+    from robolobes.linearize.tool import TcpOscillator
+
     cutoff = float(max_freq_hz)
-    for o in tool_oscillators(problem):
-        cutoff = max(cutoff, 2.0 * float(np.max(o.freq_hz)))
+    for e in robot.elements:
+        if isinstance(e, (TcpOscillator, TcpMode)):
+            cutoff = max(cutoff, 2.0 * float(np.max(e.freq_hz)))
     return cutoff
 
 
@@ -77,7 +81,7 @@ def pose_structure(problem: MapProblem, method: MapMethod, lin, feed: np.ndarray
             return phys, None
         ss = phys.state_space()
         return ReducedStructure(_series(ss, series), TruncationReport((), (), 0.0, 0.0, (0.0, 0.0))), None
-    red = phys.truncated(max_freq_hz=_cutoff_hz(problem, method.reduce_max_freq_hz), band_hz=tuple(method.error_band_hz))
+    red = phys.truncated(max_freq_hz=_cutoff_hz(lin.robot, method.reduce_max_freq_hz), band_hz=tuple(method.error_band_hz))
     if series:
         red = ReducedStructure(_series(red.ss, series), red.report)
     return red, red.report
