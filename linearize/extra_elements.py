@@ -64,7 +64,7 @@ from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite
 
-from .base_elements import VirtualJoints, diagonal_tangent, virtual_dofs
+from .base_elements import VirtualJoints, diagonal_force, diagonal_tangent, virtual_dofs
 from .element import Element, ModelBuilder
 from .tool import TcpOscillator
 
@@ -85,11 +85,7 @@ def _positive(name, v, *, zero_ok=False):
     finite(name, v, positive=not zero_ok, nonneg=zero_ok)
 
 
-def _diagonal_force(nv, idx, k, d, q, v, rest=0.0):
-    """Force ``-k (q[idx] - rest) - d v[idx]`` (nv,) of springs and dampers on single coordinates ``idx``."""
-    tau = np.zeros(nv)
-    tau[idx] = -k * (q[idx] - rest) - d * v[idx]
-    return tau
+_diagonal_force = diagonal_force
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,7 @@ import pinocchio as pin
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite
 
-from .base_elements import diagonal_tangent
+from .base_elements import diagonal_force, diagonal_tangent
 from .element import Element, ModelBuilder
 
 __all__ = ["TcpOscillator", "oscillator_receptance", "chain_matrices", "chain_receptance", "with_tool"]
@@ -141,9 +141,7 @@ class TcpOscillator(Element):
         return np.array([model.joints[model.getJointId(f"{built}_{i + 1}")].idx_v for i in range(self.n_axes)])
 
     def force(self, robot, ix, data, q, v, theta):
-        tau = np.zeros(robot.nv)
-        tau[ix] = -self.stiffness * q[ix] - self.damping * v[ix]
-        return tau
+        return diagonal_force(robot.nv, ix, self.stiffness, self.damping, q, v)
 
     def tangent(self, robot, ix, data, q, v, theta, engaged=False):
         return diagonal_tangent(robot.nv, ix, self.stiffness, self.damping)

@@ -148,20 +148,12 @@ def tool_from_modes(modes, source: str = "modes", what: str = "modes") -> ToolSe
 
 
 def _read_toml(path: str) -> ToolSet:
-    import tomllib
+    from .modal_file import load_toml, read_modal_toml
 
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except OSError as e:
-        raise LobeError(f"cannot read the tool file {path}: {e.strerror or e}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise LobeError(f"{path}: not valid TOML: {e}") from None
+    data = load_toml(path, "tool file")
     if "oscillators" in data and "modes" in data:
         raise LobeError(f"{path}: give either [[oscillators]] or [[modes]] tables, not both")
     if "oscillators" not in data:
-        from .modal_file import read_modal_toml
-
         return tool_from_modes(read_modal_toml(path).modes, path, "modes")
     tabs = data["oscillators"]
     if not isinstance(tabs, list) or not tabs or not all(isinstance(t, dict) for t in tabs):
