@@ -12,8 +12,8 @@ Tolerances asserted (stated in docs/guide/hammer-test.md):
 * free vibration (simulate's equations) against modes(): 1 % (Newmark period error ~3e-4 here);
 * the series formula H_robot + H_tool against the generator: within 2 % of max |H| for a 1 g tool,
   off by more than 10 % for a 40 g one (where the element stays at 1e-9);
-* one seeded identify draw (--effects tcp_mode_xy) finds the oscillator's parameters within 2 sigma
-  (and 1 %).
+* one seeded identify draw (--effects tcp_mode_xy) finds the oscillator's parameters within 2 sigma;
+  slow: at least 4 of 5 draws do.
 """
 
 import math
@@ -191,28 +191,44 @@ def test_bad_oscillators_are_refused_naming_the_value():
         TcpOscillator(0.1, 1e5, 1e5, math.nan)
 
 
-def test_one_seeded_identify_draw_finds_the_planar_mode(tmp_path):
-    # An FRF set from the independent generator with a holder mode in TCP x and y (one mass, two
-    # frequencies 2-6 % apart, as tests/generators/draws.py draws them), 6 poses, 400 lines, noise
-    # 1-3 %; robolobes identify --effects tcp_mode_xy through the command line. Each parameter within
-    # 2 sigma of the truth, or 1 % (the generator's parameters are exact; 2 sigma alone is below
-    # 1e-3 here). Seed 1000: the first of the five draws of the report.
-    rng = np.random.default_rng(1000)
+def _planar_draw(seed: int, tmp_path):
+    """Draw ``seed``: an FRF set from the independent generator with a holder mode in TCP x and y
+    (one mass, two frequencies 2-6 % apart, as tests/generators/draws.py draws them), 6 poses, 400
+    lines 2-300 Hz, noise 1-3 %, through ``robolobes identify --effects tcp_mode_xy``. Returns the
+    identify JSON and each parameter's error in units of its reported sigma (axes named so that
+    the first is nearer TCP x: one oscillator, two names)."""
+    rng = np.random.default_rng(1000 + seed)
     noise = float(rng.uniform(0.01, 0.03))
     (f1, z1, k1, _), (f2, z2, _, _) = _modes_xy(rng)
     truth = {"mass_kg": k1 / (2 * math.pi * f1) ** 2, "freq1_hz": f1, "freq2_hz": f2, "angle_rad": 0.0,
              "zeta1": z1, "zeta2": z2}
-    d = tmp_path / "set"
+    d = tmp_path / f"set{seed}"
     write_frf_set(d, Effects(tool_modes=_truth_modes(truth)), n_poses=6, f_hz=np.linspace(2.0, 300.0, 400),
-                  rel_noise=noise, seed=0)
+                  rel_noise=noise, seed=seed)
     res, _ = run_identify(d, ["--effects", "tcp_mode_xy"])
-    assert res["identified"] == ["tcp_mode_xy"], res["identified"]
-    e = next(e for e in res["effects"] if e["name"] == "tcp_mode_xy")
-    est_all, sd_all = _canonical(e["params"]), _canonical(e["uncertainty"], e["params"])
-    for k, v in truth.items():
-        est, sd = est_all[k], sd_all[k]
-        assert abs(est - v) <= max(2 * sd, 0.01 * max(abs(v), 0.01)), (k, est, sd, v)
+    fits = [e for e in res["effects"] if e["name"] == "tcp_mode_xy"]
+    if res["identified"] != ["tcp_mode_xy"] or len(fits) != 1:
+        return res, None
+    est, sd = _canonical(fits[0]["params"]), _canonical(fits[0]["uncertainty"], fits[0]["params"])
+    return res, {k: (est[k] - v) / sd[k] for k, v in truth.items()}
+
+
+def test_one_seeded_identify_draw_finds_the_planar_mode(tmp_path):
+    # Draw 0 of the five reported: every parameter within 2 sigma of the generator's.
+    res, z = _planar_draw(0, tmp_path)
+    assert z is not None, res["identified"]
+    assert all(abs(v) <= 2.0 for v in z.values()), z
     assert not res["unexplained"]["unexplained"]
+
+
+@pytest.mark.slow
+def test_planar_mode_draws_right_in_at_least_4_of_5(tmp_path):
+    # Draws 0-4; right: the oscillator alone identified, every parameter within 2 sigma.
+    right = 0
+    for seed in range(5):
+        _, z = _planar_draw(seed, tmp_path)
+        right += z is not None and all(abs(v) <= 2.0 for v in z.values())
+    assert right >= 4
 
 
 def _truth_modes(p):
