@@ -266,7 +266,8 @@ def _load_library() -> None:
     """Import the modules that register the built-in effects (idempotent)."""
     import importlib
 
-    for mod in ("robolobes.identify.structural", "robolobes.identify.cutting_effects"):
+    for mod in ("robolobes.identify.structural", "robolobes.identify.cutting_effects",
+                "robolobes.identify.tool_effect"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as e:  # a library not written yet

@@ -33,6 +33,17 @@ _ORTHO = {"z": ("x", "y"), "y": ("z", "x"), "x": ("y", "z")}
 _VIRTUAL_TAG = "_v"  # virtual joint names: "<motion joint name>_v<axis>"
 
 
+def diagonal_force(nv: int, idx, k, d, q: np.ndarray, v: np.ndarray, rest=0.0) -> np.ndarray:
+    """Force ``-k (q[idx] - rest) - d v[idx]`` (nv,) of springs and dampers on single coordinates ``idx``.
+
+    >>> diagonal_force(3, [0, 2], 5.0, 1.0, np.array([1.0, 9.0, 2.0]), np.array([0.5, 9.0, 0.0])).tolist()
+    [-5.5, 0.0, -10.0]
+    """
+    tau = np.zeros(nv)
+    tau[idx] = -k * (q[idx] - rest) - d * v[idx]
+    return tau
+
+
 def diagonal_tangent(nv: int, idx, k, d) -> tuple[np.ndarray, np.ndarray]:
     """``(-k, -d)`` on the diagonal entries ``idx`` of two (nv, nv) zero matrices.
 

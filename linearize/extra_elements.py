@@ -5,7 +5,16 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
 ``type`` naming the element and the other keys its parameters (units in the keys)::
 
     [[elements]]
-    type = "tcp_mode"              # a tool-holder / spindle mode at the TCP
+    type = "tcp_oscillator"        # a planar tool / holder / spindle mode at the TCP (linearize.tool)
+    mass_kg = 0.25
+    k1_n_per_m = 4.0e5
+    k2_n_per_m = 4.3e5             # inf: one axis only
+    angle_rad = 0.0                # first principal axis from TCP x, about the tool axis
+    zeta1 = 0.03
+    zeta2 = 0.03
+
+    [[elements]]
+    type = "tcp_mode"              # a tool-holder / spindle mode at the TCP along one direction
     freq_hz = 900.0
     damping_ratio = 0.03
     stiffness_n_per_m = 2.0e7
@@ -55,8 +64,9 @@ from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
 from robolobes.core.validate import finite
 
-from .base_elements import VirtualJoints, diagonal_tangent, virtual_dofs
+from .base_elements import VirtualJoints, diagonal_force, diagonal_tangent, virtual_dofs
 from .element import Element, ModelBuilder
+from .tool import TcpOscillator
 
 __all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
            "ELEMENT_TYPES", "element_from_spec", "element_table"]
@@ -75,11 +85,7 @@ def _positive(name, v, *, zero_ok=False):
     finite(name, v, positive=not zero_ok, nonneg=zero_ok)
 
 
-def _diagonal_force(nv, idx, k, d, q, v, rest=0.0):
-    """Force ``-k (q[idx] - rest) - d v[idx]`` (nv,) of springs and dampers on single coordinates ``idx``."""
-    tau = np.zeros(nv)
-    tau[idx] = -k * (q[idx] - rest) - d * v[idx]
-    return tau
+_diagonal_force = diagonal_force
 
 
 @dataclass(frozen=True)
@@ -355,7 +361,7 @@ class GearBacklash(Element):
 
 ELEMENT_TYPES = {"tcp_mode": TcpMode, "joint_correction": JointCorrection,
                  "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
-                 "servo_drive": ServoDrive, "backlash": GearBacklash}
+                 "servo_drive": ServoDrive, "backlash": GearBacklash, "tcp_oscillator": TcpOscillator}
 
 
 def _keys(cls) -> list[str]:

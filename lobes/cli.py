@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -43,7 +44,7 @@ from .refine import RefinedSDM
 from .sdm import SemiDiscretization
 from .solver import solve, stability
 from .modal_file import read_modal_toml
-from .structure import ModalStructure, PhysicalStructure, in_series
+from .structure import PhysicalStructure
 from .zoa import ZeroOrder
 
 __all__ = ["register", "run", "validate_lobes", "read_modal_toml", "MAX_M", "MAX_N_RPM"]
@@ -199,15 +200,20 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
     from robolobes import linearize
     from robolobes.linearize.cli import resolve_pose
 
-    from .tooltip import tool_modes_from_files
+    from robolobes.linearize.tool import with_tool
 
-    tool_modes = tool_modes_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
+    from .tooltip import tool_from_files
+
+    tool_set = tool_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
     case, robot, theta, label = resolve_pose(args)
     lin = linearize.linearize(robot, theta)
+    if tool_set is not None:
+        robot = with_tool(robot, tool_set.in_tcp_frame(lin.R_tcp, case.cut.feed_direction))
+        lin = linearize.linearize(robot, theta)
+        label += f", tool {tool_set.source}: {len(tool_set.oscillators)} TCP oscillator(s) in the robot's M, C, K"
+        for note in tool_set.notes:
+            print(note, file=sys.stderr)
     structure = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
-    if tool_modes:
-        structure = in_series(structure.state_space(), ModalStructure(tuple(tool_modes)).state_space())
-        label += f", tool {args.tool_modes or args.tool_frf} in series (receptances added, no rotational coupling)"
     tool, law, cut = case.tool, case.law, case.cut
     over = {}
     if args.ae_mm is not None:

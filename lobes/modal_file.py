@@ -16,19 +16,24 @@ import numpy as np
 from ._errors import LobeError
 from .structure import ComplexMode, Mode, ModalStructure
 
-__all__ = ["read_modal_toml"]
+__all__ = ["read_modal_toml", "load_toml"]
+
+
+def load_toml(path: str | Path, what: str = "modal file") -> dict:
+    """The tables of a user's TOML file; LobeError (one line naming it) if it cannot be read or parsed."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except OSError as e:
+        raise LobeError(f"cannot read the {what} {path}: {e.strerror or e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise LobeError(f"{path}: not valid TOML: {e}") from None
 
 
 def read_modal_toml(path: str | Path) -> ModalStructure:
     """A :class:`ModalStructure` from a TOML file of ``[[modes]]`` tables (see module docstring)."""
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except OSError as e:
-        raise LobeError(f"cannot read the modal file {path}: {e.strerror or e}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise LobeError(f"{path}: not valid TOML: {e}") from None
+    data = load_toml(path)
     modes = data.get("modes")
     if not isinstance(modes, list) or not modes or not all(isinstance(m, dict) for m in modes):
         raise LobeError(f"{path}: needs at least one [[modes]] table with freq_hz, damping_ratio, "

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
 
 import numpy as np
@@ -154,11 +155,19 @@ def _check_scheduler(s: str) -> str:
     return s
 
 
-def _tool_modes(args) -> tuple:
-    """Tool-tip modes from --tool-modes or --tool-frf (one representation: lobes.tooltip)."""
-    from robolobes.lobes.tooltip import tool_modes_from_files
+def _tool_modes(args, case) -> tuple:
+    """The tool of --tool-modes or --tool-frf as TCP oscillators (lobes.tooltip), angles turned into
+    the TCP frame at the case's pass start (then fixed to the spindle at every pose)."""
+    from robolobes.linearize.kinematics import fk
+    from robolobes.lobes.tooltip import tool_from_files
 
-    return tool_modes_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
+    tool = tool_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
+    if tool is None:
+        return ()
+    for note in tool.notes:
+        print(note, file=sys.stderr)
+    _, R = fk(case.robot, case.path.start_q_rad)
+    return tool.in_tcp_frame(np.asarray(R), case.cut.feed_direction)
 
 
 def problem_from_args(args):
@@ -201,7 +210,7 @@ def problem_from_args(args):
     if abs(ranges["tilt_range_rad"][0]) >= math.pi / 2 or abs(ranges["tilt_range_rad"][1]) >= math.pi / 2:
         raise BadInput(f"--tilt-range-deg must lie within (-90, 90) deg, got {args.tilt_range_deg!r}")
     case = load_case(case_ref)
-    modes = _tool_modes(args)
+    modes = _tool_modes(args, case)
     speeds = np.linspace(args.rpm_min, args.rpm_max, args.n_rpm)
     problem = MapProblem.make(case, args.variant, args.over, n=args.n, speeds_rpm=speeds, op_rpm=args.at_rpm,
                               tool_modes=modes, model_file=args.model, **ranges)
@@ -398,7 +407,7 @@ def optimize_problem_from_args(args):
     case = load_case(case_ref)
     speeds = _mrr_speeds(args, case) if args.objective == "mrr" else ()
     mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
-                         op_rpm=args.at_rpm, tool_modes=_tool_modes(args), model_file=args.model)
+                         op_rpm=args.at_rpm, tool_modes=_tool_modes(args, case), model_file=args.model)
     return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict,
                            objective=args.objective, speeds_rpm=speeds)
 

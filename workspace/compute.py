@@ -19,7 +19,7 @@ from robolobes.lobes import (LobeProblem, ModalStructure, PhysicalStructure, Red
                              SemiDiscretization, StateSpace, TruncationReport, in_series, solve)
 
 from .forces import mean_force_cut_frame, static_deflection
-from .problem import MapMethod, MapProblem
+from .problem import MapMethod, MapProblem, series_modes, tool_oscillators
 
 __all__ = ["build_robot", "pose_structure", "compute_chunk", "BIFURCATIONS", "ChunkResult"]
 
@@ -33,12 +33,14 @@ def build_robot(problem: MapProblem):
     """The flexible robot of the problem (cached per process): the variant plus the case's
     ``[[elements]]`` (an identified model TOML is a case TOML with its elements, loaded as the case).
     The one place a map builds a robot."""
-    key = hashlib.sha256(pickle.dumps((problem.case.robot, problem.variant, problem.model_file))).hexdigest()
+    tool = tool_oscillators(problem)
+    key = hashlib.sha256(pickle.dumps((problem.case.robot, problem.variant, problem.model_file, tool))).hexdigest()
     robot = _ROBOTS.get(key)
     if robot is None:
         from robolobes.linearize import build_model
+        from robolobes.linearize.tool import with_tool
 
-        robot = _ROBOTS[key] = build_model(problem.case.robot, problem.variant)
+        robot = _ROBOTS[key] = with_tool(build_model(problem.case.robot, problem.variant), tool)
     return robot
 
 
@@ -50,21 +52,38 @@ def _series(robot_ss: StateSpace, tool_modes: tuple) -> StateSpace:
     return in_series(robot_ss, ModalStructure(tuple(tool_modes)).state_space())
 
 
+def _cutoff_hz(robot, max_freq_hz: float) -> float:
+    """The truncation frequency: ``max_freq_hz``, raised to twice the highest rigid-base frequency
+    of a tool element in ``robot`` (TCP oscillators, TCP modes: their modes must stay; on the robot
+    they rise by ``sqrt(1 + m / M_apparent)``, far less than a factor 2 for a tool lighter than
+    the robot's apparent mass at the TCP)."""
+    from robolobes.linearize.extra_elements import TcpMode
+    from robolobes.linearize.tool import TcpOscillator
+
+    cutoff = float(max_freq_hz)
+    for e in robot.elements:
+        if isinstance(e, (TcpOscillator, TcpMode)):
+            cutoff = max(cutoff, 2.0 * float(np.max(e.freq_hz)))
+    return cutoff
+
+
 def pose_structure(problem: MapProblem, method: MapMethod, lin, feed: np.ndarray):
-    """The tool-tip structure at one pose (cut frame of ``feed``): the robot, truncated to
-    ``method.reduce_max_freq_hz`` (with its error report), plus the tool modes in series.
+    """The tool-tip structure at one pose (cut frame of ``feed``): the robot (with the tool's TCP
+    oscillators, if any), truncated to ``method.reduce_max_freq_hz`` (with its error report), plus
+    any tool modes given as lobes modes in series.
 
     Returns ``(structure, report)``; ``report`` is None without truncation.
     """
     phys = PhysicalStructure.from_linear(lin, feed)
+    series = series_modes(problem)
     if method.reduce_max_freq_hz is None:
-        if not problem.tool_modes:
+        if not series:
             return phys, None
         ss = phys.state_space()
-        return ReducedStructure(_series(ss, problem.tool_modes), TruncationReport((), (), 0.0, 0.0, (0.0, 0.0))), None
-    red = phys.truncated(max_freq_hz=method.reduce_max_freq_hz, band_hz=tuple(method.error_band_hz))
-    if problem.tool_modes:
-        red = ReducedStructure(_series(red.ss, problem.tool_modes), red.report)
+        return ReducedStructure(_series(ss, series), TruncationReport((), (), 0.0, 0.0, (0.0, 0.0))), None
+    red = phys.truncated(max_freq_hz=_cutoff_hz(lin.robot, method.reduce_max_freq_hz), band_hz=tuple(method.error_band_hz))
+    if series:
+        red = ReducedStructure(_series(red.ss, series), red.report)
     return red, red.report
 
 

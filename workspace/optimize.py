@@ -39,7 +39,7 @@ from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, 
 
 from .compute import build_robot, pose_structure
 from .poses import solve_pose, start_pose, target
-from .problem import MapMethod, MapProblem
+from .problem import MapMethod, MapProblem, series_modes
 
 __all__ = ["OptimizeProblem", "Optimum", "PassEvaluation", "StrictOptimum", "evaluate_pass", "optimize_placement",
            "optimize_with_strict", "mrr_per_depth_m2_per_s", "strict_violation", "VARIABLES", "OBJECTIVES",
@@ -206,7 +206,7 @@ def _depths_at(opt: OptimizeProblem, method: MapMethod, theta, feed, full: bool)
     lin = linearize(build_robot(mp), theta)
     if full:
         structure = PhysicalStructure.from_linear(lin, feed)
-        if mp.tool_modes:
+        if series_modes(mp):
             structure, _ = pose_structure(mp, replace(method, reduce_max_freq_hz=None), lin, feed)
     else:
         structure, _ = pose_structure(mp, method, lin, feed)

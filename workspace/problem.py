@@ -61,9 +61,11 @@ class MapProblem:
         Spindle speeds of the lobes at every pose.
     op_rpm : float
         Operating speed, rpm: the depth limit there is mapped too (``op_depth_limit_m``).
-    tool_modes : tuple of lobes.Mode or lobes.ComplexMode
-        Tool-tip modes (cut frame, e.g. a measured tool-holder mode), in series with the robot at
-        every pose.
+    tool_modes : tuple of linearize.tool.TcpOscillator, or of lobes.Mode / lobes.ComplexMode
+        The tool: TCP oscillators (TCP frame), added to the robot's M, C, K (what the commands
+        give); or modes (cut frame) put in series with the robot at every pose, ``H_robot + H_tool``,
+        which leaves out the tool's inertia on the robot (valid only for a tool mass far below the
+        robot's apparent mass at the TCP: docs/guide/hammer-test.md). Not both kinds at once.
     model_file : str or None
         An identified model TOML (the ``model`` output of ``robolobes identify``), added to the robot at every pose.
     """
@@ -100,9 +102,15 @@ class MapProblem:
         object.__setattr__(self, "speeds_rpm", s)
         if not (math.isfinite(self.op_rpm) and self.op_rpm > 0):
             raise BadInput(f"op_rpm must be a speed > 0 rpm, got {self.op_rpm}")
+        from robolobes.linearize.tool import TcpOscillator
+
+        kinds = {TcpOscillator if isinstance(m, TcpOscillator) else Mode for m in self.tool_modes}
         for i, m in enumerate(self.tool_modes):
-            if not isinstance(m, (Mode, ComplexMode)):
-                raise BadInput(f"tool_modes[{i}] must be a lobes.Mode or lobes.ComplexMode, got {type(m).__name__}")
+            if not isinstance(m, (Mode, ComplexMode, TcpOscillator)):
+                raise BadInput(f"tool_modes[{i}] must be a linearize.tool.TcpOscillator, lobes.Mode or "
+                               f"lobes.ComplexMode, got {type(m).__name__}")
+        if len(kinds) > 1:
+            raise BadInput("tool_modes: give TCP oscillators (in the robot) or modes (in series), not both")
         object.__setattr__(self, "tool_modes", tuple(self.tool_modes))
 
     # ------------------------------------------------------------------ constructors
@@ -254,3 +262,14 @@ class MapMethod:
                 "reduce_max_freq_hz": self.reduce_max_freq_hz, "error_band_hz": list(self.error_band_hz),
                 "prescan_m": self.prescan_m,
                 "chunk_poses": self.chunk_poses, **({} if self.tol is None else {"tol": self.tol})}
+
+
+def series_modes(problem: MapProblem) -> tuple:
+    """The problem's tool modes put in series with the robot (lobes Mode / ComplexMode; the TCP
+    oscillators are in the robot instead)."""
+    return tuple(m for m in problem.tool_modes if isinstance(m, (Mode, ComplexMode)))
+
+
+def tool_oscillators(problem: MapProblem) -> tuple:
+    """The problem's TCP oscillators (added to the robot by :func:`workspace.compute.build_robot`)."""
+    return tuple(m for m in problem.tool_modes if not isinstance(m, (Mode, ComplexMode)))
