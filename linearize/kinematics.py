@@ -1,7 +1,20 @@
 """Rigid-robot kinematics from a :class:`~cases.spec.RobotSpec`: forward, Jacobian, closed-form inverse.
 
-Everything is pure numpy, SI units (m, rad); degrees appear only in messages and in names ending
-in ``_deg``. Nothing here knows the TX200: the geometry is read from the spec.
+SI units (m, rad); degrees appear only in messages and in names ending in ``_deg``. Nothing here
+knows the TX200: the geometry is read from the spec.
+
+Any 6-axis arm
+--------------
+Every public function takes a ``RobotSpec`` or a :class:`~linearize.chain.KinematicChain` and works
+in controller angles (``q_joint = sign * q + offset`` inside the chain). A spec in robolobes' own
+convention with the structure below uses the pure-numpy code of this module (Paul's method). Any
+other arm goes through its chain (:func:`linearize.chain.chain_from_spec`): the OPW closed form
+(:mod:`linearize.ik_opw`) when its geometry is ortho-parallel with a spherical wrist, otherwise the
+numerical inverse (:mod:`linearize.ik_numeric`), continued from ``q_ref`` or started from the
+nearest OPW arm's closed form. The branches, errors and tolerances below are the same for all
+three; the numerical inverse adds two failures: no convergence (:class:`UnreachableError`, which
+cannot tell an unreachable target from a start too far away) and convergence onto another branch
+(the :class:`SingularityError` of the singularity crossed; the start pose's branch is kept).
 
 Conventions
 -----------

@@ -1,7 +1,7 @@
 """Kinematics of any 6-axis arm: the chain, the OPW closed form, the numerical inverse.
 
-Test arms are built here from published OPW parameters (the OPW paper's table, Brandstötter et al.
-2014) in other frame conventions (rotated joint frames, negative axes, zero offsets), so that the
+Test arms are built here from OPW parameters published for OPW solvers (Brandstötter et al. 2014's
+parametrization) in other frame conventions (rotated joint frames, negative axes, zero offsets), so that the
 detection cannot pass by reading robolobes' own frames back. Tolerances and reasons are stated next
 to each assertion.
 """
@@ -75,9 +75,11 @@ def test_chain_refuses_bad_parts(spec):
 
 
 # ------------------------------------------------------------------------------- test arms (OPW)
-# Published OPW parameters (a1, a2, b, c1, c2, c3, c4) in m, with the vendor's joint signs and zero
-# offsets: theta_OPW = sign * q_vendor + offset. Brandstötter, Angerer, Hofbaur (2014), table of
-# robot parameters (as restated by the opw_kinematics project).
+# OPW parameters (a1, a2, b, c1, c2, c3, c4) in m, with the vendor's joint signs and zero offsets:
+# theta_OPW = sign * q_vendor + offset. Sources: KR 6 R700 sixx, ROS-Industrial kuka_test_resources
+# opw_kinematics_kr6r700sixx.yaml (as quoted in moveit_opw_kinematics_plugin's documentation);
+# IRB 2400/10, the opw_kinematics / rs-opw-kinematics READMEs. "KR 16-2": values as recalled from the
+# opw_kinematics project, not re-checked here: used as one more OPW geometry, not as a published check.
 PUBLISHED = {
     "KUKA KR 6 R700 sixx": ((0.025, -0.035, 0.0, 0.400, 0.315, 0.365, 0.080),
                             (-1, 1, 1, -1, 1, -1), (0, -math.pi / 2, 0, 0, 0, 0)),
@@ -193,6 +195,18 @@ def test_detects_published_opw_parameters(name):
     d = wrap(th - (np.array(vsign) * Q + np.array(voff)))
     assert np.abs(d[:, 1:5]).max() < 1e-12
     assert np.ptp(d[:, 0]) < 1e-12 and np.ptp(d[:, 5]) < 1e-12
+
+
+def test_tx200_branches_and_measures_through_the_chain(spec):
+    # the geometric indicators on the TX200's chain against the TX200's own branch_of and
+    # singularity_measures (Paul's method's definitions): the same branch at 300 random poses, the
+    # same distances to round-off (1e-12).
+    chain = chain_from_spec(spec)
+    Q = np.random.default_rng(13).uniform(-np.pi, np.pi, (300, 6))
+    assert np.array_equal(branch_of(chain, Q), branch_of(spec, Q))
+    a, b = singularity_measures(chain, Q), singularity_measures(spec, Q)
+    for key in ("shoulder", "elbow", "wrist"):
+        assert np.abs(a[key] - b[key]).max() < 1e-12, key
 
 
 def test_tx200_detected_as_opw_with_its_own_angles(spec):
