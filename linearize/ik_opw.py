@@ -39,6 +39,8 @@ import numpy as np
 import pinocchio as pin
 
 from .chain import KinematicChain, joint_axes
+from .kinematics import (_ELBOW, _NEAR_AXIS, _OK, _SHOULDER, _TOO_CLOSE, _TOO_FAR, _WRIST, REACH_EPS_M,
+                         RobotStructureError)
 
 __all__ = ["OPW_TOL", "OPWGeometry", "opw_geometry", "require_opw", "opw_solve", "branch_indicators",
            "wrist_point"]
@@ -160,7 +162,6 @@ def opw_geometry(chain: KinematicChain) -> OPWGeometry:
 
 
 def _structure_error(chain: KinematicChain, what: str):
-    from .kinematics import RobotStructureError
     return RobotStructureError(f"robot {chain.name!r}: {what}")
 
 
@@ -277,9 +278,6 @@ def require_opw(chain: KinematicChain) -> OPWGeometry:
 
 
 # -------------------------------------------------------------------------------------- solutions
-_OK, _NEAR_AXIS, _TOO_FAR, _TOO_CLOSE, _SHOULDER, _ELBOW, _WRIST = range(7)
-
-
 def opw_solve(g: OPWGeometry, p: np.ndarray, R: np.ndarray, *, shoulder_tol: float, elbow_tol: float,
               wrist_tol: float):
     """The 8 OPW solutions of validated TCP targets, in OPW angles.
@@ -340,7 +338,7 @@ def opw_solve(g: OPWGeometry, p: np.ndarray, R: np.ndarray, *, shoulder_tol: flo
     code = np.full(theta.shape[:-1], _OK)
     spsi = np.sin(psi)
     for c, bad in reversed(((_NEAR_AXIS, np.broadcast_to(h2[:, None] < 0, code.shape)),
-                            (_TOO_FAR, rho > g.reach_max_m + 1e-9), (_TOO_CLOSE, rho < g.reach_min_m - 1e-9),
+                            (_TOO_FAR, rho > g.reach_max_m + REACH_EPS_M), (_TOO_CLOSE, rho < g.reach_min_m - REACH_EPS_M),
                             (_SHOULDER, np.broadcast_to(h[:, None] < shoulder_tol, code.shape)),
                             (_ELBOW, np.abs(spsi) < elbow_tol), (_WRIST, np.abs(s5) < wrist_tol))):
         code = np.where(bad, c, code)

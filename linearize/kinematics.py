@@ -6,15 +6,16 @@ knows the TX200: the geometry is read from the spec.
 Any 6-axis arm
 --------------
 Every public function takes a ``RobotSpec`` or a :class:`~linearize.chain.KinematicChain` and works
-in controller angles (``q_joint = sign * q + offset`` inside the chain). A spec in robolobes' own
-convention with the structure below uses the pure-numpy code of this module (Paul's method). Any
-other arm goes through its chain (:func:`linearize.chain.chain_from_spec`): the OPW closed form
-(:mod:`linearize.ik_opw`) when its geometry is ortho-parallel with a spherical wrist, otherwise the
-numerical inverse (:mod:`linearize.ik_numeric`), continued from ``q_ref`` or started from the
-nearest OPW arm's closed form. The branches, errors and tolerances below are the same for all
-three; the numerical inverse adds two failures: no convergence (:class:`UnreachableError`, which
-cannot tell an unreachable target from a start too far away) and convergence onto another branch
-(the :class:`SingularityError` of the singularity crossed; the start pose's branch is kept).
+in controller angles (``q_joint = sign * q + offset`` inside the chain). Forward kinematics of a
+spec in robolobes' own convention is the pure numpy below; any other arm's is its chain's
+(:func:`linearize.chain.chain_from_spec`, pinocchio). The inverse of every arm goes through its
+chain: the OPW closed form (:mod:`linearize.ik_opw`) when its geometry is ortho-parallel with a
+spherical wrist (the TX200 and robolobes' own z, y, y, z, y, z arms are), otherwise the numerical
+inverse (:mod:`linearize.ik_numeric`), continued from ``q_ref`` or started from the nearest OPW
+arm's closed form. The branches, errors and tolerances below are the same for both; the numerical
+inverse adds two failures: no convergence (:class:`UnreachableError`, which cannot tell an
+unreachable target from a start too far away) and convergence onto another branch (the
+:class:`SingularityError` of the singularity crossed; the start pose's branch is kept).
 
 Conventions
 -----------
@@ -26,16 +27,18 @@ Conventions
   ``payload.tcp_m`` from the flange face (flange axes); the TCP orientation is
   ``R_flange @ payload.tcp_rotation``. Its z axis is the tool axis (out of the spindle).
 
-Inverse kinematics (Paul's method)
-----------------------------------
-The closed form needs an anthropomorphic arm with a spherical wrist: axes z, y, y, z, y, z, the
+Robolobes' own arms (:func:`arm_geometry`)
+------------------------------------------
+An anthropomorphic arm with a spherical wrist in robolobes' frames: axes z, y, y, z, y, z, the
 offsets ``o_4`` (joint 4 -> 5) and ``o_5`` (joint 5 -> 6) along z so that axes 4, 5, 6 meet at
-the wrist centre (joint 5). :func:`arm_geometry` checks this and raises
-:class:`RobotStructureError` otherwise. The y offsets from joint 1 to the wrist centre may sum
-to a non-zero ``y_offset`` (a shoulder offset): it is handled exactly. The wrist centre is
-``C = p - R_flange (o_5 + o_6 + tcp_m)``; q1 puts C in the arm plane, q2, q3 solve the planar
-two-link problem (arm ``a2``, forearm ``a3``), q4, q5, q6 are the z-y-z Euler angles of
-``(Rz(q1) Ry(q2 + q3))^T R_flange``.
+the wrist centre (joint 5); :func:`arm_geometry` reads its parameters (and raises
+:class:`RobotStructureError` for another structure), and :func:`branch_of` and
+:func:`singularity_measures` compute the branch indicators from them in numpy. The y offsets from
+joint 1 to the wrist centre may sum to a non-zero ``y_offset`` (OPW's ``b``). The wrist centre is
+``C = p - R_flange (o_5 + o_6 + tcp_m)``; the inverse (OPW, the same as Paul's decomposition for
+this arm: q1 puts C in the arm plane, q2, q3 solve the planar two-link problem, q4, q5, q6 are the
+z-y-z Euler angles of ``(Rz(q1) Ry(q2 + q3))^T R_flange``) is checked against that decomposition,
+written in ``tests/test_ik_any.py``, to 1e-10 rad.
 
 Branches (index ``b = 4 * shoulder + 2 * elbow + wrist``, 8 in all):
 
@@ -539,73 +542,9 @@ def _check_target(p, R) -> tuple[np.ndarray, np.ndarray]:
     return p, R
 
 
-# ----------------------------------------------------------------------------- closed-form IK core
+# ------------------------------------------------------------------------------------ failure codes
+#: Failure codes of the closed form (:func:`linearize.ik_opw.opw_solve`) and the numerical inverse.
 _OK, _NEAR_AXIS, _TOO_FAR, _TOO_CLOSE, _SHOULDER, _ELBOW, _WRIST = range(7)
-
-
-def _ik_core(g: ArmGeometry, p: np.ndarray, R: np.ndarray, branch, *, shoulder_tol=SHOULDER_TOL_M,
-             elbow_tol=ELBOW_TOL, wrist_tol=WRIST_TOL):
-    """Principal joint angles in (-pi, pi] of validated targets, vectorized over targets and branches.
-
-    Parameters
-    ----------
-    p : array (..., 3), R : array (..., 3, 3)
-    branch : int or int array broadcastable with the leading shape of p
-
-    Returns
-    -------
-    q : array (..., 6)
-    code : int array (...)
-        0 for a valid solution, else the first failure in the order: near axis 1 (shoulder y
-        offset), too far, too close, shoulder, elbow, wrist singularity.
-    info : dict of arrays (...)
-        Diagnostic values used in the error messages.
-    """
-    b = np.asarray(branch)
-    shoulder, elbow, wrist = (b >> 2) & 1, (b >> 1) & 1, b & 1
-    Rf = R @ g.tcp_rotation.T
-    C = p - (Rf @ g.wrist_to_tcp) - g.o0
-    cx, cy, cz = C[..., 0], C[..., 1], C[..., 2]
-    r2 = cx * cx + cy * cy
-    h2 = r2 - g.y_offset ** 2
-    h = np.sqrt(np.maximum(h2, 0.0))
-    xs = np.where(shoulder == 1, -h, h)
-    q1 = np.arctan2(cy, cx) - np.arctan2(g.y_offset, xs)
-    vx, vz = xs - g.o1[0], cz - g.o1[2]
-    rho = np.hypot(vx, vz)
-    D = (rho * rho - g.a2 ** 2 - g.a3 ** 2) / (2 * g.a2 * g.a3)
-    sign = np.where(shoulder == elbow, 1.0, -1.0)
-    spsi = sign * np.sqrt(np.clip(1 - D * D, 0.0, None))
-    psi = np.arctan2(spsi, np.clip(D, -1, 1))
-    q3 = psi + g.alpha2 - g.alpha3
-    q2 = np.arctan2(vx, vz) - np.arctan2(g.a2 * math.sin(g.alpha2) + g.a3 * np.sin(q3 + g.alpha3),
-                                         g.a2 * math.cos(g.alpha2) + g.a3 * np.cos(q3 + g.alpha3))
-    # M = (Rz(q1) Ry(q2 + q3))^T Rf, written out
-    c1, s1, c23, s23 = np.cos(q1), np.sin(q1), np.cos(q2 + q3), np.sin(q2 + q3)
-    Rf = np.broadcast_to(Rf, q1.shape + (3, 3))
-    a0 = c1[..., None] * Rf[..., 0, :] + s1[..., None] * Rf[..., 1, :]   # (Rz^T Rf) row 0
-    a1 = -s1[..., None] * Rf[..., 0, :] + c1[..., None] * Rf[..., 1, :]  # row 1
-    a2 = Rf[..., 2, :]                                                   # row 2
-    m0 = c23[..., None] * a0 - s23[..., None] * a2                      # (Ry^T .) row 0
-    m1 = a1
-    m2 = s23[..., None] * a0 + c23[..., None] * a2
-    sg = np.where(wrist == 1, -1.0, 1.0)
-    s5 = sg * np.hypot(m0[..., 2], m1[..., 2])
-    q5 = np.arctan2(s5, m2[..., 2])
-    q4 = np.arctan2(sg * m1[..., 2], sg * m0[..., 2])
-    q6 = np.arctan2(sg * m2[..., 1], -sg * m2[..., 0])
-    q = np.stack(np.broadcast_arrays(q1, q2, q3, q4, q5, q6), axis=-1)
-    q = np.where(q <= -np.pi, q + 2 * np.pi, q)
-    code = np.full(q.shape[:-1], _OK)
-    for c, bad in reversed(((_NEAR_AXIS, h2 < 0), (_TOO_FAR, rho > g.reach_max_m + REACH_EPS_M),
-                            (_TOO_CLOSE, rho < g.reach_min_m - REACH_EPS_M),
-                            (_SHOULDER, h < shoulder_tol), (_ELBOW, np.abs(spsi) < elbow_tol),
-                            (_WRIST, np.abs(s5) < wrist_tol))):
-        code = np.where(bad, c, code)
-    info = dict(r=np.sqrt(r2), rho=rho, h=h, D=D, spsi=spsi, psi=psi, q5=q5, s5=s5,
-                branch=np.broadcast_to(b, code.shape))
-    info = {k: np.broadcast_to(v, code.shape) for k, v in info.items()}
-    return q, code, info
 
 
 def _ik_error(g: ArmGeometry | OPWGeometry, code: int, info: dict, k, where: str = "", tols=None) -> KinematicsError:
@@ -776,12 +715,7 @@ def _solve_all(spec, p, R, q_ref, limits, tol, branches: Sequence[int] = range(8
     p, R = _check_target(p, R)
     if p.shape != (3,) or R.shape != (3, 3):
         raise TargetError(f"ik expects one target: p (3,), R (3, 3); got {p.shape}, {R.shape} (use ik_batch)")
-    if _own(spec):
-        g = arm_geometry(spec)
-        q, code, info = _ik_core(g, p, R, np.arange(8), **tols)
-        error = lambda b: _ik_error(g, int(code[b]), info, b, tols=tols)
-    else:
-        q, code, error = _chain_all(_chain(spec), p, R, q_ref, branches, tols)
+    q, code, error = _chain_all(_chain(spec), p, R, q_ref, branches, tols)
     lower, upper = _range(spec).T
     qc, status = _representation(lower, upper, np.nan_to_num(q), q_ref, limits, tol)
     sols, errs = [], {}
@@ -795,7 +729,7 @@ def _solve_all(spec, p, R, q_ref, limits, tol, branches: Sequence[int] = range(8
 
 def ik_all(spec: Robot, p, R, *, q_ref=None, shoulder_tol: float = SHOULDER_TOL_M,
            elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL) -> list[IKSolution]:
-    """All closed-form IK solutions (up to 8) of a TCP pose.
+    """All IK solutions (up to 8, one per branch) of a TCP pose (closed form or numerical, see above).
 
     Parameters
     ----------
@@ -834,7 +768,7 @@ def ik_all(spec: Robot, p, R, *, q_ref=None, shoulder_tol: float = SHOULDER_TOL_
 def ik(spec: Robot, p, R, *, branch=None, q_ref=None, limits: bool = True,
        tolerance_deg: float = LIMIT_TOLERANCE_DEG, shoulder_tol: float = SHOULDER_TOL_M,
        elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL) -> np.ndarray:
-    """Closed-form inverse kinematics: joint angles that put the TCP at ``(p, R)``.
+    """Inverse kinematics: joint angles that put the TCP at ``(p, R)`` (closed form or numerical, see above).
 
     Parameters
     ----------
@@ -906,7 +840,7 @@ def ik(spec: Robot, p, R, *, branch=None, q_ref=None, limits: bool = True,
 
 def ik_batch(spec: Robot, p, R, branch, *, errors: str = "raise", shoulder_tol: float = SHOULDER_TOL_M,
              elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL, where=None, q_ref=None) -> np.ndarray:
-    """Vectorized closed-form IK, principal angles.
+    """Vectorized IK, principal angles (closed form or numerical, see the module docstring).
 
     Parameters
     ----------
@@ -948,20 +882,9 @@ def ik_batch(spec: Robot, p, R, branch, *, errors: str = "raise", shoulder_tol: 
         if not np.issubdtype(b.dtype, np.integer) or np.any((b < 0) | (b > 7)):
             raise TargetError(f"branch array must hold integers 0..7, got {branch!r}")
     tols = dict(shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
-    if not _own(spec):
-        if q_ref is not None:
-            q_ref = _as_q(spec, q_ref)
-        return _chain_batch(_chain(spec), p, R, b, errors, tols, where, q_ref)
-    g = arm_geometry(spec)
-    q, code, info = _ik_core(g, p, R, b, **tols)
-    bad = code != _OK
-    if np.any(bad):
-        if errors == "nan":
-            q = np.where(bad[..., None], np.nan, q)
-        else:
-            k = np.unravel_index(np.flatnonzero(bad)[0], bad.shape)
-            raise _ik_error(g, int(code[k]), info, k, where(int(k[0]) if len(k) else 0) if where else "", tols)
-    return q
+    if q_ref is not None:
+        q_ref = _as_q(spec, q_ref)
+    return _chain_batch(_chain(spec), p, R, b, errors, tols, where, q_ref)
 
 
 # --------------------------------------------------------------------------- any arm, through its chain
@@ -977,7 +900,7 @@ def _toml(spec) -> TypeGuard[RobotSpec]:
 
 
 def _own(spec) -> TypeGuard[RobotSpec]:
-    """robolobes' own convention with the structure of its closed form (Paul's method above)."""
+    """robolobes' own convention with :func:`arm_geometry`'s structure (numpy branch indicators)."""
     if not _toml(spec):
         return False
     hit = _OWN_CACHE.get(id(spec))
@@ -1014,9 +937,9 @@ def _names(spec) -> tuple[str, ...]:
 def check_structure(spec: Robot) -> None:
     """Raise :class:`RobotStructureError` before any work when the robot has no inverse kinematics here.
 
-    robolobes' own z, y, y, z, y, z arms have the closed form above; any other 6-axis chain gets the
-    OPW closed form (:mod:`linearize.ik_opw`) or the numerical inverse (:mod:`linearize.ik_numeric`);
-    only a chain without an arm plane (axes 1 and 2 parallel, ...) is refused.
+    Every 6-axis chain gets the OPW closed form (:mod:`linearize.ik_opw`) or the numerical inverse
+    (:mod:`linearize.ik_numeric`); only a chain without an arm plane (axes 1 and 2 parallel, joint 3
+    on axis 2) is refused.
     """
     if not _own(spec):
         from .ik_opw import opw_geometry
