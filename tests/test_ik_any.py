@@ -8,7 +8,9 @@ to each assertion.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pinocchio as pin
@@ -19,6 +21,7 @@ from robolobes.core.errors import BadInput
 from robolobes.linearize.chain import KinematicChain, chain_from_spec
 from robolobes.linearize.ik_numeric import dls_solve
 from robolobes.linearize.ik_opw import opw_geometry, require_opw
+from robolobes.linearize.path import Pass
 from robolobes.linearize.kinematics import (JointLimitError, arm_geometry, JointLimitWarning, RobotStructureError, UnreachableError,
                                             WristSingularityError, branch_of, check_structure, fk, ik, ik_all,
                                             ik_batch, jacobian, singularity_measures)
@@ -376,3 +379,21 @@ def test_errors_as_today(which):
         q[0] = np.radians(172)
         p, R = fk(chain, q)
         ik(chain, p, R, q_ref=q)
+
+
+def test_pass_of_a_toml_robot_with_an_offset_wrist(spec):
+    # a TOML robot outside the closed form's structure (the TX200 with axis 5 moved 10 mm off axis
+    # 4) gets the numerical inverse along a milling pass, continued from the start pose: the TCP
+    # on the line to 1e-10 m, the orientation kept to 1e-10, the start branch everywhere.
+    case = cases.load_case("tx200-aluminium")
+    links = list(case.robot.links)
+    links[4] = dataclasses.replace(links[4], next_joint_m=links[4].next_joint_m + [0.01, 0, 0])
+    bent = dataclasses.replace(case.robot, links=tuple(links))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", JointLimitWarning)   # the paper's A3 2.86 deg past its limit
+        ps = Pass.from_case(dataclasses.replace(case, robot=bent))
+    s = np.linspace(0, ps.travel_m, 9)
+    th = ps.theta_at_s(s)
+    P, R = fk(bent, th)
+    assert np.abs(P - ps.tcp_position_at_s(s)).max() < 1e-10 and np.abs(R - ps.rotation).max() < 1e-10
+    assert np.array_equal(th[0], ps.start_q) and np.all(branch_of(bent, th) == ps.branch)
