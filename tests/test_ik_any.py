@@ -21,10 +21,10 @@ from robolobes.core.errors import BadInput
 from robolobes.linearize.chain import KinematicChain, chain_from_spec
 from robolobes.linearize.ik_numeric import dls_solve
 from robolobes.linearize.ik_opw import opw_geometry, require_opw
+from robolobes.linearize.kinematics import (JointLimitError, JointLimitWarning, RobotStructureError, UnreachableError,
+                                            WristSingularityError, arm_geometry, branch_of, check_structure, fk, ik,
+                                            ik_all, ik_batch, jacobian, singularity_measures)
 from robolobes.linearize.path import Pass
-from robolobes.linearize.kinematics import (JointLimitError, arm_geometry, JointLimitWarning, RobotStructureError, UnreachableError,
-                                            WristSingularityError, branch_of, check_structure, fk, ik, ik_all,
-                                            ik_batch, jacobian, singularity_measures)
 
 
 @pytest.fixture(scope="module")
