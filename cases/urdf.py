@@ -29,6 +29,7 @@ from robolobes.core.errors import BadInput
 __all__ = ["UrdfTree", "read_urdf_tree", "completing_axes", "nearest_axis"]
 
 _NAMES = "xyz"
+_REVOLUTE = ("RX", "RY", "RZ", "RUBX", "RUBY", "RUBZ")  # pinocchio's revolute and continuous joints on x, y, z
 
 
 def nearest_axis(axis: np.ndarray) -> str:
@@ -134,7 +135,7 @@ def read_urdf_tree(path: Path, joint_names: tuple[str, ...], flange: str | None)
     ids = [model.getJointId(n) for n in joint_names]
     for n, j in zip(joint_names, ids):
         kind = model.joints[j].shortname()
-        if "Revolute" not in kind and kind not in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+        if "Revolute" not in kind and kind.removeprefix("JointModel") not in _REVOLUTE:
             raise _err(path, f"joint {n!r} is {kind}, not revolute: motion joints must be revolute or continuous")
     parents = [0] + ids[:-1]
     for n, j, p in zip(joint_names, ids, parents):
