@@ -162,6 +162,12 @@ def _inertia6(i) -> str:
     return _list([i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2], i[1, 2]])
 
 
+def _deg(x: float) -> str:
+    """An angle (rad) in degrees with 12 significant digits (an error below 1e-12 relative, so that
+    ``-11.71`` stays ``-11.71``)."""
+    return repr(float(f"{math.degrees(x):.12g}"))
+
+
 def _toml_value(v) -> str:
     """A number or list of numbers as TOML (integers stay integers)."""
     if isinstance(v, list):
@@ -175,6 +181,9 @@ def _list(xs) -> str:
 
 def robot_toml(spec: RobotSpec, urdf_file: str, header: str = "") -> str:
     """The robot TOML of what the URDF written by :func:`write_urdf` lacks (``urdf = urdf_file``).
+
+    The joint ranges are in the URDF (its ``limit`` elements); angles in degrees keep 12
+    significant digits, every other number is written exactly (``repr``).
 
     Loading it (:func:`robolobes.cases.load_robot`) gives the same robot in the same controller
     angles. The orthogonal-compliance axes are written (``orthogonal_axes_xyz``) only where they
@@ -191,7 +200,6 @@ def robot_toml(spec: RobotSpec, urdf_file: str, header: str = "") -> str:
         lines += ["[[joints]]", f"name = {_toml_str(js.name)}",
                   f"stiffness_n_m_per_rad = {_f(js.stiffness_n_m_per_rad)}",
                   f"damping_n_m_s_per_rad = {_f(js.damping_n_m_s_per_rad)}",
-                  f"range_deg = {_list(np.degrees(js.range_rad))}",
                   f"gravity_compensation = {'true' if js.gravity_compensation else 'false'}"]
         if spec.urdf is not None:
             a = np.asarray(axis)
@@ -201,7 +209,7 @@ def robot_toml(spec: RobotSpec, urdf_file: str, header: str = "") -> str:
         lines.append("")
     p = spec.payload
     rpy = pin.rpy.matrixToRpy(np.array(p.tcp_rotation))
-    rot = [f'["{ax}", {_f(math.degrees(ang))}]' for ax, ang in zip("zyx", rpy[::-1]) if ang != 0.0]
+    rot = [f'["{ax}", {_deg(ang)}]' for ax, ang in zip("zyx", rpy[::-1]) if ang != 0.0]
     lines += ["[orthogonal]", f"stiffness_n_m_per_rad = {_f(spec.orthogonal_stiffness_n_m_per_rad)}",
               f"damping_n_m_s_per_rad = {_f(spec.orthogonal_damping_n_m_s_per_rad)}", "",
               "[backlash]", f"half_width_rad = {_f(spec.backlash_half_width_rad)}", "",
@@ -210,7 +218,7 @@ def robot_toml(spec: RobotSpec, urdf_file: str, header: str = "") -> str:
               f"inertia_kg_m2 = {_inertia6(p.inertia_kg_m2)}", f"tcp_rotation_deg = [{', '.join(rot)}]", ""]
     if spec.poses_rad:
         lines.append("[poses]")
-        lines += [f"{k} = {_list(np.degrees(v))}" for k, v in spec.poses_rad.items()]
+        lines += [f"{k} = [{', '.join(_deg(x) for x in v)}]" for k, v in spec.poses_rad.items()]
         lines.append("")
     for e in spec.elements:
         lines += ["[[elements]]", f"type = {_toml_str(e.type)}"]

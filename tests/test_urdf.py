@@ -225,3 +225,18 @@ def test_continuous_joint_needs_a_range(tmp_path):
     path.write_text(text[:i] + text[j + 1:])
     with pytest.raises(CaseError, match="range_deg.*no limits"):
         load_robot(path)
+
+
+def test_export_urdf_command_writes_a_robot_that_loads_back(tmp_path):
+    from robolobes.main import main
+
+    out = tmp_path / "tx200-urdf"
+    assert main(["export-urdf", "--robot", "tx200", "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [".robolobes.json", "staubli-tx200.toml", "staubli-tx200.urdf"]
+    spec, tx = load_robot(out / "staubli-tx200.toml"), load_robot("tx200")
+    assert_allclose(spec.joint_range_rad, tx.joint_range_rad, rtol=1e-15)  # read from the URDF's limits
+    assert_allclose(spec.pose("tab7"), tx.pose("tab7"), rtol=1e-12)
+    assert main(["export-urdf", "--out", str(out)]) == 0          # same inputs: replaced
+    (out / "notes.txt").write_text("mine")
+    assert main(["export-urdf", "--out", str(out)]) == 2          # a user's file: refused, untouched
+    assert (out / "notes.txt").read_text() == "mine"
