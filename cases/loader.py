@@ -366,7 +366,7 @@ def _payload(pr: _Reader) -> PayloadSpec:
 def _urdf_spec(path: Path, r: _Reader, jrs: list[_Reader]):
     """The :class:`UrdfSpec` of a robot TOML with ``urdf = "file"``, each joint's URDF axis, and each
     joint's URDF limits in controller angles ((2,), nan if the URDF has none)."""
-    from .urdf import completing_axes, orthonormal_pair, read_urdf_tree
+    from .urdf import UrdfError, completing_axes, orthonormal_pair, read_urdf_tree
 
     rel = r.text("urdf")
     upath = Path(rel) if Path(rel).is_absolute() else path.parent / rel
@@ -381,7 +381,10 @@ def _urdf_spec(path: Path, r: _Reader, jrs: list[_Reader]):
         signs.append(sign)
         offsets.append(math.radians(jr.num("offset_deg", 0.0)))
         named_axes.append(jr.vec("orthogonal_axes_xyz", 6) if jr.has("orthogonal_axes_xyz") else None)
-    tree, flange = read_urdf_tree(upath, tuple(names), r.text("flange_link") if r.has("flange_link") else None)
+    try:
+        tree, flange = read_urdf_tree(upath, tuple(names), r.text("flange_link") if r.has("flange_link") else None)
+    except UrdfError as e:
+        raise CaseError(str(e)) from None
     sign, offset = np.array(signs), np.array(offsets)
     ortho = []
     for jr, a, given in zip(jrs, tree.axes, named_axes):

@@ -26,7 +26,7 @@ import numpy as np
 
 from robolobes.core.errors import BadInput
 
-__all__ = ["UrdfTree", "read_urdf_tree", "completing_axes", "nearest_axis"]
+__all__ = ["UrdfTree", "UrdfError", "read_urdf_tree", "completing_axes", "nearest_axis", "orthonormal_pair"]
 
 _NAMES = "xyz"
 _REVOLUTE = ("RX", "RY", "RZ", "RUBX", "RUBY", "RUBZ")  # pinocchio's revolute and continuous joints on x, y, z
@@ -94,9 +94,12 @@ class UrdfTree:
         self.flange_placement, self.limits_rad = flange_placement, limits_rad
 
 
-def _err(path: Path, msg: str) -> BadInput:
-    from .loader import CaseError
-    return CaseError(f"{path}: {msg}")
+class UrdfError(BadInput):
+    """A URDF that cannot give the motion chain asked for (the loader reports it as a ``CaseError``)."""
+
+
+def _err(path: Path, msg: str) -> UrdfError:
+    return UrdfError(f"{path}: {msg}")
 
 
 def _joint_axis(model, data, j: int) -> np.ndarray:
@@ -110,7 +113,7 @@ def read_urdf_tree(path: Path, joint_names: tuple[str, ...], flange: str | None)
     """Read the motion chain ``joint_names`` (base to flange) of the URDF at ``path``.
 
     ``flange``: the URDF link (or frame) the payload is fixed to; None: the child link of the last
-    motion joint. Returns the tree and the flange's name. Raises ``CaseError`` (exit 2) naming the
+    motion joint. Returns the tree and the flange's name. Raises :class:`UrdfError` (exit 2) naming the
     file and what is wrong.
     """
     import pinocchio as pin

@@ -38,7 +38,7 @@ def run_export_urdf(args) -> int:
 
     from robolobes.core.outdir import provenance_text
 
-    from .urdf import robot_toml, write_urdf
+    from .urdf_export import robot_toml, write_urdf
 
     spec, out = _robot_and_out(args)
     stem = _stem(spec.name)

@@ -27,7 +27,7 @@ from numpy.testing import assert_allclose
 from robolobes.cases import load_robot
 from robolobes.cases.loader import CaseError
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.urdf import robot_toml, write_urdf
+from robolobes.linearize.urdf_export import robot_toml, write_urdf
 
 VARIANTS = ("basic", "gravity", "orthogonal", "backlash")
 # 1e-9 relative: both paths do the same float operations up to a few rotations (1e-15 each);
@@ -240,3 +240,29 @@ def test_export_urdf_command_writes_a_robot_that_loads_back(tmp_path):
     (out / "notes.txt").write_text("mine")
     assert main(["export-urdf", "--out", str(out)]) == 2          # a user's file: refused, untouched
     assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_orthogonal_pair_turned_in_its_plane_matters_only_through_gravity(tmp_path):
+    """Without ``orthogonal_axes_xyz`` the hand-made URDF's virtual axes follow the default rule in
+    its turned frames: physically another orthogonal pair in the same plane. The linear model
+    without gravity is invariant to that turn (equal stiffness on both axes: an orthogonal change
+    of coordinates); with gravity it is not (the second-order term of two non-commuting rotations
+    enters the gravity stiffness), which is why the axes are named in the TOML."""
+    import re
+
+    from robolobes.linearize.base_elements import MotionSprings, Payload, VirtualJoints
+    from robolobes.linearize.model import assemble
+
+    path = hand_written_tx200(tmp_path)
+    path.write_text(re.sub(r"orthogonal_axes_xyz = .*\n", "", path.read_text()))
+    hand, tx = load_robot(path), load_robot("tx200")
+    q = tx.pose("tab7")
+
+    def no_gravity(s):
+        return assemble(s, (Payload(s.payload), MotionSprings(tuple(s.joint_stiffness), tuple(s.joint_damping)),
+                            VirtualJoints(s.orthogonal_stiffness_n_m_per_rad, s.orthogonal_damping_n_m_s_per_rad)))
+
+    fa, fb = (linearize(no_gravity(s), q).modes().freq_hz for s in (tx, hand))
+    assert_allclose(fb, fa, rtol=RTOL)
+    fa, fb = (linearize(build_model(s, "orthogonal"), q).modes().freq_hz for s in (tx, hand))
+    assert np.max(np.abs(fb - fa) / fa) > 1e3 * RTOL
