@@ -266,3 +266,24 @@ def test_orthogonal_pair_turned_in_its_plane_matters_only_through_gravity(tmp_pa
     assert_allclose(fb, fa, rtol=RTOL)
     fa, fb = (linearize(build_model(s, "orthogonal"), q).modes().freq_hz for s in (tx, hand))
     assert np.max(np.abs(fb - fa) / fa) > 1e3 * RTOL
+
+
+def test_extra_elements_work_on_the_hand_written_urdf(tmp_path):
+    """Elements added on top of a variant (as identification adds them) give the same modes and
+    FRFs on the URDF robot as on the TOML robot: a tool mode at the TCP, a servo drive, a payload
+    correction, a joint correction and the orthogonal correction."""
+    from robolobes.linearize.extra_elements import (JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive,
+                                                    TcpMode)
+
+    extra = (TcpMode(freq_hz=900.0, damping_ratio=0.03, stiffness_n_per_m=2e7, direction=(1.0, 1.0, 0.0)),
+             ServoDrive(joint=3, rotor_inertia_kg_m2=20.0, kp_n_m_per_rad=4e6, kd_n_m_s_per_rad=2e3),
+             PayloadMass(delta_mass_kg=-3.0), JointCorrection(joint=5, stiffness_scale=0.7, damping_scale=2.0),
+             OrthogonalCorrection(stiffness_scale=0.5))
+    tx = load_robot("tx200")
+    spec = load_robot(hand_written_tx200(tmp_path))
+    q = np.radians(POSES_DEG[1])
+    la, lb = (linearize(build_model(s, "orthogonal", extra_elements=extra), q) for s in (tx, spec))
+    assert la.n == 6 + 12 + 1 + 1
+    _close(la.modes().freq_hz, lb.modes().freq_hz, "natural frequencies")
+    w = 2 * np.pi * np.linspace(1.0, 1200.0, 200)
+    _close(la.frf(w).H, lb.frf(w).H, "tool-tip FRF, base frame")
