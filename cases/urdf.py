@@ -104,8 +104,7 @@ def _err(path: Path, msg: str) -> UrdfError:
 
 def _joint_axis(model, data, j: int) -> np.ndarray:
     """Unit rotation axis of revolute joint ``j`` in its frame (from its motion subspace), (3,)."""
-    S = np.asarray(data.joints[j].S.matrix() if hasattr(data.joints[j].S, "matrix") else data.joints[j].S)
-    a = S.reshape(6, -1)[3:, 0]
+    a = np.asarray(data.joints[j].S).reshape(6, -1)[3:, 0]  # motion subspace (6, 1): angular rows 3-5
     return a / np.linalg.norm(a)
 
 
