@@ -9,6 +9,7 @@ module); this module only dispatches, importing the one CLI module of the subcom
     robolobes lobes     stability lobe diagram
     robolobes simulate  time-domain simulation of a pass
     robolobes identify  fit the model to measured data (FRFs, forces)
+    robolobes export-urdf  a robot as a URDF plus the TOML of what the URDF lacks
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ _COMMANDS = {
     "identify": ("robolobes.identify.cli", "fit the model to measured data: find the missing effect, report the error before and after"),
     "map": ("robolobes.workspace.cli", "lobe maps across the workspace"),
     "optimize": ("robolobes.workspace.cli", "placement and tool rotation that maximize the minimum stable depth over the pass"),
+    "export-urdf": ("robolobes.linearize.export_cli", "write a robot as a URDF plus the TOML of what the URDF lacks"),
 }
 
 

@@ -19,7 +19,8 @@ import numpy as np
 from robolobes.core.errors import BadInput
 
 from .milling import Cut, CuttingLaw, MillingError, Tool, check_cut
-from .spec import Assumption, Axis, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec
+from .spec import (Assumption, Axis, ElementSpec, JointSpec, LinkSpec, MillingCase, PassSpec, PayloadSpec, RobotSpec,
+                   UrdfSpec)
 
 __all__ = ["CaseError", "load_robot", "load_case", "load_reference", "builtin_cases", "builtin_robots", "DEFAULT_CASE",
            "case_table"]
@@ -268,6 +269,45 @@ def _elements(path: Path, data: dict) -> tuple[ElementSpec, ...]:
 def _parse_robot(path: Path, data: dict) -> RobotSpec:
     assumptions = _apply_assumptions(path, data)
     r = _Reader(path, data)
+    if r.has("urdf"):
+        if "links" in data:
+            raise CaseError(f"{path}: keys 'urdf' and 'links' exclude each other: a URDF robot takes its links "
+                            "from the URDF")
+        links: tuple[LinkSpec, ...] = ()
+        jrs = r.tables("joints")
+        urdf, axes, urdf_limits = _urdf_spec(path, r, jrs)
+    else:
+        links = tuple(_links(r))
+        jrs = r.tables("joints")
+        urdf, axes, urdf_limits = None, [None] * len(jrs), [None] * len(jrs)
+    joints = tuple(_joint(jr, axis, lim) for jr, axis, lim in zip(jrs, axes, urdf_limits))
+    if urdf is None and len(links) != len(joints) + 1:
+        raise CaseError(f"{path}: {len(links)} [[links]] need {len(links) - 1} [[joints]], got {len(joints)}")
+    payload = _payload(r.table("payload"))
+    orth = r.table("orthogonal")
+    back = r.table("backlash")
+    poses = {}
+    if r.has("poses"):
+        pt = r.table("poses")
+        for k in pt.t:
+            poses[k] = np.radians(pt.vec(k, len(joints)))
+    spec = RobotSpec(
+        name=r.text("name"), links=links, joints=joints, payload=payload,
+        gravity_m_per_s2=r.num("gravity_m_per_s2", nonneg=True),
+        orthogonal_stiffness_n_m_per_rad=orth.num("stiffness_n_m_per_rad", positive=True,
+                                                  most=MAX_STIFFNESS_N_M_PER_RAD),
+        orthogonal_damping_n_m_s_per_rad=orth.num("damping_n_m_s_per_rad", nonneg=True),
+        backlash_half_width_rad=back.num("half_width_rad", nonneg=True),
+        poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""),
+        elements=_elements(path, data), urdf=urdf)
+    orth.finish()
+    back.finish()
+    r.allow("kind", "assumption", "elements")
+    r.finish()
+    return spec
+
+
+def _links(r: _Reader) -> list[LinkSpec]:
     links = []
     for lr in r.tables("links"):
         name = lr.text("name")
@@ -280,20 +320,36 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
                               next_joint_m=gb, inertia_kg_m2=_inertia(lr, "inertia_kg_m2")))
         lr.allow("ag_m")
         lr.finish()
-    joints = []
-    for jr in r.tables("joints"):
+    return links
+
+
+def _joint(jr: _Reader, urdf_axis: np.ndarray | None, urdf_limits: np.ndarray | None) -> JointSpec:
+    """One ``[[joints]]`` table. For a URDF robot, ``urdf_axis`` is the joint's axis (joint frame) and
+    ``urdf_limits`` its range in controller angles (nan: none in the URDF); ``range_deg`` overrides it."""
+    if urdf_axis is None:
+        axis = cast(Axis, jr.text("axis", choices=("x", "y", "z")))
+    else:
+        from .urdf import nearest_axis
+        axis = cast(Axis, nearest_axis(urdf_axis))
+    if jr.has("range_deg") or urdf_limits is None or np.any(np.isnan(urdf_limits)):
+        if urdf_limits is not None and not jr.has("range_deg"):
+            raise jr._err("range_deg", "[lower, upper] in degrees: the URDF gives no limits for this joint",
+                          missing=True)
         rng = np.radians(jr.vec("range_deg", 2))
         if rng[0] >= rng[1]:
             raise jr._err("range_deg", "[lower, upper] with lower < upper", np.degrees(rng).tolist())
-        joints.append(JointSpec(
-            name=jr.text("name"), axis=cast(Axis, jr.text("axis", choices=("x", "y", "z"))),
-            stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True, most=MAX_STIFFNESS_N_M_PER_RAD),
-            damping_n_m_s_per_rad=jr.num("damping_n_m_s_per_rad", nonneg=True),
-            range_rad=rng, gravity_compensation=jr.boolean("gravity_compensation", False)))
-        jr.finish()
-    if len(links) != len(joints) + 1:
-        raise CaseError(f"{path}: {len(links)} [[links]] need {len(links) - 1} [[joints]], got {len(joints)}")
-    pr = r.table("payload")
+    else:
+        rng = np.asarray(urdf_limits, dtype=float)
+    spec = JointSpec(
+        name=jr.text("name"), axis=axis,
+        stiffness_n_m_per_rad=jr.num("stiffness_n_m_per_rad", positive=True, most=MAX_STIFFNESS_N_M_PER_RAD),
+        damping_n_m_s_per_rad=jr.num("damping_n_m_s_per_rad", nonneg=True),
+        range_rad=rng, gravity_compensation=jr.boolean("gravity_compensation", False))
+    jr.finish()
+    return spec
+
+
+def _payload(pr: _Reader) -> PayloadSpec:
     rot = np.eye(3)
     for item in pr._get("tcp_rotation_deg", []) or []:
         if (not isinstance(item, list) or len(item) != 2 or item[0] not in _ROT
@@ -304,27 +360,52 @@ def _parse_robot(path: Path, data: dict) -> RobotSpec:
                           com_m=pr.vec("ag_m", 3), tcp_m=pr.vec("ag_m", 3) + pr.vec("gb_m", 3),
                           inertia_kg_m2=_inertia(pr, "inertia_kg_m2"), tcp_rotation=rot)
     pr.finish()
-    orth = r.table("orthogonal")
-    back = r.table("backlash")
-    poses = {}
-    if r.has("poses"):
-        pt = r.table("poses")
-        for k in pt.t:
-            poses[k] = np.radians(pt.vec(k, len(joints)))
-    spec = RobotSpec(
-        name=r.text("name"), links=tuple(links), joints=tuple(joints), payload=payload,
-        gravity_m_per_s2=r.num("gravity_m_per_s2", nonneg=True),
-        orthogonal_stiffness_n_m_per_rad=orth.num("stiffness_n_m_per_rad", positive=True,
-                                                  most=MAX_STIFFNESS_N_M_PER_RAD),
-        orthogonal_damping_n_m_s_per_rad=orth.num("damping_n_m_s_per_rad", nonneg=True),
-        backlash_half_width_rad=back.num("half_width_rad", nonneg=True),
-        poses_rad=poses, assumptions=tuple(assumptions), source=r.text("source", ""),
-        elements=_elements(path, data))
-    orth.finish()
-    back.finish()
-    r.allow("kind", "assumption", "elements")
-    r.finish()
-    return spec
+    return payload
+
+
+def _urdf_spec(path: Path, r: _Reader, jrs: list[_Reader]):
+    """The :class:`UrdfSpec` of a robot TOML with ``urdf = "file"``, each joint's URDF axis, and each
+    joint's URDF limits in controller angles ((2,), nan if the URDF has none)."""
+    from .urdf import UrdfError, completing_axes, orthonormal_pair, read_urdf_tree
+
+    rel = r.text("urdf")
+    upath = Path(rel) if Path(rel).is_absolute() else path.parent / rel
+    if not upath.is_file():
+        raise r._err("urdf", "the path of a URDF file (relative to this TOML)", rel)
+    names, signs, offsets, named_axes = [], [], [], []
+    for jr in jrs:
+        names.append(jr.text("urdf_joint", jr.t.get("name")))
+        sign = jr.num("sign", 1.0)
+        if sign not in (1.0, -1.0):
+            raise jr._err("sign", "1 or -1", sign)
+        signs.append(sign)
+        offsets.append(math.radians(jr.num("offset_deg", 0.0)))
+        named_axes.append(jr.vec("orthogonal_axes_xyz", 6) if jr.has("orthogonal_axes_xyz") else None)
+    try:
+        tree, flange = read_urdf_tree(upath, tuple(names), r.text("flange_link") if r.has("flange_link") else None)
+    except UrdfError as e:
+        raise CaseError(str(e)) from None
+    sign, offset = np.array(signs), np.array(offsets)
+    ortho = []
+    for jr, a, given in zip(jrs, tree.axes, named_axes):
+        if given is None:
+            ortho.append(completing_axes(a))
+            continue
+        u, w = given[:3], given[3:]
+        if min(np.linalg.norm(u), np.linalg.norm(w)) == 0 or max(
+                abs(u @ a) / np.linalg.norm(u), abs(w @ a) / np.linalg.norm(w),
+                abs(u @ w) / np.linalg.norm(u) / np.linalg.norm(w)) > 1e-6:
+            raise jr._err("orthogonal_axes_xyz", "two non-zero axes [ux, uy, uz, wx, wy, wz] orthogonal to the "
+                          "joint axis and to each other (joint frame)", given.tolist())
+        ortho.append(orthonormal_pair(a, u / np.linalg.norm(u), w / np.linalg.norm(w)))
+    # controller range from the URDF's: c = (p - offset) / sign
+    lim = (tree.limits_rad - offset[:, None]) / sign[:, None]
+    lim = np.sort(lim, axis=1)
+    urdf = UrdfSpec(path=str(upath), joint_names=tuple(names), flange=flange, sign=sign, offset_rad=offset,
+                    placements=tree.placements, axes=tree.axes, mass_kg=tree.mass_kg, com_m=tree.com_m,
+                    inertia_kg_m2=tree.inertia_kg_m2, flange_placement=tree.flange_placement,
+                    orthogonal_axes=np.array(ortho))
+    return urdf, list(sign[:, None] * tree.axes), list(lim)
 
 
 def load_robot(name_or_path: str | Path) -> RobotSpec:

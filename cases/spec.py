@@ -16,7 +16,7 @@ from robolobes.core.validate import readonly
 
 from .milling import Cut, CuttingLaw, Tool
 
-__all__ = ["LinkSpec", "JointSpec", "PayloadSpec", "RobotSpec", "PassSpec", "MillingCase", "Assumption", "Axis",
+__all__ = ["LinkSpec", "JointSpec", "PayloadSpec", "RobotSpec", "UrdfSpec", "PassSpec", "MillingCase", "Assumption", "Axis",
            "ElementSpec"]
 
 Axis = Literal["x", "y", "z"]
@@ -80,7 +80,8 @@ class JointSpec:
     ----------
     name : str
     axis : {"x", "y", "z"}
-        Rotation axis in the parent link frame at the joint.
+        Rotation axis in the parent link frame at the joint. For a URDF robot (``RobotSpec.urdf``):
+        the joint frame's axis nearest the URDF axis (the URDF's own axis is in ``UrdfSpec.axes``).
     stiffness_n_m_per_rad, damping_n_m_s_per_rad : float
         Torsional spring and damper of eq. 7.
     range_rad : array (2,)
@@ -130,12 +131,67 @@ class PayloadSpec:
 
 
 @dataclass(frozen=True)
+class UrdfSpec:
+    """A robot's kinematic tree from its URDF, and the controller's convention for its joints.
+
+    Joint ``i`` is the i-th motion joint, base to flange. Its URDF position ``p_i`` and the
+    controller's angle ``c_i`` (what poses, ``--q-deg`` and the cases give) are related by
+    ``p_i = sign[i] * c_i + offset_rad[i]``.
+
+    Attributes
+    ----------
+    path : str
+        The URDF file the tree was read from.
+    joint_names : tuple of str
+        URDF names of the motion joints, base to flange.
+    flange : str
+        URDF link (or frame) the payload is fixed to; ``PayloadSpec`` is in its axes.
+    sign : array (n,) of +-1
+    offset_rad : array (n,), rad
+    placements : array (n, 4, 4)
+        Frame of joint i at URDF position 0 in the frame of joint i - 1 (joint 0: base frame), m.
+    axes : array (n, 3)
+        Unit rotation axis of joint i in its frame, as the URDF writes it.
+    mass_kg : array (n,); com_m : array (n, 3), m; inertia_kg_m2 : array (n, 3, 3), kg m^2
+        Body moving with joint i (joint-i frame; inertia at the centre of mass).
+    flange_placement : array (4, 4)
+        The flange frame in the frame of the last joint.
+    orthogonal_axes : array (n, 2, 3)
+        Axes of the two orthogonal-compliance rotations after joint i, joint-i frame
+        (:func:`robolobes.cases.urdf.completing_axes` unless the TOML names them).
+    """
+
+    path: str
+    joint_names: tuple[str, ...]
+    flange: str
+    sign: np.ndarray
+    offset_rad: np.ndarray
+    placements: np.ndarray
+    axes: np.ndarray
+    mass_kg: np.ndarray
+    com_m: np.ndarray
+    inertia_kg_m2: np.ndarray
+    flange_placement: np.ndarray
+    orthogonal_axes: np.ndarray
+
+    def __post_init__(self):
+        n = len(self.joint_names)
+        for k, shape in (("sign", (n,)), ("offset_rad", (n,)), ("placements", (n, 4, 4)), ("axes", (n, 3)),
+                         ("mass_kg", (n,)), ("com_m", (n, 3)), ("inertia_kg_m2", (n, 3, 3)),
+                         ("flange_placement", (4, 4)), ("orthogonal_axes", (n, 2, 3))):
+            object.__setattr__(self, k, readonly(getattr(self, k), shape=shape))
+
+
+@dataclass(frozen=True)
 class RobotSpec:
     """A serial robot as data: links from the floor, joints between them, payload, flexibility.
 
     ``links[0]`` is the fixed base; joint ``i`` (0-based) joins ``links[i]`` to ``links[i + 1]`` and
     sits at ``links[i].com_m + links[i].next_joint_m`` in the frame of ``links[i]``. The last link
     carries the payload at its exit (the flange face).
+
+    A robot read from a URDF has ``urdf`` set and no ``links`` (its tree is in ``urdf``); its
+    ``joints`` carry the flexibility, ranges and gravity compensation of the motion joints.
     """
 
     name: str
@@ -150,9 +206,14 @@ class RobotSpec:
     assumptions: tuple[Assumption, ...] = ()
     source: str = ""
     elements: tuple[ElementSpec, ...] = ()
+    urdf: UrdfSpec | None = None
 
     def __post_init__(self):
-        if len(self.links) != len(self.joints) + 1:
+        if self.urdf is not None:
+            if len(self.urdf.joint_names) != len(self.joints) or self.links:
+                raise BadInput(f"robot {self.name!r}: a URDF robot needs one joint per URDF motion joint "
+                               f"({len(self.urdf.joint_names)}), got {len(self.joints)}, and no links")
+        elif len(self.links) != len(self.joints) + 1:
             raise BadInput(
                 f"robot {self.name!r}: {len(self.links)} links need {len(self.links) - 1} joints, got {len(self.joints)}"
             )

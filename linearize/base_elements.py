@@ -28,8 +28,6 @@ from .element import Element, ModelBuilder, dead_zone
 
 __all__ = ["Payload", "MotionSprings", "VirtualJoints", "Gravity", "GravityCompensation", "virtual_dofs"]
 
-# Orthogonal (virtual) axes inserted after a motion axis, in order: cyclic, as eq. 11 (rotz, rotx, roty).
-_ORTHO = {"z": ("x", "y"), "y": ("z", "x"), "x": ("y", "z")}
 _VIRTUAL_TAG = "_v"  # virtual joint names: "<motion joint name>_v<axis>"
 
 
@@ -133,10 +131,9 @@ class VirtualJoints(Element):
     name: str = "virtual joints"
 
     def after_motion_joint(self, b, index, joint_id):
-        axis = b.spec.joints[index].axis
         tail = joint_id
-        for a in _ORTHO[axis]:
-            tail = b.add_joint(tail, a, pin.SE3.Identity(), f"{b.spec.joints[index].name}{_VIRTUAL_TAG}{a}")
+        for label, a in b.orthogonal_axes(index):
+            tail = b.add_joint(tail, a, pin.SE3.Identity(), f"{b.spec.joints[index].name}{_VIRTUAL_TAG}{label}")
         return tail
 
     def bind(self, robot, built=None):

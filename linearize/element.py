@@ -31,9 +31,11 @@ from robolobes.cases.spec import RobotSpec
 if TYPE_CHECKING:
     from .model import FlexibleRobot
 
-__all__ = ["Element", "ModelBuilder", "dead_zone"]
+__all__ = ["Element", "ModelBuilder", "dead_zone", "revolute"]
 
 _JOINT = {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}
+# Orthogonal (virtual) axes inserted after a motion axis, in order: cyclic, as eq. 11 (rotz, rotx, roty).
+_ORTHO = {"z": ("x", "y"), "y": ("z", "x"), "x": ("y", "z")}
 
 
 class ModelBuilder:
@@ -65,9 +67,40 @@ class ModelBuilder:
         self.tcp_parent: int | None = None
         self.tcp_placement: pin.SE3 | None = None
 
-    def add_joint(self, parent: int, axis: str, placement: pin.SE3, name: str) -> int:
-        """Add a revolute joint about ``axis`` of the parent frame, at ``placement``. Returns its id."""
-        return self.model.addJoint(parent, _JOINT[axis](), placement, name)
+    def add_joint(self, parent: int, axis: str | np.ndarray, placement: pin.SE3, name: str) -> int:
+        """Add a revolute joint at ``placement`` in the parent joint's frame. Returns its id.
+
+        ``axis``: ``"x"``, ``"y"``, ``"z"``, or a unit vector (3,) in the joint's frame.
+        """
+        return self.model.addJoint(parent, revolute(axis), placement, name)
+
+    def orthogonal_axes(self, index: int) -> list[tuple[str, str | np.ndarray]]:
+        """The two axes of orthogonal compliance after motion joint ``index``, in order, as
+        ``(label, axis)`` pairs for :meth:`add_joint` (axes in the motion joint's frame).
+
+        TOML robots: the two other frame axes in cyclic order (``z -> x, y``; ``y -> z, x``;
+        ``x -> y, z``), eq. 11. URDF robots: ``spec.urdf.orthogonal_axes`` (the same rule for an
+        arbitrary axis, :func:`robolobes.cases.urdf.completing_axes`, or the axes the TOML names).
+        """
+        if self.spec.urdf is not None:
+            return [(str(k + 1), ax) for k, ax in enumerate(self.spec.urdf.orthogonal_axes[index])]
+        return [(a, a) for a in _ORTHO[self.spec.joints[index].axis]]
+
+
+def revolute(axis: str | np.ndarray) -> pin.JointModel:
+    """A pinocchio revolute joint model about ``axis`` (``"x"``/``"y"``/``"z"`` or a unit 3-vector);
+    a vector along +x, +y or +z gives the same joint type as its letter.
+
+    >>> revolute("y").shortname(), revolute(np.array([0.0, 0.0, -1.0])).shortname()
+    ('JointModelRY', 'JointModelRevoluteUnaligned')
+    """
+    if isinstance(axis, str):
+        return _JOINT[axis]()
+    a = np.asarray(axis, dtype=float)
+    for k, letter in enumerate("xyz"):
+        if a[k] == 1.0 and np.count_nonzero(a) == 1:
+            return _JOINT[letter]()
+    return pin.JointModelRevoluteUnaligned(a / np.linalg.norm(a))
 
 
 class Element:

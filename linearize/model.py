@@ -160,24 +160,41 @@ def variant_elements(spec: RobotSpec, variant: str, damping_scale: float = 1.0) 
     return tuple(els)
 
 
+def chain_links(spec: RobotSpec) -> tuple[list[tuple[pin.SE3, str | np.ndarray, pin.Inertia]], pin.SE3]:
+    """The motion chain of ``spec`` in controller coordinates: per motion joint ``(placement, axis,
+    body)`` (placement in the previous motion joint's frame, axis for
+    :meth:`ModelBuilder.add_joint`, the body moving with it), and the flange in the last joint's frame.
+
+    TOML robots: link frames parallel at q = 0 (``links[i].com_m + links[i].next_joint_m``), axes
+    x/y/z. URDF robots: :func:`robolobes.linearize.urdf.controller_chain`.
+    """
+    if spec.urdf is not None:
+        from .urdf import controller_chain
+        return controller_chain(spec.urdf)
+    out = []
+    for i, js in enumerate(spec.joints):
+        prev, link = spec.links[i], spec.links[i + 1]
+        out.append((pin.SE3(np.eye(3), prev.com_m + prev.next_joint_m), js.axis,
+                    pin.Inertia(link.mass_kg, link.com_m, link.inertia_kg_m2)))
+    last = spec.links[-1]
+    return out, pin.SE3(np.eye(3), last.com_m + last.next_joint_m)
+
+
 def assemble(spec: RobotSpec, elements: Sequence[Element], variant: str = "custom") -> FlexibleRobot:
     """Build the pinocchio model of ``spec`` with ``elements`` hooked into the assembly."""
     b = ModelBuilder(spec)
-    base = spec.links[0]
-    placement = pin.SE3(np.eye(3), base.com_m + base.next_joint_m)
+    links, flange_placement = chain_links(spec)
     parent = 0
-    for i, js in enumerate(spec.joints):
-        jid = b.add_joint(parent, js.axis, placement, js.name)
+    for i, (js, (placement, axis, body)) in enumerate(zip(spec.joints, links)):
+        jid = b.add_joint(parent, axis, placement, js.name)
         b.motion_joints.append(jid)
         tail = jid
         for e in elements:
             tail = e.after_motion_joint(b, i, tail)
-        link = spec.links[i + 1]
-        b.model.appendBodyToJoint(tail, pin.Inertia(link.mass_kg, link.com_m, link.inertia_kg_m2), pin.SE3.Identity())
-        placement = pin.SE3(np.eye(3), link.com_m + link.next_joint_m)
+        b.model.appendBodyToJoint(tail, body, pin.SE3.Identity())
         parent = tail
     b.tail = parent
-    b.flange_placement = placement
+    b.flange_placement = placement = flange_placement
     built = [e.finish(b) for e in elements]
     flange = b.model.addFrame(pin.Frame("flange", b.tail, placement, pin.FrameType.OP_FRAME))
     if b.tcp_parent is None:
