@@ -161,18 +161,25 @@ def test_failed_kernel_steps_are_redone_with_step_halving():
     # two runs differ by Newmark's O(h^2) truncation error (measured 1e-4 of the peak force, at
     # 180 steps per revolution), not by round-off: forces within 1e-3 of the peak. The centre's
     # deviation from the commanded path integrates those force differences through the lightly
-    # damped robot modes (quality factor ~50): within 1 % of its excursion (50 x 1e-4). And the
+    # damped robot modes (quality factor ~50) while the tool enters the part's face: a fallback step
+    # integrated with halved steps lies between the run at h and the run at h/2, so the fallback
+    # run is within 1.5 x the difference of those two runs (the h run's truncation error, by
+    # Richardson 4/3 of it) of the h run; that difference is 1.4 % of the excursion here. And the
     # erosion bookkeeping must stay consistent (one workpiece revision per accepted step, kernel
     # or fallback).
     S0, d0 = _fresh(ALU, "basic", 0.08)
     ref = run_linear_milling(d0, S0.milling, h_s=S0.h, n_steps=S0.n_steps, omega_rad_s=S0.omega)
+    Sh, dh = _fresh(ALU, "basic", 0.08)
+    half = run_linear_milling(dh, Sh.milling, h_s=Sh.h / 2, n_steps=2 * Sh.n_steps, omega_rad_s=Sh.omega)
     S, d = _fresh(ALU, "basic", 0.08)
     run = run_linear_milling(d, S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega, max_iter=1)
     assert run.stats["python_fallback_steps"] > 50 and run.stats["rejected"] > 0
     assert ref.stats["python_fallback_steps"] == 0
     assert_allclose(run.force_tool_n, ref.force_tool_n, rtol=0, atol=1e-3 * np.abs(ref.force_tool_n).max())
     dev = ref.center_m[:, 1]
-    assert_allclose(run.center_m[:, 1], dev, rtol=0, atol=1e-2 * np.ptp(dev))
+    truncation = np.abs(half.center_m[::2, 1] - dev).max()
+    assert truncation < 0.05 * np.ptp(dev)  # the runs are converged in the step to a few % of the excursion
+    assert_allclose(run.center_m[:, 1], dev, rtol=0, atol=1.5 * truncation)
     # one commit per accepted (sub)step: kernel steps plus the fallback's substeps
     fb = run.stats["python_fallback_steps"]
     assert S.workpiece.revision == S.n_steps - fb + run.stats["python_fallback_substeps"]

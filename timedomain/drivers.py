@@ -81,18 +81,19 @@ def _run_newmark(S: PassSetup, residual, q0, center_at, tcp_of, last, progress, 
 def run_full(S: PassSetup, progress, method: NonlinearNewmark | None = None) -> Records:
     """The full nonlinear path (:func:`timedomain.equations.full_system`)."""
     m = method or NonlinearNewmark()
-    residual, tangent, tcp_position, q0, last = full_system(S)
+    residual, tangent, tcp_position, q0, last, accepted = full_system(S)
     opts = NewmarkOptions(atol=np.full(len(q0), m.atol), rtol=m.rtol, max_iter=m.max_iter)
     return _run_newmark(S, residual, q0, lambda q, t: S.center_of(tcp_position(q)), lambda q, t: tcp_position(q),
-                        last, progress, opts, tangent=tangent)
+                        last, progress, opts, tangent=tangent, accepted_acceleration=accepted)
 
 
 def run_linearized_python(S: PassSetup, progress) -> Records:
     """The linearized path in Python (:func:`timedomain.newmark.integrate`): the reference of the
     compiled loop :mod:`timedomain.fastpath` (tests/test_fastpath.py), ~10x slower."""
-    residual, const, center, q0, last = linear_system_python(S)
+    residual, const, center, q0, last, accepted = linear_system_python(S)
     opts = NewmarkOptions(atol=np.full(len(q0), DEFAULT_ATOL_M), rtol=DEFAULT_RTOL, max_iter=DEFAULT_MAX_ITER)
-    return _run_newmark(S, residual, q0, center, lambda q, t: None, last, progress, opts, constant_tangent=const)
+    return _run_newmark(S, residual, q0, center, lambda q, t: None, last, progress, opts, constant_tangent=const,
+                        accepted_acceleration=accepted)
 
 
 def run_linearized(S: PassSetup, progress) -> Records:
@@ -100,6 +101,6 @@ def run_linearized(S: PassSetup, progress) -> Records:
     from .fastpath import run_linear_milling  # numba: compiled or loaded on first use
 
     run = run_linear_milling(linear_system_data(S), S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega,
-                             progress=progress)
+                             progress=progress, exact_entry_exit=S.exact_entry_exit)
     return Records(t_s=run.t_s, force_tool_n=run.force_tool_n, center_m=run.center_m,
                    tcp_m=np.full((len(run.t_s), 3), np.nan), stats=run.stats)

@@ -106,6 +106,8 @@ class PassSetup:
         self.workpiece = Workpiece(tool, cut, x_entry_m=x_entry, part_length_m=case.path.part_length_m,
                                    discs=n_discs, dx_m=method.dx_m)
         self.milling = MillingForce(tool, case.law, cut, self.workpiece)
+        #: whether entries and exits inside a step are integrated exactly (:mod:`timedomain.entry_exit`)
+        self.exact_entry_exit = getattr(method, "entry_exit", "exact") == "exact"
         # motor angles on a fine table (0.2 ms; linear interpolation error ~ dt^2/8 |thetadd| ~ 1e-8 rad)
         n_tab = max(3, int(math.ceil(max(self.t_end, self.h) / 2e-4)) + 1)
         self.t_tab = np.linspace(0.0, max(self.t_end, self.h) + self.h, n_tab)
@@ -184,18 +186,35 @@ def robot_equations(robot, theta_of_t: Callable[[float], np.ndarray], tcp_force=
 
 def full_system(S: PassSetup):
     """The full path's residual, tangent, TCP position ``q -> p (3,)``, initial q (the static
-    equilibrium at the start) and a dict whose ``"f"`` is the cut-frame force on the tool (N) of the
-    last residual evaluation."""
+    equilibrium at the start), a dict whose ``"f"`` is the cut-frame force on the tool (N) of the
+    last residual evaluation, and the ``accepted_acceleration`` hook of
+    :func:`timedomain.newmark.integrate`: entries and exits inside a step are integrated exactly, as
+    on the linearized path (:mod:`timedomain.entry_exit`)."""
+    from .entry_exit import StepForce
+
     Rc, RcT, milling, omega = S.Rc, S.Rc.T, S.milling, S.omega
     last_cut = {}
+    holder = {}
 
     def tcp_force(t, p):
-        f_cut, dfdc = milling.force(omega * t, S.center_of(p))
+        f_cut, dfdc, corr = holder["step"].force(t, S.center_of(p))
         last_cut["f"] = f_cut
-        return RcT @ f_cut, RcT @ dfdc @ Rc[:2]
+        return RcT @ (f_cut + corr), RcT @ dfdc @ Rc[:2]
 
     residual, tangent, kin, _ = robot_equations(S.robot, S.theta, tcp_force)
-    return residual, tangent, (lambda q: kin(q)[1]), S.q_eq.copy(), last_cut
+    q0 = S.q_eq.copy()
+    c0 = S.center_of(kin(q0)[1])
+    holder["step"] = StepForce(milling, omega, 0.0, c0, milling.evaluate(0.0, c0).chip_m, exact=S.exact_entry_exit)
+    model, data = S.robot.model, S.robot.create_data()
+
+    def accepted(t, q, v, a):
+        corr = holder["step"].accept(t, S.center_of(kin(q)[1]))
+        if not corr.any():
+            return a
+        J, _ = kin(q)
+        return a - np.linalg.solve(pin.crba(model, data, q), J.T @ (RcT @ corr))
+
+    return residual, tangent, (lambda q: kin(q)[1]), q0, last_cut, accepted
 
 
 @dataclass(frozen=True)
@@ -292,12 +311,36 @@ def linear_system_python(S: PassSetup):
     constant tangent ``(K, C, M)``, centre ``(dq, t) -> c (2,)``, initial dq (zero) and the dict of the
     last cut-frame force on the tool."""
     d = linear_system_data(S)
-    milling, omega = S.milling, S.omega
+    q0 = np.zeros(d.M.shape[0])
+    residual, accepted, last = corrected_residual(d, S.milling, S.omega, 0.0, q0, exact=S.exact_entry_exit)
+    return residual, (d.K, d.C, d.M), d.center, q0, last, accepted
+
+
+def corrected_residual(d: LinearSystemData, milling, omega: float, t0_s: float, q0: np.ndarray, *,
+                       exact: bool = True):
+    """Residual of the linearized path with the entries and exits inside a step integrated exactly
+    (:mod:`timedomain.entry_exit`), from the accepted state ``q0`` at ``t0_s`` (its chips before its
+    removal): ``(residual, accepted_acceleration, last)`` for :func:`timedomain.newmark.integrate`;
+    ``last["f"]`` is the point force on the tool (cut frame, N) of the last evaluation. ``exact=False``:
+    no correction (the force sampled at the step ends)."""
+    from .entry_exit import StepForce, acceleration_shift
+
+    c0 = d.center(q0, t0_s)
+    chips0 = milling.evaluate(omega * t0_s, c0).chip_m
+    return step_residual(d, StepForce(milling, omega, t0_s, c0, chips0, exact=exact), acceleration_shift(d.M, d.JtRt))
+
+
+def step_residual(d: LinearSystemData, step, shift: np.ndarray):
+    """``(residual, accepted_acceleration, last)`` on a :class:`timedomain.entry_exit.StepForce`
+    ``step`` whose start is the last accepted state; ``shift = M^-1 J^T R_c^T`` (n, 3)."""
     last = {}
 
     def residual(dq, v, a, t):
-        f_cut, _ = milling.force(omega * t, d.center(dq, t))
+        f_cut, _, corr = step.force(t, d.center(dq, t))
         last["f"] = f_cut
-        return d.residual(dq, v, a, t, f_cut)
+        return d.residual(dq, v, a, t, f_cut + corr)
 
-    return residual, (d.K, d.C, d.M), d.center, np.zeros(d.M.shape[0]), last
+    def accepted(t, dq, v, a):
+        return a - shift @ step.accept(t, d.center(dq, t))
+
+    return residual, accepted, last

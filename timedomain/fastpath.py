@@ -82,9 +82,12 @@ import robolobes.cases.milling as _milling
 import robolobes.linearize.model as _model
 from robolobes.core.validate import finite_array
 
+from . import entry_exit as _entry_exit
 from . import workpiece as _workpiece
 from .newmark import (NewmarkConvergenceError, NewmarkInterrupted, NewmarkOptions, NewmarkResult, NewmarkStats, integrate,
                       effective_matrix, initial_acceleration)
+from .entry_exit import StepForce, acceleration_shift, step_force_correction
+from .equations import step_residual
 from .workpiece import _chip_kernel, _remove_kernel
 from .workpiece_force import MillingForce
 
@@ -159,8 +162,14 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                idx, k_motion, backlash, d0,
                offset, radius, db, law,
                wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
-               q_n, v_n, a_n, c_n, rec_f, rec_c, counters, Z, JcZ):  # pragma: no cover - numba
-    """Steps k0 -> k1 (t = k h) of the linearized path; state (q_n, v_n, a_n, c_n) updated in place.
+               q_n, v_n, a_n, c_n, h_n, rec_f, rec_c, counters, Z, JcZ, MiJ, exact):  # pragma: no cover - numba
+    """Steps k0 -> k1 (t = k h) of the linearized path; state (q_n, v_n, a_n, c_n, h_n) updated in place
+    (h_n (T, K): the chips of the accepted state, before its removal, m).
+
+    Entries and exits of the edge elements inside a step are integrated exactly
+    (:func:`timedomain.entry_exit.step_force_correction`: ``D`` is added to the step's end force, and
+    ``M^-1 J^T R_c^T D`` (``MiJ D``) taken out of the accepted acceleration); ``exact`` False: not
+    (the force sampled at the step ends).
 
     counters (int64): [0] accepted steps, [1] Newton iterations, [2] most iterations of a step,
     [3] column updates, [4] pending-buffer overflows, [5] step that failed (-1: none).
@@ -189,6 +198,7 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
     dF = np.zeros((3, 2))
     G = np.empty((3, 3))
     wv = np.empty(3)
+    Dv = np.zeros(3)
     for k in range(k0, k1):
         t0 = k * h
         t1 = (k + 1) * h
@@ -235,6 +245,10 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                         dF[1, 1] += gy * dh[j, kk, 1]
                         dF[2, 0] += gz * dh[j, kk, 0]
                         dF[2, 1] += gz * dh[j, kk, 1]
+            # entries and exits inside the step, integrated over their engaged parts
+            if exact:
+                step_force_correction(wb, x0, dx, sgn, w_top, c_n[0], c_n[1], cx, cy, omega * t0, omega * h,
+                                      offset, radius, db, law, h_n, hh, Dv)
             # residual (LinearSystemData.residual)
             for i in range(n):
                 sm = 0.0
@@ -245,7 +259,8 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                     sc += C[i, jj] * v[jj]
                     sk += K_rest[i, jj] * q[jj]
                 fn = f_nom_tab[it_, i] + ft_ * (f_nom_tab[it_ + 1, i] - f_nom_tab[it_, i])
-                r[i] = sm + sc + sk - (JtRt[i, 0] * fx + JtRt[i, 1] * fy + JtRt[i, 2] * fz) + fn
+                r[i] = (sm + sc + sk - (JtRt[i, 0] * (fx + Dv[0]) + JtRt[i, 1] * (fy + Dv[1])
+                                        + JtRt[i, 2] * (fz + Dv[2])) + fn)
             if backlash > 0.0:
                 for m in range(n_idx):
                     dqm[m] = d0[m] + q[idx[m]]
@@ -333,7 +348,10 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
         for i in range(n):
             q_n[i] = q[i]
             v_n[i] = v[i]
-            a_n[i] = a[i]
+            a_n[i] = a[i] - (MiJ[i, 0] * Dv[0] + MiJ[i, 1] * Dv[1] + MiJ[i, 2] * Dv[2])
+        for j in range(nt):
+            for kk in range(nk):
+                h_n[j, kk] = hh[j, kk]
         c_n[0] = cx
         c_n[1] = cy
         counters[0] += 1
@@ -353,7 +371,7 @@ def _dependency_fingerprint() -> str:
     import numba
 
     hsh = hashlib.sha256(numba.__version__.encode())
-    for mod in (_milling, _model, _workpiece):
+    for mod in (_milling, _model, _workpiece, _entry_exit):
         try:
             with open(inspect.getsourcefile(mod), "rb") as f:
                 hsh.update(f.read())
@@ -515,8 +533,9 @@ class _Loop:
     workpiece bookkeeping and the Python fallback for a step the kernel could not converge."""
 
     def __init__(self, data, milling: MillingForce, h: float, n_steps: int, omega: float, K, C, M, *, atol: float,
-                 rtol: float, max_iter: int, fallback_halvings: int):
+                 rtol: float, max_iter: int, fallback_halvings: int, exact: bool = True):
         self.data, self.milling, self.h, self.n_steps, self.omega = data, milling, h, n_steps, omega
+        self.exact = bool(exact)
         self.KCM = (K, C, M)
         self.atol, self.rtol, self.max_iter, self.fallback_halvings = atol, rtol, max_iter, fallback_halvings
         nd = M.shape[0]
@@ -525,6 +544,8 @@ class _Loop:
         self.v_n = np.zeros(nd)
         self.c_n = np.asarray(data.center(self.q_n, 0.0), dtype=float).copy()
         f0, _ = milling.force(omega * 0.0, self.c_n)
+        self.h_n = np.ascontiguousarray(milling.evaluate(omega * 0.0, self.c_n).chip_m, dtype=float).copy()
+        self.MiJ = acceleration_shift(M, data.JtRt)
         self.a_n = np.array(initial_acceleration(self._residual({}), self.q_n, self.v_n, 0.0, constant_tangent=self.KCM),
                             dtype=float)
         N = n_steps + 1
@@ -569,7 +590,8 @@ class _Loop:
         k_acc = int(self.counters[0])
         h, milling, omega, data = self.h, self.milling, self.omega, self.data
         self.account()  # the workpiece revision must be current before the Python force is evaluated
-        last = {}
+        step = StepForce(milling, omega, k_acc * h, self.c_n, self.h_n, exact=self.exact)
+        residual, accepted, last = step_residual(data, step, self.MiJ)
         prev = {"t": k_acc * h, "c": self.c_n.copy()}
 
         def on_step(st):
@@ -583,8 +605,9 @@ class _Loop:
         opts = NewmarkOptions(atol=self.atol, rtol=self.rtol, max_iter=self.max_iter, defer_interrupts=False,
                               max_halvings=int(self.fallback_halvings))
         try:
-            out = integrate(self._residual(last), self.q_n, self.v_n, a0=self.a_n, t0_s=k_acc * h, h_s=h, n_steps=1,
-                            constant_tangent=self.KCM, options=opts, on_step=on_step)
+            out = integrate(residual, self.q_n, self.v_n, a0=self.a_n, t0_s=k_acc * h, h_s=h, n_steps=1,
+                            constant_tangent=self.KCM, options=opts, on_step=on_step,
+                            accepted_acceleration=accepted)
         except NewmarkConvergenceError:
             why = ("did not converge in %d iterations" % self.max_iter if status == _NO_CONVERGENCE
                    else "gave a non-finite residual or increment")
@@ -594,6 +617,7 @@ class _Loop:
                 self.state()) from None
         self.q_n[:], self.v_n[:], self.a_n[:] = out.q, out.v, out.a
         self.c_n[:] = prev["c"]
+        self.h_n[:] = step.h0
         self.counters[0] += 1
         self.counters[1] += out.stats.newton_iterations
         self.counters[2] = max(int(self.counters[2]), out.stats.max_iterations)
@@ -625,7 +649,8 @@ def _run_chunks(loop: _Loop, chunk: int, system: tuple, tool_part: tuple, factor
                                 idx, k_motion, backlash, d0,
                                 offset, radius, db, law_arr,
                                 wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n,
-                                loop.q_n, loop.v_n, loop.a_n, loop.c_n, loop.rec_f, loop.rec_c, loop.counters, Z, JcZ)
+                                loop.q_n, loop.v_n, loop.a_n, loop.c_n, loop.h_n, loop.rec_f, loop.rec_c, loop.counters,
+                                Z, JcZ, loop.MiJ, loop.exact)
             loop.chunks += 1
             if status != _OK:
                 loop.fallback_step(status)
@@ -644,7 +669,8 @@ def _run_chunks(loop: _Loop, chunk: int, system: tuple, tool_part: tuple, factor
 def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int, omega_rad_s: float,
                        progress: Callable[[float], None] | None = None, chunk_steps: int | None = None,
                        atol: float = DEFAULT_ATOL_M, rtol: float = DEFAULT_RTOL,
-                       max_iter: int = DEFAULT_MAX_ITER, fallback_halvings: int = 12) -> LinearRun:
+                       max_iter: int = DEFAULT_MAX_ITER, fallback_halvings: int = 12,
+                       exact_entry_exit: bool = True) -> LinearRun:
     """Integrate the linearized path from rest (``dq = v = 0`` at t = 0) over ``n_steps`` steps.
 
     Parameters
@@ -672,6 +698,9 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
     fallback_halvings : int
         Step halvings the Python fallback may use on a step the kernel could not converge
         (smallest step ``h / 2**fallback_halvings``); beyond, :class:`FastPathConvergenceError`.
+    exact_entry_exit : bool
+        Integrate the edge elements that enter or leave the part inside a step over their engaged
+        part (default; :mod:`timedomain.entry_exit`); False samples the force at the step ends.
 
     Returns
     -------
@@ -697,7 +726,7 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
     tool_part = _milling_arrays(milling)
     factors = _factorized(K, C, M, JtRt, Jc, h)
     loop = _Loop(data, milling, h, n_steps, omega, K, C, M, atol=atol, rtol=rtol, max_iter=max_iter,
-                 fallback_halvings=fallback_halvings)
+                 fallback_halvings=fallback_halvings, exact=exact_entry_exit)
     _run_chunks(loop, chunk, system, tool_part, factors, progress)
     t = np.arange(n_steps + 1) * h
     return LinearRun(t_s=t, force_tool_n=loop.rec_f, center_m=loop.rec_c, q=loop.q_n, v=loop.v_n, a=loop.a_n,

@@ -569,6 +569,7 @@ def integrate(
     on_step: Callable[[AcceptedStep], None] | None = None,
     events: EventFn | None = None,
     progress: Callable[[float], None] | None = None,
+    accepted_acceleration: Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> NewmarkResult:
     """Integrate ``r(q, v, a, t) = 0`` from ``t0_s`` over ``n_steps`` nominal steps of ``h_s``.
 
@@ -600,6 +601,10 @@ def integrate(
         Kink/event functions for step refinement (module docstring).
     progress : callable ``(fraction) -> None``, optional
         Called with the fraction of the run done, every ``options.progress_every`` and at the end.
+    accepted_acceleration : callable ``(t1, q1, v1, a1) -> (n,)``, optional
+        Called once per accepted step, before ``on_step``: the acceleration the next step starts
+        from (default ``a1``). For a residual whose force at a step's end carries a correction of
+        the step's integral (:mod:`timedomain.entry_exit`), which must not be carried on.
 
     Returns
     -------
@@ -664,6 +669,8 @@ def integrate(
                         continue
                     g_n = g1
                 # accept (the new arrays are owned here and never modified: freeze them, no copies)
+                if accepted_acceleration is not None:
+                    a1 = np.array(accepted_acceleration(t1, q1, v1, a1), dtype=float)
                 _frozen(q1, v1, a1)
                 stats["accepted"] += 1
                 stats["max_iterations"] = max(stats["max_iterations"], its)

@@ -62,9 +62,12 @@ class _NewmarkMethod:
     deg_per_step: float = 2.0
     n_discs: int | None = None
     dx_m: float = 1e-6
+    entry_exit: str = "exact"
 
     def __post_init__(self):
         _check_step_and_discs(self.deg_per_step, self.n_discs)
+        if self.entry_exit not in ("exact", "sampled"):
+            raise SimulationError(f"entry_exit must be 'exact' or 'sampled', got {self.entry_exit!r}")
         dx = finite("dx_m", self.dx_m, positive=True, error=SimulationError)
         if not 1e-7 <= dx <= 1e-4:
             raise SimulationError(f"dx_m (workpiece column spacing) must be in [1e-7, 1e-4] m, got {dx:g}")
@@ -83,6 +86,11 @@ class LinearizedNewmark(_NewmarkMethod):
         Axial discs of the tool and slices of the part (default: 0.5 deg of helix lag each).
     dx_m : float
         Column spacing of the workpiece along the feed, m (default 1 um).
+    entry_exit : {"exact", "sampled"}
+        "exact" (default): an edge element that enters or leaves the part inside a step is
+        integrated over its engaged part of the step (:mod:`timedomain.entry_exit`). "sampled": the
+        force is sampled at the step ends only, a plain Newmark step (first order at each entry and
+        exit; for comparison).
     """
 
 
@@ -92,7 +100,7 @@ class NonlinearNewmark(_NewmarkMethod):
 
     Parameters
     ----------
-    deg_per_step, n_discs, dx_m : as :class:`LinearizedNewmark`
+    deg_per_step, n_discs, dx_m, entry_exit : as :class:`LinearizedNewmark`
     atol : float
         Newton increment tolerance, absolute, in the units of each q (rad), > 0 (default 1e-11).
     rtol : float

@@ -198,73 +198,84 @@ class WallProfile:
 # kernels (numba)
 
 
+@njit(inline="always")
+def _chip_one(wb, x0, dx, cx, cw, sgn, phi, r, k):  # pragma: no cover - numba
+    """Chip of one edge element (tip radius ``r``, angle ``phi``, disc ``k``) and its derivatives:
+    ``(h, dh/dc_x, dh/dc_y)`` (module docstring, "Chip thickness"); ``(0, 0, 0)`` out of the material."""
+    ncol = wb.shape[1]
+    sn = math.sin(phi)
+    cs = sgn * math.cos(phi)
+    xt = cx + r * sn
+    u = (xt - x0) / dx
+    if not (u >= 0.0 and u < ncol - 1):
+        return 0.0, 0.0, 0.0
+    i = int(math.floor(u))
+    f = u - i
+    wi = wb[k, i]
+    wj = wb[k, i + 1]
+    g_hi = wi + (wj - wi) * f - (cw + r * cs)
+    if g_hi < 0.0:
+        return 0.0, 0.0, 0.0  # tip out of the material
+    rho_hi = r
+    while True:
+        wi = wb[k, i]
+        wj = wb[k, i + 1]
+        last = False
+        # rho where the ray, going inwards, leaves column interval i
+        if sn > 1e-15:
+            rho_lo = (x0 + i * dx - cx) / sn
+        elif sn < -1e-15:
+            rho_lo = (x0 + (i + 1) * dx - cx) / sn
+        else:
+            rho_lo = 0.0
+        if rho_lo <= 0.0:
+            rho_lo = 0.0
+            last = True
+        if rho_lo > rho_hi:
+            rho_lo = rho_hi
+        fl = (cx + rho_lo * sn - x0) / dx - i
+        if fl < 0.0:
+            fl = 0.0
+        elif fl > 1.0:
+            fl = 1.0
+        g_lo = wi + (wj - wi) * fl - (cw + rho_lo * cs)
+        if g_lo < 0.0:
+            rho_b = rho_lo + (rho_hi - rho_lo) * (-g_lo) / (g_hi - g_lo)
+            sl = (wj - wi) / dx
+            den = cs - sl * sn
+            if den != 0.0:
+                return r - rho_b, -sl / den, sgn / den  # d/dc_y = s d/dc_w
+            return r - rho_b, 0.0, 0.0
+        if last:
+            return r, 0.0, 0.0  # tool centre inside the material: the tooth is buried
+        rho_hi = rho_lo
+        g_hi = g_lo
+        if sn > 0.0:
+            i -= 1
+        else:
+            i += 1
+        if i < 0 or i >= ncol - 1:
+            return r - rho_hi, 0.0, 0.0  # left the grid: beyond it there is no material
+
+
+@njit(inline="always")
+def _tip_in_material(wb, x0, dx, cx, cw, sgn, phi, r, k):  # pragma: no cover - numba
+    """Whether the tip of an edge element is in the material (the test that makes its chip > 0)."""
+    ncol = wb.shape[1]
+    u = (cx + r * math.sin(phi) - x0) / dx
+    if not (u >= 0.0 and u < ncol - 1):
+        return False
+    i = int(math.floor(u))
+    f = u - i
+    return wb[k, i] + (wb[k, i + 1] - wb[k, i]) * f - (cw + r * sgn * math.cos(phi)) >= 0.0
+
+
 @njit(cache=True, nogil=True)
 def _chip_kernel(wb, x0, dx, cx, cw, sgn, phi, radius, h, d):  # pragma: no cover - numba
     n_teeth, n_discs = phi.shape
-    ncol = wb.shape[1]
     for j in range(n_teeth):
-        r = radius[j]
         for k in range(n_discs):
-            sn = math.sin(phi[j, k])
-            cs = sgn * math.cos(phi[j, k])
-            h[j, k] = 0.0
-            d[j, k, 0] = 0.0
-            d[j, k, 1] = 0.0
-            xt = cx + r * sn
-            u = (xt - x0) / dx
-            if not (u >= 0.0 and u < ncol - 1):
-                continue
-            i = int(math.floor(u))
-            f = u - i
-            wi = wb[k, i]
-            wj = wb[k, i + 1]
-            g_hi = wi + (wj - wi) * f - (cw + r * cs)
-            if g_hi < 0.0:
-                continue  # tip out of the material
-            rho_hi = r
-            while True:
-                wi = wb[k, i]
-                wj = wb[k, i + 1]
-                last = False
-                # rho where the ray, going inwards, leaves column interval i
-                if sn > 1e-15:
-                    rho_lo = (x0 + i * dx - cx) / sn
-                elif sn < -1e-15:
-                    rho_lo = (x0 + (i + 1) * dx - cx) / sn
-                else:
-                    rho_lo = 0.0
-                if rho_lo <= 0.0:
-                    rho_lo = 0.0
-                    last = True
-                if rho_lo > rho_hi:
-                    rho_lo = rho_hi
-                fl = (cx + rho_lo * sn - x0) / dx - i
-                if fl < 0.0:
-                    fl = 0.0
-                elif fl > 1.0:
-                    fl = 1.0
-                g_lo = wi + (wj - wi) * fl - (cw + rho_lo * cs)
-                if g_lo < 0.0:
-                    rho_b = rho_lo + (rho_hi - rho_lo) * (-g_lo) / (g_hi - g_lo)
-                    h[j, k] = r - rho_b
-                    sl = (wj - wi) / dx
-                    den = cs - sl * sn
-                    if den != 0.0:
-                        d[j, k, 0] = -sl / den
-                        d[j, k, 1] = sgn / den  # d/dc_y = s d/dc_w
-                    break
-                if last:
-                    h[j, k] = r  # tool centre inside the material: the tooth is buried
-                    break
-                rho_hi = rho_lo
-                g_hi = g_lo
-                if sn > 0.0:
-                    i -= 1
-                else:
-                    i += 1
-                if i < 0 or i >= ncol - 1:
-                    h[j, k] = r - rho_hi  # left the grid: beyond it there is no material
-                    break
+            h[j, k], d[j, k, 0], d[j, k, 1] = _chip_one(wb, x0, dx, cx, cw, sgn, phi[j, k], radius[j], k)
 
 
 @njit(cache=True, nogil=True)
