@@ -454,13 +454,21 @@ def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats, st
     jl = jh[lo[jh] > 0]
     jn = np.flatnonzero(~found)
     idx = np.concatenate([jh, jl, jn])
+    mu_hi = np.full(S, np.nan, complex)    # critical multiplier at hi, for _refine to follow
+    tlo = np.full(S, np.nan)
     if len(idx):
-        g = sdm(rpm[idx], np.concatenate([hi[jh], lo[jl], np.full(len(jn), depth_max)])) - 1.0
+        ev = engine.spectra(rpm[idx], np.concatenate([hi[jh], lo[jl], np.full(len(jn), depth_max)]))
+        aev = np.abs(ev)
+        g = aev.max(axis=1) - 1.0
         stats["evaluations"] += len(idx)
         stats["rounds"] += 1
-        ghi[jh] = g[:len(jh)]
-        glo[jl] = g[len(jh):len(jh) + len(jl)]
-        gn = g[len(jh) + len(jl):]
+        nh, nl = len(jh), len(jl)
+        ghi[jh] = g[:nh]
+        glo[jl] = g[nh:nh + nl]
+        gn = g[nh + nl:]
+        mu_hi[jh] = ev[:nh][np.arange(nh), np.argmax(aev[:nh], axis=1)]
+        ref = mu_hi[jl]
+        tlo[jl] = aev[nh:nh + nl][np.arange(nl), np.argmin(np.abs(ev[nh:nh + nl] - ref[:, None]), axis=1)] - 1.0
     else:
         gn = np.zeros(0)
     unstable_lo = np.zeros(S, bool)
@@ -490,8 +498,14 @@ def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats, st
         off = j < 0  # unstable at every grid depth below: bracket [0, grid[0]]
         lo[down] = np.where(off, 0.0, grid[np.maximum(j, 0)])
         glo[down] = np.where(off, rho0[down] - 1.0, g)
-    est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats, straddle=straddle,
-                      eig_fn=engine.spectra if straddle else None)
+    moved = np.zeros(S, bool)
+    moved[up], moved[down] = True, True
+    mu_hi[moved], tlo[moved] = np.nan, np.nan
+    tlo = np.where(np.isfinite(tlo), tlo, glo)
+    if not straddle:
+        est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats, straddle=False)
+    else:
+        est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats, eig_fn=engine.spectra, mu_hi=mu_hi, tlo=tlo)
     return est, hi, np.isfinite(hi)
 
 
