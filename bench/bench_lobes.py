@@ -14,8 +14,10 @@ Run: .venv/bin/python bench/bench_lobes.py [--quick] [--targets]
    rpm, depths to 10 mm, m = 40: wall time of the full lobe diagram (target < 10 s on one core)
    for both SDM schemes, and its ratio to one straightforward grid point of the same problem.
 3. The diagram targets in CPU seconds: the default (``RefinedSDM``, error estimate <= 1 % per
-   speed) against one level m = 40 in the same run, for a 2-mode modal model (target < 0.5 s) and
-   the TX200 steel and aluminium diagrams (target < 2 s each), 200 speeds.
+   speed, fast depth search) against the previous code's default (the same rule with
+   ``search="plain"``, its depth search) and one level m = 40 in the same run, for a 2-mode modal
+   model (target < 0.5 s) and the TX200 steel and aluminium diagrams (target < 2 s each), 200
+   speeds; for the TX200 also the candidate modal truncation <= 300 Hz (cost and error).
 
 The process is pinned to one BLAS thread (set before numpy is imported).
 """
@@ -150,29 +152,49 @@ def cpu(f, *a, **k):
 
 
 def bench_targets(quick: bool) -> None:
-    """The diagram targets in CPU seconds of this process, default (RefinedSDM, error <= 1 %) against
-    one level m = 40 (the previous default) in the same run."""
+    """The diagram targets in CPU seconds of this process: the default (RefinedSDM, error <= 1 %,
+    fast search) against the previous code's default (the same refinement with the plain search and
+    prescan at m) and one level m = 40 in the same run, and against a 300 Hz modal truncation."""
     n = 50 if quick else 200
-    print(f"3. diagram targets, CPU s of this process, {n} speeds; default = RefinedSDM (error estimate <= 1 %), "
-          "ratio to one level m = 40 (no estimate) in this run")
+    print(f"3. diagram targets, CPU s of this process, {n} speeds; default = RefinedSDM (error estimate <= 1 %, "
+          "fast search); previous = the same rule with the plain search (the previous code's default)")
     cases = [("2-mode modal (2-DOF symmetric, a/D 0.05 down)", insperger_2dof(), np.linspace(5000, 25000, n), 0.5)]
     for name in ("tx200-steel", "tx200-aluminium"):
         cases.append((f"{name} 18-DOF orthogonal, Tab. 7 pose", tx200_problem(name), np.linspace(2000, 25000, n), 2.0))
-    fe = RefinedSDM(SemiDiscretization(scheme="free-exact"))
+    previous = RefinedSDM(SemiDiscretization(search="plain"))
     for label, p, speeds, target in cases:
-        t40, r40 = cpu(solve, p, SemiDiscretization(m=40), speeds, depth_max_m=10e-3)
+        t40, r40 = cpu(solve, p, SemiDiscretization(m=40, search="plain"), speeds, depth_max_m=10e-3)
+        tp, rp = cpu(solve, p, previous, speeds, depth_max_m=10e-3)
         t, r = cpu(solve, p, RefinedSDM(), speeds, depth_max_m=10e-3)
-        tf, rf = cpu(solve, p, fe, speeds, depth_max_m=10e-3)
         nu = int((r.status == "unconverged").sum())
-        fin = np.isfinite(r.depth_limit_m) & np.isfinite(r40.depth_limit_m)
-        off = np.max(np.abs(r40.depth_limit_m[fin] / r.depth_limit_m[fin] - 1)) if fin.any() else 0.0
-        ff = np.isfinite(r.depth_limit_m) & np.isfinite(rf.depth_limit_m)
-        dfe = np.max(np.abs(rf.depth_limit_m[ff] / r.depth_limit_m[ff] - 1)) if ff.any() else 0.0
-        print(f"   {label}: default {t:.2f} s (target < {target:g} s), m = 40 {t40:.2f} s, ratio default / m40 = "
-              f"{t / t40:.2f}; levels m = {r.stats['m_levels']}, unconverged {nu} / {len(speeds)}; m = 40 is up to "
-              f"{100 * off:.1f} % off the default's limits")
-        print(f"      refined free-exact scheme: {tf:.2f} s, ratio to m40 {tf / t40:.2f}, unconverged "
-              f"{int((rf.status == 'unconverged').sum())}, largest difference to the default {100 * dfe:.2f} %")
+        print(f"   {label}: default {t:.2f} s (target < {target:g} s: {'met' if t < target else 'not met'}); "
+              f"previous {tp:.2f} s, ratio previous / default = {tp / t:.2f}; one level m = 40 {t40:.2f} s; "
+              f"levels m = {r.stats['m_levels']}, unconverged {nu} / {len(speeds)}; default vs previous limits: "
+              f"largest difference {100 * _largest_diff(r, rp):.3f} %, m = 40 off the default by up to "
+              f"{100 * _largest_diff(r, r40):.1f} %", flush=True)
+        if hasattr(p.structure, "truncated"):
+            from dataclasses import replace
+
+            red = p.structure.truncated(max_freq_hz=300.0, band_hz=(0.0, 1000.0))
+            tr, rr = cpu(solve, replace(p, structure=red), RefinedSDM(), speeds, depth_max_m=10e-3)
+            big = _n_off(r, rr, 0.01)
+            print(f"      candidate: modal truncation <= 300 Hz ({red.ss.n_states} of {p.structure.state_space().n_states} "
+                  f"states, FRF error in 0-1000 Hz {red.report.frf_rel_error:.1e} of the band maximum): {tr:.2f} s, "
+                  f"ratio default / truncated {t / tr:.2f}; its limits differ from the full model's by up to "
+                  f"{100 * _largest_diff(r, rr):.1f} % ({big[0]} of {big[1]} finite speeds above 1 %, "
+                  f"{big[2]} speeds limited in one only)", flush=True)
+
+
+def _largest_diff(a, b) -> float:
+    """Largest relative difference of two diagrams' limits, capped at the searched depth (10 mm)."""
+    x, y = np.minimum(a.depth_limit_m, 10e-3), np.minimum(b.depth_limit_m, 10e-3)
+    return float(np.max(np.abs(y / x - 1)))
+
+
+def _n_off(a, b, tol: float) -> tuple[int, int, int]:
+    fin = np.isfinite(a.depth_limit_m) & np.isfinite(b.depth_limit_m)
+    off = np.abs(b.depth_limit_m[fin] / a.depth_limit_m[fin] - 1) > tol
+    return int(off.sum()), int(fin.sum()), int((np.isfinite(a.depth_limit_m) != np.isfinite(b.depth_limit_m)).sum())
 
 
 def main(argv=None) -> int:

@@ -39,8 +39,9 @@ def main(argv=None) -> int:
     ap.add_argument("--reduce-hz", type=float, default=300.0, help="modal truncation (0: none)")
     ap.add_argument("--cpu-poses", type=int, default=6, help="poses of the CPU-time check (0: skip)")
     ap.add_argument("--case", default="tx200-aluminium", help="tx200-aluminium (default) or tx200-steel")
-    ap.add_argument("--cpu-only", action="store_true", help="only item 4 (CPU per reachable pose), with and "
-                    "without refinement, and the ratio between them")
+    ap.add_argument("--cpu-only", action="store_true", help="only item 4 (CPU per reachable pose): the default "
+                    "(refined, fast search) against the previous code's methods (one level m = 40, and refined, "
+                    "with the plain search) in the same process, and the ratios")
     args = ap.parse_args(argv)
 
     from robolobes import cases, linearize
@@ -56,10 +57,13 @@ def main(argv=None) -> int:
               "depths to 10 mm, 18-DOF orthogonal, truncation <= 300 Hz")
         base = MapMethod(reduce_max_freq_hz=args.reduce_hz or None)
         from dataclasses import replace as _replace
-        c_one = _cpu_check(pr, base, None, args.cpu_poses, "one level m = 40 (no estimate)")
-        c_ref = _cpu_check(pr, _replace(base, tol=0.01), None, args.cpu_poses,
-                           "refined from m = 40, error estimate <= 1 %")
-        print(f"   ratio refined / one level = {c_ref / c_one:.2f}")
+        c_new = _cpu_check(pr, base, None, args.cpu_poses, "default: refined, error estimate <= 1 %, fast search")
+        c_one = _cpu_check(pr, _replace(base, tol=None, search="plain"), None, args.cpu_poses,
+                           "previous default: one level m = 40 (no estimate), plain search")
+        c_ref = _cpu_check(pr, _replace(base, search="plain"), None, args.cpu_poses,
+                           "previous code refined (tol 0.01), plain search")
+        print(f"   ratios: default / previous one level = {c_new / c_one:.2f}, default / previous refined = "
+              f"{c_new / c_ref:.2f}")
         return 0
     robot = linearize.build_model(case.robot, "orthogonal")
     lin = linearize.linearize(robot, case.path.start_q_rad)

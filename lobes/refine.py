@@ -44,14 +44,17 @@ class RefinedSDM:
         at m = 20 was measured and rejected: on the benchmark of ``tests/test_lobes_accuracy.py``
         the pair 20/40 is not yet in the asymptotic regime at low immersion and in the slot (its
         values were up to 1.5 % off at the reference speeds while their estimates said less); from
-        40/80 on, the values were within 0.37 % there (``docs/guide/lobes-accuracy.md``).
+        40/80 on, the values were within 0.37 % there (``docs/guide/lobes-accuracy.md``). The
+        default prescan (robots only: 12 states or more) has 20 steps per period: it only brackets
+        the limits, which the SDM verifies (CPU 15.9 -> 13.2 s on the TX200 steel diagram of
+        ``bench/bench_lobes.py``, limits unchanged to the search's ``rtol``).
     tol : float
         Target relative error estimate of the critical depth, in (0, 0.5); default 0.01 (1 %).
     m_max : int
         Finest level (steps per principal period); a speed not converged there is "unconverged".
     """
 
-    base: SemiDiscretization = SemiDiscretization()
+    base: SemiDiscretization = SemiDiscretization(prescan_m=20)
     tol: float = 0.01
     m_max: int = 320
 

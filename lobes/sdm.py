@@ -45,6 +45,7 @@ __all__ = ["SemiDiscretization", "Bifurcation", "Scheme", "classify_multiplier"]
 
 Bifurcation = Literal["hopf", "flip", "fold", "none"]
 Scheme = Literal["sdm", "free-exact"]
+Search = Literal["fast", "plain"]
 
 
 @dataclass(frozen=True)
@@ -96,6 +97,13 @@ class SemiDiscretization:
         Steps per principal period of that prescan (None: ``m``). A coarser prescan is cheaper
         (smaller monodromy); its brackets are still verified by the SDM at ``m``, so the limits
         stay the SDM's (a failed bracket is repaired by the SDM).
+    search : {"fast", "plain"}
+        Depth search of :func:`lobes.solve`. "fast" (default): regula falsi points closed by a
+        straddling pair (``lobes.solver._refine``) and, in a refinement, each finer level started
+        from a verified bracket of +-4 % around the coarser level's limit. "plain": the earlier
+        search (Illinois until the bracket is ``rtol`` wide; finer levels from the coarse depth
+        grid's bracket), kept as the reference of ``bench/bench_lobes.py``. Both return a limit
+        bracketed by SDM evaluations of both signs to ``rtol``, so they agree to ``rtol``.
     """
 
     m: int = 40
@@ -108,6 +116,7 @@ class SemiDiscretization:
     richardson: bool = False
     prescan: bool | None = None
     prescan_m: int | None = None
+    search: Search = "fast"
 
     def __post_init__(self) -> None:
         integer("SemiDiscretization m (steps per principal period)", self.m, minimum=2, error=LobeError)
@@ -123,6 +132,8 @@ class SemiDiscretization:
             raise LobeError(f"period must be 'auto' or 'revolution', got {self.period!r}")
         if self.scheme not in ("sdm", "free-exact"):
             raise LobeError(f"scheme must be 'sdm' or 'free-exact', got {self.scheme!r}")
+        if self.search not in ("fast", "plain"):
+            raise LobeError(f"search must be 'fast' or 'plain', got {self.search!r}")
         if self.rule not in ("gauss", "midpoint"):
             raise LobeError(f"rule must be 'gauss' or 'midpoint', got {self.rule!r}")
 
@@ -341,10 +352,13 @@ class SDMEngine:
             return U, recs
         return U
 
+    def spectra(self, rpm, depth_m) -> np.ndarray:
+        """All Floquet multipliers (B, N) complex of the reduced monodromy at paired speeds/depths (B,)."""
+        return np.linalg.eigvals(self.monodromy(rpm, depth_m))
+
     def multipliers(self, rpm, depth_m):
         """Spectral radius (B,) and critical multiplier (B,) complex."""
-        U = self.monodromy(rpm, depth_m)
-        ev = np.linalg.eigvals(U)
+        ev = self.spectra(rpm, depth_m)
         j = np.argmax(np.abs(ev), axis=1)
         mu = ev[np.arange(len(ev)), j]
         return np.abs(mu), mu

@@ -201,40 +201,108 @@ def _coarse(rho_fn, rpm: np.ndarray, rho0: np.ndarray, grid: np.ndarray, stats: 
     return lo, glo, hi, ghi
 
 
-def _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol: float, stats: dict, max_iter: int = 100):
+def _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol: float, stats: dict, max_iter: int = 100,
+            straddle: bool = True, eig_fn=None, mu_hi=None, tlo=None):
     """Illinois regula falsi on ``rho - 1`` inside the brackets (bisection every 4th step), until
-    ``hi - lo <= rtol * hi``. Returns the root estimate (inf where there is no bracket) and ``hi``."""
+    ``hi - lo <= rtol * hi``. Returns the root estimate (inf where there is no bracket) and ``hi``.
+
+    ``rho_fn(rpm, depth) -> rho`` (B,) is the spectral radius. With ``eig_fn(rpm, depth) -> ev``
+    (B, N) complex (all multipliers; used instead of ``rho_fn``) the interpolation follows the
+    multiplier that is critical at the unstable end (the one nearest it in the complex plane) at the
+    stable end too: below the limit the spectral radius is often a structural multiplier nearly
+    constant in depth (``rho - 1`` has a kink at the limit, and regula falsi crawls), while the
+    critical one's modulus is smooth through the limit. The bracket itself is always decided by the
+    spectral radius.
+
+    With ``straddle``, from the second step on each regula falsi point ``x`` is replaced by the pair
+    ``x (1 -+ 0.45 rtol)`` evaluated in one batch: once the interpolation is within ``0.45 rtol`` of
+    the root the pair brackets it and the search ends with a bracket of ``0.9 rtol``. Where the pair
+    does not straddle, its nearer point is the step. ``mu_hi`` (S,) complex: the critical multiplier
+    at ``hi`` when known, ``tlo`` (S,) the followed multiplier's ``|mu| - 1`` at ``lo``.
+    """
     lo, glo, hi, ghi = (np.array(x, dtype=float) for x in (lo, glo, hi, ghi))
     S = len(rpm)
     found = np.isfinite(hi)
     side = np.zeros(S, int)
+    # the followed multiplier's |mu| - 1 at lo, and the critical multiplier at hi (NaN: unknown)
+    tlo = glo.copy() if tlo is None else np.minimum(np.array(tlo, dtype=float), glo)
+    mu_ref = np.full(S, np.nan, complex) if mu_hi is None else np.array(mu_hi, dtype=complex)
     it = 0
     while True:
         idx = np.flatnonzero(found & (hi - lo > rtol * hi))
         if len(idx) == 0 or it >= max_iter:
             break
         it += 1
-        a, b, ga, gb = lo[idx], hi[idx], glo[idx], ghi[idx]
+        a, b, ga, gb = lo[idx], hi[idx], tlo[idx], ghi[idx]
         with np.errstate(divide="ignore", invalid="ignore"):
             x = (a * gb - b * ga) / (gb - ga)
         bad = ~np.isfinite(x) | (x <= a) | (x >= b) | (it % 4 == 0)
         x = np.where(bad, 0.5 * (a + b), x)
-        g = rho_fn(rpm[idx], x) - 1.0
-        stats["evaluations"] += len(idx)
+        pair = np.zeros(len(idx), bool)
+        if straddle and it >= 2:
+            c = 0.45 * rtol
+            pair = ~bad & (x * (1 - c) > a) & (x * (1 + c) < b)
+        x1 = np.where(pair, x * (1 - 0.45 * rtol), x)
+        x2 = x[pair] * (1 + 0.45 * rtol)
+        need_ref = np.zeros(len(idx), bool) if eig_fn is None else ~np.isfinite(mu_ref[idx])
+        xr = b[need_ref]
+        rr = np.concatenate([rpm[idx], rpm[idx[pair]], rpm[idx[need_ref]]])
+        xx = np.concatenate([x1, x2, xr])
+        n1, n2 = len(idx), len(idx) + len(x2)
+        if eig_fn is None:
+            rad = rho_fn(rr, xx)
+            trk = rad
+        else:
+            ev = eig_fn(rr, xx)
+            aev = np.abs(ev)
+            k = np.arange(len(ev))
+            rad = aev.max(axis=1)
+            dom = ev[k, np.argmax(aev, axis=1)]
+            ref = mu_ref[idx].copy()
+            ref[need_ref] = dom[n2:]
+            refs = np.concatenate([ref, ref[pair], ref[need_ref]])
+            trk = aev[k, np.argmin(np.abs(ev - refs[:, None]), axis=1)]
+        gg = rad - 1.0
+        tt = np.minimum(trk - 1.0, gg)
+        stats["evaluations"] += len(gg)
         stats["rounds"] += 1
+        if eig_fn is not None:
+            mu_ref[idx[need_ref]] = dom[n2:]
+        g, g2, t, t2 = gg[:n1], gg[n1:n2], tt[:n1], tt[n1:n2]
+        # a pair whose lower point is stable steps to its upper point (straddling or not)
+        up = np.zeros(len(idx), bool)
+        up[pair] = g[pair] < 0
+        gl, tl = g.copy(), t.copy()              # the lower point's values (a straddling pair)
+        xs = x1.copy()
+        ip = np.flatnonzero(pair)
+        xs[ip] = np.where(up[ip], x2, x1[ip])
+        g, t = g.copy(), t.copy()
+        g[ip] = np.where(up[ip], g2, g[ip])
+        t[ip] = np.where(up[ip], t2, t[ip])
         un = g >= 0
-        lo_i, glo_i, hi_i, ghi_i, side_i = lo[idx], glo[idx], hi[idx], ghi[idx], side[idx]
+        lo_i, glo_i, tlo_i, hi_i, ghi_i, side_i = lo[idx], glo[idx], tlo[idx], hi[idx], ghi[idx], side[idx]
         # Illinois: an end kept twice in a row has its function value halved
-        glo_i = np.where(un & (side_i == 1), glo_i / 2, glo_i)
+        tlo_i = np.where(un & (side_i == 1), tlo_i / 2, tlo_i)
         ghi_i = np.where(~un & (side_i == -1), ghi_i / 2, ghi_i)
-        hi_i = np.where(un, x, hi_i)
+        hi_i = np.where(un, xs, hi_i)
         ghi_i = np.where(un, g, ghi_i)
-        lo_i = np.where(un, lo_i, x)
+        lo_i = np.where(un, lo_i, xs)
         glo_i = np.where(un, glo_i, g)
-        side_i = np.where(un, 1, -1)
-        lo[idx], glo[idx], hi[idx], ghi[idx], side[idx] = lo_i, glo_i, hi_i, ghi_i, side_i
+        tlo_i = np.where(un, tlo_i, t)
+        # a straddling pair: its lower point is the new stable end
+        strad = up & un
+        lo_i = np.where(strad, x1, lo_i)
+        glo_i = np.where(strad, gl, glo_i)
+        tlo_i = np.where(strad, tl, tlo_i)
+        side_i = np.where(strad, 0, np.where(un, 1, -1))
+        if eig_fn is not None:
+            mu_i = mu_ref[idx]
+            d1 = dom[:n1].copy()
+            d1[ip] = np.where(up[ip], dom[n1:n2], dom[:n1][ip])
+            mu_ref[idx] = np.where(un, d1, mu_i)
+        lo[idx], glo[idx], tlo[idx], hi[idx], ghi[idx], side[idx] = lo_i, glo_i, tlo_i, hi_i, ghi_i, side_i
     with np.errstate(divide="ignore", invalid="ignore"):
-        est = np.where(found, (lo * ghi - hi * glo) / (ghi - glo), np.inf)
+        est = np.where(found, (lo * ghi - hi * tlo) / (ghi - tlo), np.inf)
     est = np.where(found & ~(np.isfinite(est) & (est >= lo) & (est <= hi)), 0.5 * (lo + hi), est)
     rel = np.where(found, (hi - lo) / np.where(found, hi, 1.0), 0.0)
     stats["max_bracket_rel"] = max(stats.get("max_bracket_rel", 0.0), float(rel.max()) if S else 0.0)
@@ -246,7 +314,7 @@ def _grid(depth_max: float, n_coarse: int) -> np.ndarray:
 
 
 def _search(rho_fn, rpm: np.ndarray, rho0: np.ndarray, depth_max: float, n_coarse: int, rtol: float,
-            stats: dict, max_iter: int = 100):
+            stats: dict, max_iter: int = 100, straddle: bool = True, eig_fn=None):
     """Smallest depth with spectral radius >= 1 at each speed.
 
     Bracketing: the depth is scanned on ``depth_max (j / n_coarse)^2``, j = 1..n_coarse (dense at
@@ -258,7 +326,7 @@ def _search(rho_fn, rpm: np.ndarray, rho0: np.ndarray, depth_max: float, n_coars
     Returns ``est, hi, found``.
     """
     lo, glo, hi, ghi = _coarse(rho_fn, rpm, rho0, _grid(depth_max, n_coarse), stats)
-    est, hi = _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol, stats, max_iter)
+    est, hi = _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol, stats, max_iter, straddle, eig_fn)
     return est, hi, np.isfinite(hi)
 
 
@@ -289,7 +357,8 @@ def _walk(rho_fn, rpm: np.ndarray, grid: np.ndarray, j0: np.ndarray, step: int, 
     return j, g, gprev
 
 
-def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, n_coarse, rtol, stats):
+def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, n_coarse, rtol, stats,
+                       straddle: bool = True):
     """SDM search whose coarse scan is made with the cheap exact-free-decay scheme, then VERIFIED.
 
     The two schemes discretize the same equation to O(dt^2), so their brackets agree except where
@@ -301,7 +370,56 @@ def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, 
     pst = {"evaluations": 0, "rounds": 0}
     lo, _, hi, _ = _coarse(lambda s, d: pre.multipliers(s, d)[0], rpm, rho0, grid, pst)
     stats["prescan_evaluations"] = stats.get("prescan_evaluations", 0) + pst["evaluations"]
-    return _verified_search(engine, rpm, rho0, lo, hi, grid, rtol, stats)
+    return _verified_search(engine, rpm, rho0, lo, hi, grid, rtol, stats, straddle)
+
+
+#: Half-width of the warm-start bracket of a finer level around the coarser level's limit,
+#: relative. A converged pair has ``|b_2m - b_m| <= 3 tol b`` (estimate ``|b_2m - b_m| / 3 <= tol``),
+#: 3 % at the default 1 %; 4 % covers that with margin. Where the finer level's sign change is not
+#: inside (another lobe, a larger shift), the grid bracket is verified instead (same answer, more
+#: evaluations).
+_WARM_HALF_WIDTH = 0.04
+
+
+def _warm_search(engine: SDMEngine, rpm, rho0, start, grid, rtol, stats):
+    """Critical depths at a finer level from a coarser level's limits ``start`` (S,), m.
+
+    The bracket ``start (1 -+ 0.04)`` is checked with ``engine`` (stable at its lower end, unstable
+    at its upper end, one batch) and refined (:func:`_refine`); where the check fails, or ``start``
+    is inf or too close to ``depth_max``, the coarser grid bracket is verified and refined as
+    without the warm start (:func:`_verified_search`). Returns ``est, hi, found`` as :func:`_search`.
+    """
+    start = np.asarray(start, dtype=float)
+    S = len(rpm)
+    w = _WARM_HALF_WIDTH
+    try_ = np.flatnonzero(np.isfinite(start) & (start * (1 + w) < grid[-1]))
+    ok = np.zeros(S, bool)
+    est, hi, found = np.full(S, np.inf), np.full(S, np.nan), np.zeros(S, bool)
+    if len(try_):
+        a, b = start[try_] * (1 - w), start[try_] * (1 + w)
+        n = len(try_)
+        ev = engine.spectra(np.concatenate([rpm[try_], rpm[try_]]), np.concatenate([a, b]))
+        stats["evaluations"] += 2 * n
+        stats["rounds"] += 1
+        aev = np.abs(ev)
+        g = aev.max(axis=1) - 1.0
+        ga, gb = g[:n], g[n:]
+        mu_b = ev[n:][np.arange(n), np.argmax(aev[n:], axis=1)]
+        ta = aev[:n][np.arange(n), np.argmin(np.abs(ev[:n] - mu_b[:, None]), axis=1)] - 1.0
+        good = (ga < 0) & (gb >= 0)
+        j = try_[good]
+        ok[j] = True
+        if len(j):
+            e, h = _refine(lambda s, d: engine.multipliers(s, d)[0], rpm[j], a[good], ga[good], b[good], gb[good],
+                           rtol, stats, eig_fn=engine.spectra, mu_hi=mu_b[good], tlo=ta[good])
+            est[j], hi[j], found[j] = e, h, True
+        stats["warm_rejected"] = stats.get("warm_rejected", 0) + int((~good).sum())
+    rest = np.flatnonzero(~ok)
+    if len(rest):
+        lo_g, hi_g = _grid_bracket(grid, start[rest])
+        e, h, f = _verified_search(engine, rpm[rest], rho0[rest], lo_g, hi_g, grid, rtol, stats)
+        est[rest], hi[rest], found[rest] = e, h, f
+    return est, hi, found
 
 
 def _grid_bracket(grid: np.ndarray, est: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -316,7 +434,7 @@ def _grid_bracket(grid: np.ndarray, est: np.ndarray) -> tuple[np.ndarray, np.nda
     return lo, hi
 
 
-def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats):
+def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats, straddle: bool = True):
     """Refine brackets ``[lo, hi]`` on ``grid`` (from a cheaper scheme or a coarser level), VERIFIED.
 
     Each bracket is checked with ``engine`` in one batch: stable at ``lo`` (or ``lo = 0``),
@@ -337,13 +455,21 @@ def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats):
     jl = jh[lo[jh] > 0]
     jn = np.flatnonzero(~found)
     idx = np.concatenate([jh, jl, jn])
+    mu_hi = np.full(S, np.nan, complex)    # critical multiplier at hi, for _refine to follow
+    tlo = np.full(S, np.nan)
     if len(idx):
-        g = sdm(rpm[idx], np.concatenate([hi[jh], lo[jl], np.full(len(jn), depth_max)])) - 1.0
+        ev = engine.spectra(rpm[idx], np.concatenate([hi[jh], lo[jl], np.full(len(jn), depth_max)]))
+        aev = np.abs(ev)
+        g = aev.max(axis=1) - 1.0
         stats["evaluations"] += len(idx)
         stats["rounds"] += 1
-        ghi[jh] = g[:len(jh)]
-        glo[jl] = g[len(jh):len(jh) + len(jl)]
-        gn = g[len(jh) + len(jl):]
+        nh, nl = len(jh), len(jl)
+        ghi[jh] = g[:nh]
+        glo[jl] = g[nh:nh + nl]
+        gn = g[nh + nl:]
+        mu_hi[jh] = ev[:nh][np.arange(nh), np.argmax(aev[:nh], axis=1)]
+        ref = mu_hi[jl]
+        tlo[jl] = aev[nh:nh + nl][np.arange(nl), np.argmin(np.abs(ev[nh:nh + nl] - ref[:, None]), axis=1)] - 1.0
     else:
         gn = np.zeros(0)
     unstable_lo = np.zeros(S, bool)
@@ -373,7 +499,14 @@ def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats):
         off = j < 0  # unstable at every grid depth below: bracket [0, grid[0]]
         lo[down] = np.where(off, 0.0, grid[np.maximum(j, 0)])
         glo[down] = np.where(off, rho0[down] - 1.0, g)
-    est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats)
+    moved = np.zeros(S, bool)
+    moved[up], moved[down] = True, True
+    mu_hi[moved], tlo[moved] = np.nan, np.nan
+    tlo = np.where(np.isfinite(tlo), tlo, glo)
+    if not straddle:
+        est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats, straddle=False)
+    else:
+        est, hi = _refine(sdm, rpm, lo, glo, hi, ghi, rtol, stats, eig_fn=engine.spectra, mu_hi=mu_hi, tlo=tlo)
     return est, hi, np.isfinite(hi)
 
 
@@ -391,6 +524,7 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     freq = np.full(S, np.nan)
     bif = np.full(S, "none", dtype="<U4")
     lam = engine.ss.poles
+    fast = engine.method.search == "fast"
     pre = None
     use_pre = engine.method.prescan if engine.method.prescan is not None else engine.ns >= 12
     if engine.method.scheme == "sdm" and use_pre and start is None:
@@ -400,15 +534,18 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
         r = rpm[c0:c0 + chunk]
         T = engine.period_s(r)
         rho0 = np.max(np.abs(np.exp(np.outer(T, lam))), axis=1)
-        if start is not None:
+        if start is not None and fast:
+            est, hi, found = _warm_search(engine, r, rho0, start[c0:c0 + chunk], _grid(depth_max, n_coarse), rtol,
+                                          stats)
+        elif start is not None:
             grid = _grid(depth_max, n_coarse)
             lo, hi = _grid_bracket(grid, start[c0:c0 + chunk])
-            est, hi, found = _verified_search(engine, r, rho0, lo, hi, grid, rtol, stats)
+            est, hi, found = _verified_search(engine, r, rho0, lo, hi, grid, rtol, stats, straddle=False)
         elif pre is not None:
-            est, hi, found = _prescanned_search(engine, pre, r, rho0, depth_max, n_coarse, rtol, stats)
+            est, hi, found = _prescanned_search(engine, pre, r, rho0, depth_max, n_coarse, rtol, stats, fast)
         else:
             est, hi, found = _search(lambda s, d: engine.multipliers(s, d)[0], r, rho0, depth_max, n_coarse,
-                                     rtol, stats)
+                                     rtol, stats, straddle=fast, eig_fn=engine.spectra if fast else None)
         depth[c0:c0 + chunk] = est
         if found.any():
             j = np.flatnonzero(found)
@@ -680,7 +817,9 @@ def _sdm_level(problem: LobeProblem, method: SemiDiscretization, m: int, dmax: f
     st = {"evaluations": 0, "rounds": 0}
     r = np.array([float(problem.cut.spindle_rpm)])
     rho0 = np.max(np.abs(np.exp(np.outer(eng.period_s(r), eng.ss.poles))), axis=1)
-    est, hi, found = _search(lambda s, d: eng.multipliers(s, d)[0], r, rho0, dmax, coarse_points, rtol, st)
+    fast = method.search == "fast"
+    est, hi, found = _search(lambda s, d: eng.multipliers(s, d)[0], r, rho0, dmax, coarse_points, rtol, st,
+                             straddle=fast, eig_fn=eng.spectra if fast else None)
     rho, mu, fr = eng.critical(r, np.array([float(problem.cut.ap_m)]))
     lvl = {"m": m, "period_s": float(eng.period_s(r)[0]), "depth_limit_m": float(est[0]), "spectral_radius": float(rho[0]),
            "critical_multiplier": complex(mu[0]), "chatter_freq_hz": float(fr[0]),

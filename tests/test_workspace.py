@@ -113,7 +113,7 @@ def _small(case, n=4, speeds=(2500.0, 3100.0, 4000.0, 6000.0), **kw):
     return MapProblem.make(case, "basic", "placement", n=n, speeds_rpm=np.array(speeds), **kw)
 
 
-FAST = MapMethod(m=20, reduce_max_freq_hz=None, prescan_m=None, chunk_poses=1)
+FAST = MapMethod(m=20, reduce_max_freq_hz=None, prescan_m=None, chunk_poses=1, tol=None)  # one level: cheap
 
 
 def _arrays(ds):

@@ -12,7 +12,7 @@ from robolobes.cases import load_case
 from robolobes.core.errors import BadInput
 from robolobes.workspace import MapMethod, MapProblem, solve_map
 
-FAST = MapMethod(m=20, reduce_max_freq_hz=None, prescan_m=None, chunk_poses=1)
+FAST = MapMethod(m=20, reduce_max_freq_hz=None, prescan_m=None, chunk_poses=1, tol=None)  # one level: cheap
 
 
 @pytest.fixture(scope="module")

@@ -94,7 +94,8 @@ class ChunkResult:
     ``depth_limit_m, chatter_freq_hz`` (P, S); ``bifurcation`` (P, S) int8 codes of
     :data:`BIFURCATIONS`; ``op_depth_limit_m, op_chatter_freq_hz`` (P,) at the operating speed;
     ``op_bifurcation`` (P,) int8; ``deflection_m`` (P, 3) cut frame; ``static_error, frf_error``
-    (P,) of the truncation; ``n_kept_modes`` (P,) int16.
+    (P,) of the truncation; ``n_kept_modes`` (P,) int16; ``depth_error_m`` (P, S) m and
+    ``unconverged`` (P, S) int8 (1 unconverged, 0 converged, -1 no estimate) of the limits.
     """
 
     start: int
@@ -108,6 +109,8 @@ class ChunkResult:
     static_error: np.ndarray
     frf_error: np.ndarray
     n_kept_modes: np.ndarray
+    depth_error_m: np.ndarray
+    unconverged: np.ndarray
 
 
 def _bif_codes(b: np.ndarray) -> np.ndarray:
@@ -128,11 +131,12 @@ def compute_chunk(problem: MapProblem, method: MapMethod, start: int, theta: np.
                    bifurcation=np.full((P, S), -1, np.int8), op_depth_limit_m=np.full(P, np.nan),
                    op_chatter_freq_hz=np.full(P, np.nan), op_bifurcation=np.full(P, -1, np.int8),
                    deflection_m=np.full((P, 3), np.nan), static_error=np.full(P, np.nan),
-                   frf_error=np.full(P, np.nan), n_kept_modes=np.full(P, -1, np.int16))
+                   frf_error=np.full(P, np.nan), n_kept_modes=np.full(P, -1, np.int16),
+                   depth_error_m=np.full((P, S), np.nan), unconverged=np.full((P, S), -1, np.int8))
         case = problem.case
         robot = build_robot(problem)
         speeds = np.append(problem.speeds_rpm, problem.op_rpm)
-        sdm = SemiDiscretization(m=method.m, prescan_m=method.prescan_m)
+        sdm = SemiDiscretization(m=method.m, prescan_m=method.prescan_m, search=method.search)
         if method.tol is not None:
             sdm = RefinedSDM(sdm, tol=method.tol, m_max=max(320, 2 * method.m))
         f_mean = mean_force_cut_frame(case.tool, case.cut, case.law)
@@ -150,6 +154,10 @@ def compute_chunk(problem: MapProblem, method: MapMethod, start: int, theta: np.
             out["op_depth_limit_m"][i] = res.depth_limit_m[S]
             out["op_chatter_freq_hz"][i] = res.chatter_freq_hz[S]
             out["op_bifurcation"][i] = _bif_codes(res.bifurcation[S:])[0]
+            out["depth_error_m"][i] = res.depth_error_m[:S]
+            assert res.status is not None
+            st = res.status[:S]
+            out["unconverged"][i] = np.where(st == "unconverged", 1, np.where(st == "converged", 0, -1))
             out["deflection_m"][i] = static_deflection(lin.compliance("cut", feed[i]), f_mean)
             if report is not None:
                 out["static_error"][i] = report.static_compliance_rel_error

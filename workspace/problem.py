@@ -21,6 +21,7 @@ import numpy as np
 from robolobes.cases.spec import MillingCase
 from robolobes.core.errors import BadInput
 from robolobes.lobes import ComplexMode, Mode
+from robolobes.lobes.sdm import Search
 
 __all__ = ["MapProblem", "MapMethod", "AXES", "OVER", "MAX_POSES", "MAX_SPEEDS", "LEAD_REASON"]
 
@@ -224,9 +225,13 @@ class MapMethod:
     chunk_poses : int
         Poses per chunk (unit of work, of storage and of resume).
     tol : float or None
-        None (default): one SDM level ``m`` per pose, no error estimate. A number in (0, 0.5): the
-        limits are refined per speed from ``m`` until their error estimate is below ``tol``
-        (``lobes.RefinedSDM``, the rule of ``robolobes lobes``), up to m = 320.
+        Default 0.01: the limits are refined per speed from ``m`` until their error estimate is
+        below ``tol`` (``lobes.RefinedSDM``, the rule of ``robolobes lobes``), up to m = 320; the
+        estimate and the status of every limit are stored (``depth_error_m``, ``unconverged``).
+        None: one SDM level ``m`` per pose, no error estimate (NaN in the store).
+    search : {"fast", "plain"}
+        Depth search (``lobes.SemiDiscretization.search``); "plain" is the earlier one, for
+        ``bench/bench_workspace.py``.
     """
 
     m: int = 40
@@ -236,7 +241,8 @@ class MapMethod:
     error_band_hz: tuple = (0.0, 1000.0)
     prescan_m: int | None = 12
     chunk_poses: int = 10
-    tol: float | None = None
+    tol: float | None = 0.01
+    search: Search = "fast"
 
     def __post_init__(self) -> None:
         if isinstance(self.m, bool) or not isinstance(self.m, int) or self.m < 2:
@@ -256,12 +262,15 @@ class MapMethod:
         if self.tol is not None and (isinstance(self.tol, bool) or not isinstance(self.tol, (int, float))
                                      or not 0 < self.tol < 0.5):
             raise BadInput(f"tol must be None or a relative error target in (0, 0.5), got {self.tol!r}")
+        if self.search not in ("fast", "plain"):
+            raise BadInput(f"search must be 'fast' or 'plain', got {self.search!r}")
 
     def describe(self) -> dict:
         return {"m": self.m, "depth_max_m": self.depth_max_m, "rtol": self.rtol,
                 "reduce_max_freq_hz": self.reduce_max_freq_hz, "error_band_hz": list(self.error_band_hz),
                 "prescan_m": self.prescan_m,
-                "chunk_poses": self.chunk_poses, **({} if self.tol is None else {"tol": self.tol})}
+                "chunk_poses": self.chunk_poses, **({} if self.tol is None else {"tol": self.tol}),
+                "search": self.search}
 
 
 def series_modes(problem: MapProblem) -> tuple:

@@ -96,6 +96,11 @@ class MapResult:
             op = np.asarray(ds["op_depth_limit_m"].values)
             out["op_min_depth_limit_m"] = float(np.nanmin(np.where(reach, op, np.nan)))
             out["op_max_depth_limit_m"] = float(np.nanmax(np.where(reach, op, np.nan)))
+            err = np.asarray(ds["depth_error_m"].values)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rel = np.where(np.isfinite(depth) & np.isfinite(err) & reach[:, None], err / depth, np.nan)
+            out["max_depth_error_rel"] = float(np.nanmax(rel)) if np.isfinite(rel).any() else None
+            out["n_unconverged"] = int((np.asarray(ds["unconverged"].values) == 1).sum())
             for k in ("truncation_static_error", "truncation_frf_error"):
                 v = np.asarray(ds[k].values)
                 out[f"max_{k}"] = float(np.nanmax(v)) if np.isfinite(v).any() else None

@@ -10,7 +10,8 @@ Layout (xarray ``Dataset``, dims ``pose``, ``rpm``, ``axis`` = x_c, y_c, z_c, ``
 * results, region-written per chunk: ``depth_limit_m`` and ``chatter_freq_hz`` (pose, rpm),
   ``bifurcation`` (int8 codes, ``attrs['flag_meanings']``), ``op_depth_limit_m``,
   ``op_chatter_freq_hz``, ``op_bifurcation`` at the operating speed, ``deflection_m`` (pose, axis;
-  cut frame), ``truncation_static_error``, ``truncation_frf_error``, ``n_kept_modes``;
+  cut frame), ``truncation_static_error``, ``truncation_frf_error``, ``n_kept_modes``,
+  ``depth_error_m`` and ``unconverged`` (pose, rpm: the limits' error estimate and status);
 * ``done`` (pose, bool): True once the pose's chunk is written.
 
 Integrity: every chunk of every array is written, also one that holds only fill values (zarr's
@@ -59,6 +60,10 @@ RESULT_VARS = {
     "truncation_static_error": (("pose",), "f8", np.nan, "1", "modal truncation: relative static compliance error"),
     "truncation_frf_error": (("pose",), "f8", np.nan, "1", "modal truncation: relative FRF error in the band"),
     "n_kept_modes": (("pose",), "i2", -1, "1", "modes kept by the truncation"),
+    "depth_error_m": (("pose", "rpm"), "f8", np.nan, "m",
+                      "error estimate of depth_limit_m (lobes.refine; NaN: one level, no estimate)"),
+    "unconverged": (("pose", "rpm"), "i1", -1, "1",
+                    "1: the limit did not reach the error target by m_max, 0: it did, -1: no estimate"),
 }
 _FIELD = {"truncation_static_error": "static_error", "truncation_frf_error": "frf_error"}
 
@@ -70,8 +75,9 @@ def _xr():
 
 
 def _inputs_hash(problem, method) -> dict:
-    # layout 2: every chunk written and checksummed (a layout-1 store cannot be verified)
-    return provenance({"problem": problem.describe(), "method": method.describe(), "layout": 2})
+    # layout 2: every chunk written and checksummed (a layout-1 store cannot be verified);
+    # layout 3: with the limits' error estimate and status (depth_error_m, unconverged)
+    return provenance({"problem": problem.describe(), "method": method.describe(), "layout": 3})
 
 
 def _codecs() -> dict:
