@@ -4,6 +4,7 @@ subcommand: a command line that parses but would be refused by the run is refuse
 (argparse accepts it) and is refused only by the run's own checks: a range, an input file that
 does not parse, an output that may not be written, a bound on run time."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -80,7 +81,8 @@ def test_a_documented_line_the_run_would_refuse_fails_the_docs_test(tmp_path):
                    "    t('docs/x.md', 1, ['frf', '--n', '1', '--out', 'h.csv'], tmp_path, monkeypatch, capsys)\n")
     res = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(doc)],
                          cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                         env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "tests")})
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(
+                             [str(ROOT / "tests"), *filter(None, [os.environ.get("PYTHONPATH")])])})
     assert res.returncode == 1 and "docs/x.md:1" in res.stdout and "--n must be between" in res.stdout, res.stdout
 
 
