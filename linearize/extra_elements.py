@@ -66,7 +66,7 @@ from robolobes.core.validate import finite
 
 from .base_elements import VirtualJoints, diagonal_force, diagonal_tangent, virtual_dofs
 from .element import Element, ModelBuilder
-from .tool import TcpOscillator
+from .tool import TcpOscillator, mount_at_tcp
 
 __all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
            "ELEMENT_TYPES", "element_from_spec", "element_table"]
@@ -100,6 +100,9 @@ class _Diagonal:
 @dataclass(frozen=True)
 class TcpMode(Element):
     """A tool-holder / spindle mode at the TCP: a mass on a spring and damper along ``direction``.
+
+    The one-axis case of the tool's realization (:func:`linearize.tool.mount_at_tcp`, shared with
+    :class:`linearize.tool.TcpOscillator`), along any direction, the tool axis included.
 
     A body of mass ``m = k / (2 pi f)^2`` rides on a prismatic joint at the TCP along ``direction``
     (unit vector, TCP frame: z is the tool axis), held by a spring ``k`` and a damper
@@ -143,14 +146,8 @@ class TcpMode(Element):
         return 2 * self.damping_ratio * math.sqrt(self.stiffness_n_per_m * self.mass_kg)
 
     def finish(self, b: ModelBuilder) -> str:
-        parent = b.tail if b.tcp_parent is None else b.tcp_parent
-        placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
         name = f"tcp_mode_{b.model.njoints}"
-        b.model.appendBodyToJoint(parent, pin.Inertia(-self.mass_kg, placement.translation, np.zeros((3, 3))),
-                                  pin.SE3.Identity())
-        jid = b.model.addJoint(parent, pin.JointModelPrismaticUnaligned(np.asarray(self.direction)), placement, name)
-        b.model.appendBodyToJoint(jid, pin.Inertia(self.mass_kg, np.zeros(3), np.zeros((3, 3))), pin.SE3.Identity())
-        b.tcp_parent, b.tcp_placement = jid, pin.SE3.Identity()
+        mount_at_tcp(b, self.mass_kg, [self.direction], [name])
         return name
 
     def bind(self, robot, built=None):

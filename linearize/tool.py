@@ -48,7 +48,7 @@ from robolobes.core.validate import finite
 from .base_elements import diagonal_force, diagonal_tangent
 from .element import Element, ModelBuilder
 
-__all__ = ["TcpOscillator", "oscillator_receptance", "chain_matrices", "chain_receptance", "with_tool"]
+__all__ = ["TcpOscillator", "oscillator_receptance", "chain_matrices", "chain_receptance", "with_tool", "mount_at_tcp"]
 
 
 def _number(name: str, v, *, positive=True, inf_ok=False) -> None:
@@ -120,19 +120,8 @@ class TcpOscillator(Element):
 
     # -- the element --------------------------------------------------------------------------------
     def finish(self, b: ModelBuilder) -> str:
-        parent = b.tail if b.tcp_parent is None else b.tcp_parent
-        placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
-        m = self.mass_kg
-        b.model.appendBodyToJoint(parent, pin.Inertia(-m, placement.translation, np.zeros((3, 3))), pin.SE3.Identity())
         base = f"tcp_oscillator_{b.model.njoints}"
-        jid = parent
-        for i, u in enumerate(self.axes_tcp):
-            jid = b.model.addJoint(jid, pin.JointModelPrismaticUnaligned(u), placement if i == 0 else pin.SE3.Identity(),
-                                   f"{base}_{i + 1}")
-            last = i == self.n_axes - 1
-            b.model.appendBodyToJoint(jid, pin.Inertia(m if last else 0.0, np.zeros(3), np.zeros((3, 3))),
-                                      pin.SE3.Identity())
-        b.tcp_parent, b.tcp_placement = jid, pin.SE3.Identity()
+        mount_at_tcp(b, self.mass_kg, self.axes_tcp, [f"{base}_{i + 1}" for i in range(self.n_axes)])
         return base
 
     def bind(self, robot, built=None) -> np.ndarray:
@@ -145,6 +134,29 @@ class TcpOscillator(Element):
 
     def tangent(self, robot, ix, data, q, v, theta, engaged=False):
         return diagonal_tangent(robot.nv, ix, self.stiffness, self.damping)
+
+
+def mount_at_tcp(b: ModelBuilder, mass_kg: float, axes_tcp, names) -> int:
+    """Put a point mass on prismatic joints at the TCP (the realization of every tool element).
+
+    ``axes_tcp`` (n, 3): the joints' axes in the TCP frame, chained in order (massless bodies
+    between them), ``names`` their joint names; ``mass_kg`` sits on the last and is taken from the
+    body the TCP was on (a point mass ``-m`` at the TCP there), and the TCP frame moves onto it.
+    Returns the last joint's id.
+    """
+    parent = b.tail if b.tcp_parent is None else b.tcp_parent
+    placement = b.flange_placement if b.tcp_placement is None else b.tcp_placement
+    b.model.appendBodyToJoint(parent, pin.Inertia(-mass_kg, placement.translation, np.zeros((3, 3))),
+                              pin.SE3.Identity())
+    jid = parent
+    axes = np.atleast_2d(np.asarray(axes_tcp, dtype=float))
+    for i, (u, name) in enumerate(zip(axes, names)):
+        jid = b.model.addJoint(jid, pin.JointModelPrismaticUnaligned(u), placement if i == 0 else pin.SE3.Identity(),
+                               name)
+        b.model.appendBodyToJoint(jid, pin.Inertia(mass_kg if i == len(axes) - 1 else 0.0, np.zeros(3),
+                                                   np.zeros((3, 3))), pin.SE3.Identity())
+    b.tcp_parent, b.tcp_placement = jid, pin.SE3.Identity()
+    return jid
 
 
 def oscillator_receptance(osc: TcpOscillator, omega) -> np.ndarray:
