@@ -12,6 +12,7 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from .chain import KinematicChain, chain_from_spec
     from .kinematics import (JointLimitError, JointLimitWarning, KinematicsError, SingularityError, UnreachableError,
                              check_limits, fk, ik, ik_all)
     from .linear import (FRF, Equilibrium, LinearBatch, LinearModel, Modes, SingularConfigurationError, equilibrium,
@@ -36,6 +37,7 @@ _HOME = {name: module for module, names in {
     "path": ("Pass",),
     "maps": ("PoseMap", "grid_map", "pass_map"),
     "summary": ("modes_summary",),
+    "chain": ("KinematicChain", "chain_from_spec"),
 }.items() for name in names}
 
 __all__ = ["VARIANTS", "Element", "FlexibleRobot", "Gravity", "GravityCompensation", "MotionSprings", "Payload",
@@ -43,7 +45,8 @@ __all__ = ["VARIANTS", "Element", "FlexibleRobot", "Gravity", "GravityCompensati
            "tcp_pose", "FRF", "Equilibrium", "LinearModel", "Modes", "SingularConfigurationError", "equilibrium",
            "frf_direct", "frf_modal", "linearize", "modal_analysis", "state_space", "LinearBatch", "linearize_many",
            "JointLimitError", "JointLimitWarning", "KinematicsError", "SingularityError", "UnreachableError",
-           "check_limits", "fk", "ik", "ik_all", "Pass", "PoseMap", "grid_map", "pass_map", "modes_summary"]
+           "check_limits", "fk", "ik", "ik_all", "Pass", "PoseMap", "grid_map", "pass_map", "modes_summary",
+           "KinematicChain", "chain_from_spec"]
 
 
 def __getattr__(name: str):

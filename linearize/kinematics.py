@@ -1,7 +1,21 @@
 """Rigid-robot kinematics from a :class:`~cases.spec.RobotSpec`: forward, Jacobian, closed-form inverse.
 
-Everything is pure numpy, SI units (m, rad); degrees appear only in messages and in names ending
-in ``_deg``. Nothing here knows the TX200: the geometry is read from the spec.
+SI units (m, rad); degrees appear only in messages and in names ending in ``_deg``. Nothing here
+knows the TX200: the geometry is read from the spec.
+
+Any 6-axis arm
+--------------
+Every public function takes a ``RobotSpec`` or a :class:`~linearize.chain.KinematicChain` and works
+in controller angles (``q_joint = sign * q + offset`` inside the chain). Forward kinematics of a
+spec in robolobes' own convention is the pure numpy below; any other arm's is its chain's
+(:func:`linearize.chain.chain_from_spec`, pinocchio). The inverse of every arm goes through its
+chain: the OPW closed form (:mod:`linearize.ik_opw`) when its geometry is ortho-parallel with a
+spherical wrist (the TX200 and robolobes' own z, y, y, z, y, z arms are), otherwise the numerical
+inverse (:mod:`linearize.ik_numeric`), continued from ``q_ref`` or started from the nearest OPW
+arm's closed form. The branches, errors and tolerances below are the same for both; the numerical
+inverse adds two failures: no convergence (:class:`UnreachableError`, which cannot tell an
+unreachable target from a start too far away) and convergence onto another branch (the
+:class:`SingularityError` of the singularity crossed; the start pose's branch is kept).
 
 Conventions
 -----------
@@ -13,16 +27,18 @@ Conventions
   ``payload.tcp_m`` from the flange face (flange axes); the TCP orientation is
   ``R_flange @ payload.tcp_rotation``. Its z axis is the tool axis (out of the spindle).
 
-Inverse kinematics (Paul's method)
-----------------------------------
-The closed form needs an anthropomorphic arm with a spherical wrist: axes z, y, y, z, y, z, the
+Robolobes' own arms (:func:`arm_geometry`)
+------------------------------------------
+An anthropomorphic arm with a spherical wrist in robolobes' frames: axes z, y, y, z, y, z, the
 offsets ``o_4`` (joint 4 -> 5) and ``o_5`` (joint 5 -> 6) along z so that axes 4, 5, 6 meet at
-the wrist centre (joint 5). :func:`arm_geometry` checks this and raises
-:class:`RobotStructureError` otherwise. The y offsets from joint 1 to the wrist centre may sum
-to a non-zero ``y_offset`` (a shoulder offset): it is handled exactly. The wrist centre is
-``C = p - R_flange (o_5 + o_6 + tcp_m)``; q1 puts C in the arm plane, q2, q3 solve the planar
-two-link problem (arm ``a2``, forearm ``a3``), q4, q5, q6 are the z-y-z Euler angles of
-``(Rz(q1) Ry(q2 + q3))^T R_flange``.
+the wrist centre (joint 5); :func:`arm_geometry` reads its parameters (and raises
+:class:`RobotStructureError` for another structure), and :func:`branch_of` and
+:func:`singularity_measures` compute the branch indicators from them in numpy. The y offsets from
+joint 1 to the wrist centre may sum to a non-zero ``y_offset`` (OPW's ``b``). The wrist centre is
+``C = p - R_flange (o_5 + o_6 + tcp_m)``; the inverse (OPW, the same as Paul's decomposition for
+this arm: q1 puts C in the arm plane, q2, q3 solve the planar two-link problem, q4, q5, q6 are the
+z-y-z Euler angles of ``(Rz(q1) Ry(q2 + q3))^T R_flange``) is checked against that decomposition,
+written in ``tests/test_ik_any.py``, to 1e-10 rad.
 
 Branches (index ``b = 4 * shoulder + 2 * elbow + wrist``, 8 in all):
 
@@ -59,8 +75,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from typing import TYPE_CHECKING, Sequence, TypeGuard, Union
+
 from robolobes.cases.spec import RobotSpec
 from robolobes.core.errors import BadInput
+
+if TYPE_CHECKING:
+    from .chain import KinematicChain
+    from .ik_opw import OPWGeometry
+
+#: A robot for the kinematics: a spec (its chain is built once) or a chain itself.
+Robot = Union[RobotSpec, "KinematicChain"]
 
 __all__ = [
     "KinematicsError",
@@ -97,6 +122,9 @@ __all__ = [
     "branch_index",
     "singularity_measures",
     "check_limits",
+    "check_structure",
+    "NUMERIC_RESIDUAL_TOL",
+    "Robot",
 ]
 
 LIMIT_TOLERANCE_DEG = 5.0
@@ -203,17 +231,18 @@ def _offsets(spec: RobotSpec) -> np.ndarray:
     return np.array([ln.com_m + ln.next_joint_m for ln in spec.links])
 
 
-def _as_q(spec: RobotSpec, q) -> np.ndarray:
+def _as_q(spec: Robot, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
-    if q.ndim == 0 or q.shape[-1] != spec.n_joints:
-        raise TargetError(f"q must have shape (..., {spec.n_joints}) (rad), got shape {q.shape}")
+    n = _n_joints(spec)
+    if q.ndim == 0 or q.shape[-1] != n:
+        raise TargetError(f"q must have shape (..., {n}) (rad), got shape {q.shape}")
     if not np.all(np.isfinite(q)):
         raise TargetError(f"q must be finite, got {q}")
     return q
 
 
 # ------------------------------------------------------------------------------ forward kinematics
-def fk_frames(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
+def fk_frames(spec: Robot, q) -> tuple[np.ndarray, np.ndarray]:
     """Joint origins and link orientations in the base frame.
 
     Parameters
@@ -229,8 +258,12 @@ def fk_frames(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
     rotations : array (..., n + 1, 3, 3)
         ``rotations[..., i]`` is the orientation of ``links[i]`` (the parent of joint i+1, so
         ``rotations[..., i] @ e_axis`` is the axis of joint i+1); the last entry is the flange.
+        For a robot not in robolobes' own convention (a URDF or a :class:`~linearize.chain.KinematicChain`):
+        the joint origins then the TCP, and the joint frames' parents then the frame of joint 6.
     """
     q = _as_q(spec, q)
+    if not _toml(spec):
+        return _chain_frames(_chain(spec), q)
     o = _offsets(spec)
     batch = q.shape[:-1]
     R = np.broadcast_to(np.eye(3), batch + (3, 3)).copy()
@@ -247,7 +280,7 @@ def fk_frames(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
     return np.stack(ps, axis=-2), np.stack(Rs, axis=-3)
 
 
-def fk(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
+def fk(spec: Robot, q) -> tuple[np.ndarray, np.ndarray]:
     """TCP pose of the rigid robot in the base frame.
 
     Parameters
@@ -263,18 +296,24 @@ def fk(spec: RobotSpec, q) -> tuple[np.ndarray, np.ndarray]:
     R : array (..., 3, 3)
         TCP orientation (columns: TCP axes in base coordinates); ``R[..., :, 2]`` is the tool axis.
     """
+    if not _toml(spec):
+        return _chain(spec).fk(_as_q(spec, q))
     pos, rots = fk_frames(spec, q)
     Rf = rots[..., -1, :, :]
     p = pos[..., -1, :] + Rf @ spec.payload.tcp_m
     return p, Rf @ spec.payload.tcp_rotation
 
 
-def wrist_centre(spec: RobotSpec, q) -> np.ndarray:
-    """Origin of joint 5 (the wrist centre for a spherical wrist), base frame, m; shape (..., 3)."""
+def wrist_centre(spec: Robot, q) -> np.ndarray:
+    """Origin of joint 5 (the wrist centre for a spherical wrist), base frame, m; shape (..., 3).
+
+    For a robot not in robolobes' own convention: the point nearest to axes 4, 5, 6."""
+    if not _toml(spec):
+        return _chain_wrist(_chain(spec), _as_q(spec, q))
     return fk_frames(spec, q)[0][..., 4, :]
 
 
-def jacobian(spec: RobotSpec, q) -> np.ndarray:
+def jacobian(spec: Robot, q) -> np.ndarray:
     """Geometric Jacobian of the TCP in the base frame.
 
     Parameters
@@ -289,6 +328,11 @@ def jacobian(spec: RobotSpec, q) -> np.ndarray:
         Rows 0-2: TCP linear velocity (m/s per rad/s), rows 3-5: angular velocity (base axes).
     """
     q = _as_q(spec, q)
+    if not _toml(spec):
+        ch = _chain(spec)
+        data = ch.model.createData()
+        flat = np.array([ch.jacobian(x, data) for x in q.reshape(-1, 6)])
+        return flat.reshape(q.shape[:-1] + (6, 6))
     pos, rots = fk_frames(spec, q)
     p_tcp, _ = fk(spec, q)
     cols = []
@@ -428,10 +472,13 @@ def _xs_and_psi(g: ArmGeometry, spec: RobotSpec, q: np.ndarray):
     return xs, psi
 
 
-def branch_of(spec: RobotSpec, q) -> int | np.ndarray:
+def branch_of(spec: Robot, q) -> int | np.ndarray:
     """Branch index of joint angles ``q`` (n,) or (..., n), see the module docstring."""
-    g = arm_geometry(spec)
     q = _as_q(spec, q)
+    if not _own(spec):
+        b = _bits(_indicators(spec, q))
+        return int(b) if np.ndim(b) == 0 else b
+    g = arm_geometry(spec)
     xs, psi = _xs_and_psi(g, spec, q)
     back = xs < 0
     down = np.where(back, np.sin(psi) > 0, np.sin(psi) < 0)
@@ -440,7 +487,7 @@ def branch_of(spec: RobotSpec, q) -> int | np.ndarray:
     return int(b) if np.ndim(b) == 0 else b
 
 
-def singularity_measures(spec: RobotSpec, q) -> dict[str, np.ndarray]:
+def singularity_measures(spec: Robot, q) -> dict[str, np.ndarray]:
     """Distances to the three singularities at joint angles q (n,) or (..., n).
 
     Returns
@@ -448,9 +495,14 @@ def singularity_measures(spec: RobotSpec, q) -> dict[str, np.ndarray]:
     dict
         ``"shoulder"``: distance of the wrist centre from axis 1 beyond the y offset,
         ``sqrt(r^2 - y_offset^2)`` (m); ``"elbow"``: ``|sin psi|``; ``"wrist"``: ``|sin q5|``.
+        For any arm: the absolute values of :func:`linearize.ik_opw.branch_indicators` (the same
+        numbers for the TX200).
     """
-    g = arm_geometry(spec)
     q = _as_q(spec, q)
+    if not _own(spec):
+        ind = np.abs(_indicators(spec, q))
+        return {"shoulder": ind[..., 0], "elbow": ind[..., 1], "wrist": ind[..., 2]}
+    g = arm_geometry(spec)
     C = wrist_centre(spec, q) - g.o0
     r2 = C[..., 0] ** 2 + C[..., 1] ** 2
     psi = q[..., 2] + g.alpha3 - g.alpha2
@@ -490,76 +542,12 @@ def _check_target(p, R) -> tuple[np.ndarray, np.ndarray]:
     return p, R
 
 
-# ----------------------------------------------------------------------------- closed-form IK core
+# ------------------------------------------------------------------------------------ failure codes
+#: Failure codes of the closed form (:func:`linearize.ik_opw.opw_solve`) and the numerical inverse.
 _OK, _NEAR_AXIS, _TOO_FAR, _TOO_CLOSE, _SHOULDER, _ELBOW, _WRIST = range(7)
 
 
-def _ik_core(g: ArmGeometry, p: np.ndarray, R: np.ndarray, branch, *, shoulder_tol=SHOULDER_TOL_M,
-             elbow_tol=ELBOW_TOL, wrist_tol=WRIST_TOL):
-    """Principal joint angles in (-pi, pi] of validated targets, vectorized over targets and branches.
-
-    Parameters
-    ----------
-    p : array (..., 3), R : array (..., 3, 3)
-    branch : int or int array broadcastable with the leading shape of p
-
-    Returns
-    -------
-    q : array (..., 6)
-    code : int array (...)
-        0 for a valid solution, else the first failure in the order: near axis 1 (shoulder y
-        offset), too far, too close, shoulder, elbow, wrist singularity.
-    info : dict of arrays (...)
-        Diagnostic values used in the error messages.
-    """
-    b = np.asarray(branch)
-    shoulder, elbow, wrist = (b >> 2) & 1, (b >> 1) & 1, b & 1
-    Rf = R @ g.tcp_rotation.T
-    C = p - (Rf @ g.wrist_to_tcp) - g.o0
-    cx, cy, cz = C[..., 0], C[..., 1], C[..., 2]
-    r2 = cx * cx + cy * cy
-    h2 = r2 - g.y_offset ** 2
-    h = np.sqrt(np.maximum(h2, 0.0))
-    xs = np.where(shoulder == 1, -h, h)
-    q1 = np.arctan2(cy, cx) - np.arctan2(g.y_offset, xs)
-    vx, vz = xs - g.o1[0], cz - g.o1[2]
-    rho = np.hypot(vx, vz)
-    D = (rho * rho - g.a2 ** 2 - g.a3 ** 2) / (2 * g.a2 * g.a3)
-    sign = np.where(shoulder == elbow, 1.0, -1.0)
-    spsi = sign * np.sqrt(np.clip(1 - D * D, 0.0, None))
-    psi = np.arctan2(spsi, np.clip(D, -1, 1))
-    q3 = psi + g.alpha2 - g.alpha3
-    q2 = np.arctan2(vx, vz) - np.arctan2(g.a2 * math.sin(g.alpha2) + g.a3 * np.sin(q3 + g.alpha3),
-                                         g.a2 * math.cos(g.alpha2) + g.a3 * np.cos(q3 + g.alpha3))
-    # M = (Rz(q1) Ry(q2 + q3))^T Rf, written out
-    c1, s1, c23, s23 = np.cos(q1), np.sin(q1), np.cos(q2 + q3), np.sin(q2 + q3)
-    Rf = np.broadcast_to(Rf, q1.shape + (3, 3))
-    a0 = c1[..., None] * Rf[..., 0, :] + s1[..., None] * Rf[..., 1, :]   # (Rz^T Rf) row 0
-    a1 = -s1[..., None] * Rf[..., 0, :] + c1[..., None] * Rf[..., 1, :]  # row 1
-    a2 = Rf[..., 2, :]                                                   # row 2
-    m0 = c23[..., None] * a0 - s23[..., None] * a2                      # (Ry^T .) row 0
-    m1 = a1
-    m2 = s23[..., None] * a0 + c23[..., None] * a2
-    sg = np.where(wrist == 1, -1.0, 1.0)
-    s5 = sg * np.hypot(m0[..., 2], m1[..., 2])
-    q5 = np.arctan2(s5, m2[..., 2])
-    q4 = np.arctan2(sg * m1[..., 2], sg * m0[..., 2])
-    q6 = np.arctan2(sg * m2[..., 1], -sg * m2[..., 0])
-    q = np.stack(np.broadcast_arrays(q1, q2, q3, q4, q5, q6), axis=-1)
-    q = np.where(q <= -np.pi, q + 2 * np.pi, q)
-    code = np.full(q.shape[:-1], _OK)
-    for c, bad in reversed(((_NEAR_AXIS, h2 < 0), (_TOO_FAR, rho > g.reach_max_m + REACH_EPS_M),
-                            (_TOO_CLOSE, rho < g.reach_min_m - REACH_EPS_M),
-                            (_SHOULDER, h < shoulder_tol), (_ELBOW, np.abs(spsi) < elbow_tol),
-                            (_WRIST, np.abs(s5) < wrist_tol))):
-        code = np.where(bad, c, code)
-    info = dict(r=np.sqrt(r2), rho=rho, h=h, D=D, spsi=spsi, psi=psi, q5=q5, s5=s5,
-                branch=np.broadcast_to(b, code.shape))
-    info = {k: np.broadcast_to(v, code.shape) for k, v in info.items()}
-    return q, code, info
-
-
-def _ik_error(g: ArmGeometry, code: int, info: dict, k, where: str = "", tols=None) -> KinematicsError:
+def _ik_error(g: ArmGeometry | OPWGeometry, code: int, info: dict, k, where: str = "", tols=None) -> KinematicsError:
     """The exception for failure ``code`` of sample ``k`` (index into the arrays of ``info``)."""
     tols = tols or {}
     v = {key: float(val[k]) for key, val in info.items()}
@@ -612,7 +600,7 @@ def _wrap_joint(q: float, lo: float, hi: float, ref: float | None):
     return float(cands[k]), float(exc[k])
 
 
-def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG, *, stacklevel: int = 2) -> np.ndarray:
+def check_limits(spec: Robot, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG, *, stacklevel: int = 2) -> np.ndarray:
     """Check joint angles against the joint ranges, modulo 2 pi.
 
     Each angle is first taken modulo 2 pi: a value outside the range whose equivalent
@@ -641,9 +629,9 @@ def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG,
     single = q.ndim == 1
     qs = np.atleast_2d(q)
     out = qs.copy()
-    lo, hi = spec.joint_range_rad[:, 0], spec.joint_range_rad[:, 1]
+    lo, hi = _range(spec).T
     tol = math.radians(tolerance_deg)
-    for j in range(spec.n_joints):
+    for j in range(_n_joints(spec)):
         worst = (0.0, None)
         for k in range(qs.shape[0]):
             v, exc = _wrap_joint(qs[k, j], lo[j], hi[j], qs[k, j])
@@ -653,7 +641,7 @@ def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG,
         exc, k = worst
         if k is None:
             continue
-        name = spec.joints[j].name
+        name = _names(spec)[j]
         given, wrapped = _deg(qs[k, j]), _deg(out[k, j])
         side, lim = ("upper", hi[j]) if out[k, j] > hi[j] else ("lower", lo[j])
         wrap_txt = f", wrapped to {wrapped:+.2f} deg," if abs(given - wrapped) > 1e-9 else ""
@@ -670,7 +658,7 @@ def check_limits(spec: RobotSpec, q, tolerance_deg: float = LIMIT_TOLERANCE_DEG,
     return out[0] if single else out
 
 
-def _representation(g: ArmGeometry, q: np.ndarray, q_ref, limits: bool, tol: float):
+def _representation(lower: np.ndarray, upper: np.ndarray, q: np.ndarray, q_ref, limits: bool, tol: float):
     """Per joint, pick q + 2 pi k: inside the range if possible (else within tol), closest to q_ref.
 
     Parameters
@@ -689,7 +677,7 @@ def _representation(g: ArmGeometry, q: np.ndarray, q_ref, limits: bool, tol: flo
     if not limits:
         k = np.argmin(dist, axis=-1)
         return np.take_along_axis(cands, k[..., None], -1)[..., 0], np.zeros(q.shape[:-1], int)
-    exc = np.maximum(np.maximum(g.lower[:, None] - cands, cands - g.upper[:, None]), 0.0)
+    exc = np.maximum(np.maximum(lower[:, None] - cands, cands - upper[:, None]), 0.0)
     level = np.where(exc == 0, 0, np.where(exc <= tol, 1, 2))
     # lexicographic: level first, then distance to ref (level 2: smallest excess)
     key = level * 1e6 + np.where(level == 2, exc, dist)
@@ -723,25 +711,25 @@ class IKSolution:
         return BRANCHES[self.branch]
 
 
-def _solve_all(spec, p, R, q_ref, limits, tol, **tols):
-    g = arm_geometry(spec)
+def _solve_all(spec, p, R, q_ref, limits, tol, branches: Sequence[int] = range(8), **tols):
     p, R = _check_target(p, R)
     if p.shape != (3,) or R.shape != (3, 3):
         raise TargetError(f"ik expects one target: p (3,), R (3, 3); got {p.shape}, {R.shape} (use ik_batch)")
-    q, code, info = _ik_core(g, p, R, np.arange(8), **tols)
-    qc, status = _representation(g, q, q_ref, limits, tol)
+    q, code, error = _chain_all(_chain(spec), p, R, q_ref, branches, tols)
+    lower, upper = _range(spec).T
+    qc, status = _representation(lower, upper, np.nan_to_num(q), q_ref, limits, tol)
     sols, errs = [], {}
-    for b in range(8):
+    for b in branches:
         if code[b] != _OK:
-            errs[b] = _ik_error(g, int(code[b]), info, b, tols=tols)
+            errs[b] = error(b)
         else:
             sols.append((IKSolution(q=qc[b], branch=b, within_limits=bool(status[b] == 0)), int(status[b])))
-    return g, sols, errs
+    return sols, errs
 
 
-def ik_all(spec: RobotSpec, p, R, *, q_ref=None, shoulder_tol: float = SHOULDER_TOL_M,
+def ik_all(spec: Robot, p, R, *, q_ref=None, shoulder_tol: float = SHOULDER_TOL_M,
            elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL) -> list[IKSolution]:
-    """All closed-form IK solutions (up to 8) of a TCP pose.
+    """All IK solutions (up to 8, one per branch) of a TCP pose (closed form or numerical, see above).
 
     Parameters
     ----------
@@ -770,17 +758,17 @@ def ik_all(spec: RobotSpec, p, R, *, q_ref=None, shoulder_tol: float = SHOULDER_
     """
     if q_ref is not None:
         q_ref = _as_q(spec, q_ref)
-    _, sols, errs = _solve_all(spec, p, R, q_ref, True, math.radians(LIMIT_TOLERANCE_DEG),
+    sols, errs = _solve_all(spec, p, R, q_ref, True, math.radians(LIMIT_TOLERANCE_DEG),
                                shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
     if not sols:
         raise errs[min(errs)]
     return [s for s, _ in sols]
 
 
-def ik(spec: RobotSpec, p, R, *, branch=None, q_ref=None, limits: bool = True,
+def ik(spec: Robot, p, R, *, branch=None, q_ref=None, limits: bool = True,
        tolerance_deg: float = LIMIT_TOLERANCE_DEG, shoulder_tol: float = SHOULDER_TOL_M,
        elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL) -> np.ndarray:
-    """Closed-form inverse kinematics: joint angles that put the TCP at ``(p, R)``.
+    """Inverse kinematics: joint angles that put the TCP at ``(p, R)`` (closed form or numerical, see above).
 
     Parameters
     ----------
@@ -821,14 +809,14 @@ def ik(spec: RobotSpec, p, R, *, branch=None, q_ref=None, limits: bool = True,
     """
     if q_ref is not None:
         q_ref = _as_q(spec, q_ref)
-        if q_ref.shape != (spec.n_joints,):
-            raise TargetError(f"q_ref must have shape ({spec.n_joints},), got {q_ref.shape}")
+        if q_ref.shape != (_n_joints(spec),):
+            raise TargetError(f"q_ref must have shape ({_n_joints(spec)},), got {q_ref.shape}")
     tol = math.radians(tolerance_deg)
     want = None if branch is None else branch_index(branch)
     if want is None and q_ref is not None:
-        want = branch_of(spec, q_ref)
+        want = int(branch_of(spec, q_ref))
     tols = dict(shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
-    g, sols, errs = _solve_all(spec, p, R, q_ref, limits, tol, **tols)
+    sols, errs = _solve_all(spec, p, R, q_ref, limits, tol, range(8) if want is None else (want,), **tols)
     if want is not None:
         if want in errs:
             raise errs[want]
@@ -850,9 +838,9 @@ def ik(spec: RobotSpec, p, R, *, branch=None, q_ref=None, limits: bool = True,
     return sol.q
 
 
-def ik_batch(spec: RobotSpec, p, R, branch, *, errors: str = "raise", shoulder_tol: float = SHOULDER_TOL_M,
-             elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL, where=None) -> np.ndarray:
-    """Vectorized closed-form IK, principal angles.
+def ik_batch(spec: Robot, p, R, branch, *, errors: str = "raise", shoulder_tol: float = SHOULDER_TOL_M,
+             elbow_tol: float = ELBOW_TOL, wrist_tol: float = WRIST_TOL, where=None, q_ref=None) -> np.ndarray:
+    """Vectorized IK, principal angles (closed form or numerical, see the module docstring).
 
     Parameters
     ----------
@@ -868,6 +856,10 @@ def ik_batch(spec: RobotSpec, p, R, branch, *, errors: str = "raise", shoulder_t
         rows for the failing samples.
     where : callable, optional
         ``where(k) -> str`` describing sample k in error messages.
+    q_ref : array (6,), optional
+        Numerical inverse only (arms that are not OPW): the pose the continuation starts from, rad
+        (the targets are solved in order, each from the previous solution); default: the closed
+        form of the nearest OPW arm for the first target. The closed forms do not use it.
 
     Returns
     -------
@@ -882,7 +874,6 @@ def ik_batch(spec: RobotSpec, p, R, branch, *, errors: str = "raise", shoulder_t
     """
     if errors not in ("raise", "nan"):
         raise ValueError(f"errors must be 'raise' or 'nan', got {errors!r}")
-    g = arm_geometry(spec)
     p, R = _check_target(p, R)
     if isinstance(branch, (str, int, np.integer)):
         b = branch_index(branch)
@@ -891,12 +882,232 @@ def ik_batch(spec: RobotSpec, p, R, branch, *, errors: str = "raise", shoulder_t
         if not np.issubdtype(b.dtype, np.integer) or np.any((b < 0) | (b > 7)):
             raise TargetError(f"branch array must hold integers 0..7, got {branch!r}")
     tols = dict(shoulder_tol=shoulder_tol, elbow_tol=elbow_tol, wrist_tol=wrist_tol)
-    q, code, info = _ik_core(g, p, R, b, **tols)
+    if q_ref is not None:
+        q_ref = _as_q(spec, q_ref)
+    return _chain_batch(_chain(spec), p, R, b, errors, tols, where, q_ref)
+
+
+# --------------------------------------------------------------------------- any arm, through its chain
+_NO_CONVERGENCE, _OTHER_BRANCH = 7, 8
+#: FK(IK) residual (|log6|, m and rad) above which a numerical solution is not accepted.
+NUMERIC_RESIDUAL_TOL = 1e-11
+_OWN_CACHE: dict[int, tuple[RobotSpec, bool]] = {}
+
+
+def _toml(spec) -> TypeGuard[RobotSpec]:
+    """robolobes' own TOML convention (numpy forward kinematics, any number of joints)."""
+    return isinstance(spec, RobotSpec) and getattr(spec, "urdf", None) is None
+
+
+def _own(spec) -> TypeGuard[RobotSpec]:
+    """robolobes' own convention with :func:`arm_geometry`'s structure (numpy branch indicators)."""
+    if not _toml(spec):
+        return False
+    hit = _OWN_CACHE.get(id(spec))
+    if hit is not None and hit[0] is spec:
+        return hit[1]
+    try:
+        arm_geometry(spec)
+        ok = True
+    except RobotStructureError:
+        ok = False
+    _OWN_CACHE[id(spec)] = (spec, ok)
+    return ok
+
+
+def _chain(spec) -> KinematicChain:
+    from .chain import KinematicChain, chain_from_spec
+    return spec if isinstance(spec, KinematicChain) else chain_from_spec(spec)
+
+
+def _n_joints(spec) -> int:
+    return spec.n_joints if _toml(spec) else 6
+
+
+def _range(spec) -> np.ndarray:
+    return spec.joint_range_rad if _toml(spec) else _chain(spec).range_rad
+
+
+def _names(spec) -> tuple[str, ...]:
+    if isinstance(spec, RobotSpec) and len(spec.joints) == _n_joints(spec):
+        return tuple(j.name for j in spec.joints)
+    return tuple(str(n) for n in _chain(spec).model.names[1:7])
+
+
+def check_structure(spec: Robot) -> None:
+    """Raise :class:`RobotStructureError` before any work when the robot has no inverse kinematics here.
+
+    Every 6-axis chain gets the OPW closed form (:mod:`linearize.ik_opw`) or the numerical inverse
+    (:mod:`linearize.ik_numeric`); only a chain without an arm plane (axes 1 and 2 parallel, joint 3
+    on axis 2) is refused.
+    """
+    if not _own(spec):
+        from .ik_opw import opw_geometry
+        opw_geometry(_chain(spec))
+
+
+def _principal(q: np.ndarray) -> np.ndarray:
+    """Angles in (-pi, pi], rad."""
+    return np.pi - np.mod(np.pi - q, 2 * np.pi)
+
+
+def _indicators(spec, q: np.ndarray) -> np.ndarray:
+    from .ik_opw import branch_indicators
+    ch = _chain(spec)
+    return branch_indicators(ch, ch.joint_positions(q))
+
+
+def _bits(ind: np.ndarray) -> np.ndarray:
+    """Branch index of indicators (..., 3), as :func:`branch_of`."""
+    back = ind[..., 0] < 0
+    down = np.where(back, ind[..., 1] > 0, ind[..., 1] < 0)
+    return 4 * back.astype(int) + 2 * down.astype(int) + (ind[..., 2] < 0).astype(int)
+
+
+def _chain_frames(ch: KinematicChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    import pinocchio as pin
+    data = ch.model.createData()
+    flat = ch.joint_positions(q).reshape(-1, 6)
+    P, Rs = np.empty((len(flat), 7, 3)), np.empty((len(flat), 7, 3, 3))
+    for n, x in enumerate(flat):
+        pin.framesForwardKinematics(ch.model, data, x)
+        frames = [data.oMi[j] for j in range(1, 7)] + [data.oMf[ch.tcp_frame_id]]
+        P[n] = [m.translation for m in frames]
+        Rs[n] = [m.rotation for m in frames]
+    return P.reshape(q.shape[:-1] + (7, 3)), Rs.reshape(q.shape[:-1] + (7, 3, 3))
+
+
+def _chain_wrist(ch: KinematicChain, q: np.ndarray) -> np.ndarray:
+    from .chain import joint_axes
+    from .ik_opw import wrist_point
+    data = ch.model.createData()
+    flat = ch.joint_positions(q).reshape(-1, 6)
+    return np.array([wrist_point(*joint_axes(ch, x, data)) for x in flat]).reshape(q.shape[:-1] + (3,))
+
+
+def _chain_all(ch: KinematicChain, p, R, q_ref, branches, tols):
+    """Principal controller angles (8, 6) of one validated target, codes (8,), error(b) -> exception."""
+    from .ik_opw import opw_geometry, opw_solve
+    g = opw_geometry(ch)
+    if not g.is_opw:
+        return _numeric_all(ch, p, R, q_ref, branches, tols)
+    th, code, info = opw_solve(g, p[None], R[None], **tols)
+    q = _principal(ch.controller_angles(g.sign * th[0] + g.zero))
+    one = {k: v[0] for k, v in info.items()}
+    return q, code[0], lambda b: _ik_error(g, int(code[0][b]), one, b, tols=tols)
+
+
+def _opw_seeds(ch: KinematicChain, p, R) -> np.ndarray:
+    """Start poses (8, 6), controller angles: the closed form of the OPW arm nearest to the chain."""
+    from .ik_opw import opw_geometry, opw_solve
+    g = opw_geometry(ch)
+    th, _, _ = opw_solve(g, p[None], R[None], shoulder_tol=0.0, elbow_tol=0.0, wrist_tol=0.0)
+    return _principal(ch.controller_angles(g.sign * th[0] + g.zero))
+
+
+def _numeric_one(ch: KinematicChain, p, R, start, b: int, tols, data=None) -> tuple[np.ndarray, int, dict]:
+    """Damped least squares from ``start`` for branch ``b``: (q (6,), code, values for the message)."""
+    from .ik_numeric import dls_solve
+    from .ik_opw import branch_indicators
+    q, res, it = dls_solve(ch, p, R, start, data)
+    ind = branch_indicators(ch, ch.joint_positions(q))
+    v = dict(residual=res, iterations=it, xs=ind[0], spsi=ind[1], s5=ind[2], landed=int(_bits(ind)),
+             branch=b, start=np.asarray(start, dtype=float))
+    if not res < NUMERIC_RESIDUAL_TOL:
+        return q, _NO_CONVERGENCE, v
+    if abs(ind[0]) < tols["shoulder_tol"]:
+        return q, _SHOULDER, v
+    if abs(ind[1]) < tols["elbow_tol"]:
+        return q, _ELBOW, v
+    if abs(ind[2]) < tols["wrist_tol"]:
+        return q, _WRIST, v
+    return q, (_OK if v["landed"] == b else _OTHER_BRANCH), v
+
+
+def _numeric_all(ch: KinematicChain, p, R, q_ref, branches, tols):
+    q = np.full((8, 6), np.nan)
+    code = np.full(8, _OK)
+    vals: dict[int, dict] = {}
+    ref_branch = None if q_ref is None else int(_bits(_indicators(ch, q_ref)))
+    seeds = None
+    data = ch.model.createData()
+    for b in branches:
+        if ref_branch == b:
+            start = q_ref
+        else:
+            seeds = _opw_seeds(ch, p, R) if seeds is None else seeds
+            start = seeds[b]
+        q[b], code[b], vals[b] = _numeric_one(ch, p, R, start, b, tols, data)
+    return _principal(q), code, lambda b: _numeric_error(int(code[b]), vals[b], "", tols)
+
+
+def _chain_batch(ch: KinematicChain, p, R, b, errors, tols, where, q_ref) -> np.ndarray:
+    from .ik_opw import opw_geometry, opw_solve
+    lead = p.shape[:-1]
+    P = p.reshape(-1, 3)
+    Rb = np.broadcast_to(R, lead + (3, 3)).reshape(-1, 3, 3)
+    bb = np.broadcast_to(b, lead).reshape(-1).astype(int)
+    g = opw_geometry(ch)
+    n = np.arange(len(P))
+    if g.is_opw:
+        th, code8, info8 = opw_solve(g, P, Rb, **tols)
+        q = _principal(ch.controller_angles(g.sign * th[n, bb] + g.zero))
+        code = code8[n, bb]
+        info = {k: v[n, bb] for k, v in info8.items()}
+        error = lambda k, w: _ik_error(g, int(code[k]), info, k, w, tols)
+    else:
+        q, code, vals = np.empty((len(P), 6)), np.full(len(P), _OK), {}
+        prev = q_ref
+        data = ch.model.createData()
+        for k in n:
+            start = prev if prev is not None and int(_bits(_indicators(ch, prev))) == bb[k] else None
+            if start is None:
+                start = _opw_seeds(ch, P[k], Rb[k])[bb[k]]
+            q[k], code[k], vals[k] = _numeric_one(ch, P[k], Rb[k], start, int(bb[k]), tols, data)
+            if code[k] == _OK:
+                prev = q[k]
+            elif errors == "raise":
+                break
+        q = _principal(q)
+        error = lambda k, w: _numeric_error(int(code[k]), vals[k], w, tols)
     bad = code != _OK
     if np.any(bad):
         if errors == "nan":
-            q = np.where(bad[..., None], np.nan, q)
+            q = np.where(bad[:, None], np.nan, q)
         else:
-            k = np.unravel_index(np.flatnonzero(bad)[0], bad.shape)
-            raise _ik_error(g, int(code[k]), info, k, where(int(k[0]) if len(k) else 0) if where else "", tols)
-    return q
+            k = int(np.flatnonzero(bad)[0])
+            raise error(k, where(k) if where else "")
+    return q.reshape(lead + (6,))
+
+
+def _numeric_error(code: int, v: dict, where: str, tols) -> KinematicsError:
+    """The exception for a numerical-inverse failure (values ``v`` of :func:`_numeric_one`)."""
+    name = BRANCHES[v["branch"]]
+    if code == _NO_CONVERGENCE:
+        return UnreachableError(
+            f"target unreachable{where} (branch {name}): the numerical inverse did not converge from its start "
+            f"pose {np.degrees(v['start']).round(2).tolist()} deg: |log6 error| = {v['residual']:.3g} after "
+            f"{v['iterations']} steps (needs < {NUMERIC_RESIDUAL_TOL:g}); the target is out of reach, or too far "
+            f"from the start pose on this branch")
+    if code == _SHOULDER:
+        return ShoulderSingularityError(
+            f"shoulder singularity{where}: the wrist centre is {abs(v['xs']):.3g} m from the axis of joint 1 "
+            f"(tolerance {tols['shoulder_tol']:g} m); q1 is undetermined there")
+    if code == _ELBOW:
+        return ElbowSingularityError(
+            f"elbow singularity{where} (branch {name}): |sin(elbow angle)| = {abs(v['spsi']):.3g} < "
+            f"{tols['elbow_tol']:g}: the arm is stretched or folded")
+    if code == _WRIST:
+        return WristSingularityError(
+            f"wrist singularity{where} (branch {name}): |sin q5| = {abs(v['s5']):.3g} < {tols['wrist_tol']:g}: "
+            f"axes 4 and 6 are aligned, only q4 + q6 is determined")
+    if code == _OTHER_BRANCH:
+        landed = v["landed"]
+        diff = landed ^ v["branch"]
+        kind, cls = ((("shoulder", ShoulderSingularityError) if diff & 4 else
+                      ("elbow", ElbowSingularityError) if diff & 2 else ("wrist", WristSingularityError)))
+        return cls(
+            f"{kind} singularity{where}: continued from its start pose on branch {name}, the numerical inverse "
+            f"reached branch {BRANCHES[landed]}: the motion crosses the {kind} singularity between them; refused "
+            f"(the start pose's branch is kept)")
+    raise AssertionError(code)

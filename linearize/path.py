@@ -34,7 +34,7 @@ import numpy as np
 from robolobes.cases.spec import MillingCase, RobotSpec
 from robolobes.core.errors import BadInput
 
-from .kinematics import (BRANCHES, arm_geometry, branch_of, check_limits, fk, ik_batch,
+from .kinematics import (BRANCHES, branch_of, check_limits, check_structure, fk, ik_batch,
                          jacobian)
 
 __all__ = ["PassError", "FeedProfile", "Pass", "FEED_PERPENDICULAR_TOL", "MAX_TABLE_STEP_RAD"]
@@ -244,7 +244,7 @@ class Pass:
             (a joint within the tolerance gives a :class:`~linearize.kinematics.JointLimitWarning`).
         """
         spec, tool, cut, ps = case.robot, case.tool, case.cut, case.path
-        arm_geometry(spec)
+        check_structure(spec)
         q0 = np.array(ps.start_q_rad, dtype=float)
         if q0.shape != (spec.n_joints,):
             raise PassError(f"case {case.name!r}: start pose has shape {q0.shape}, expected ({spec.n_joints},)")
@@ -293,7 +293,7 @@ class Pass:
 
     def _ik(self, s: np.ndarray) -> np.ndarray:
         p = self.start_position + s[:, None] * self.direction
-        return ik_batch(self.robot, p, self.rotation, self.branch,
+        return ik_batch(self.robot, p, self.rotation, self.branch, q_ref=self.start_q,
                         where=lambda k: f" at s = {s[k] * 1e3:.6g} mm of the pass")
 
     # ------------------------------------------------------------------------------- timing
