@@ -303,3 +303,20 @@ def test_a_urdf_robot_exports_to_controller_angles(tmp_path):
     assert_allclose(again.urdf.offset_rad, 0.0)
     for variant in VARIANTS:
         _compare_dynamics(spec, again, variant, POSES_DEG[1])
+
+
+def test_kinematics_of_the_hand_written_urdf_are_the_tx200s(tmp_path):
+    """Forward and inverse kinematics through the URDF robot's rigid chain (``linearize.chain``,
+    with its signs and offsets) give the TX200's TCP poses and controller angles (1e-9 m / rad:
+    float rounding in other frames, far below any machining tolerance)."""
+    from robolobes.linearize.kinematics import fk, ik
+
+    tx = load_robot("tx200")
+    hand = load_robot(hand_written_tx200(tmp_path))
+    for q_deg in POSES_DEG:
+        q = np.radians(q_deg)
+        p, R = fk(tx, q)
+        ph, Rh = fk(hand, q)
+        assert_allclose(ph, p, rtol=0, atol=1e-9)
+        assert_allclose(Rh, R, rtol=0, atol=1e-9)
+        assert_allclose(ik(hand, p, R, q_ref=q, limits=False), q, rtol=0, atol=1e-9)
