@@ -70,29 +70,20 @@ def _element_force(hv, phi, db, law):  # pragma: no cover - numba
 
 
 @njit(inline="always")
-def _on_block_edge(wb, x0, dx, cx, cw, sgn, phi, r, k, hv, w_top):  # pragma: no cover - numba
-    """Whether the chip ``hv`` of the element ends on the untouched block edge (the entry ramp: the
-    ray leaves the material through the flat top of the part, not through an earlier tooth's arc)."""
-    if hv <= 0.0:
-        return False
-    rho = r - hv
-    u = (cx + rho * math.sin(phi) - x0) / dx
-    ncol = wb.shape[1]
-    if not (u >= 0.0 and u < ncol - 1):
+def _column_on_block_edge(wb, x0, dx, x, k, w_top):  # pragma: no cover - numba
+    """Whether the column interval at ``x`` (m) of disc ``k`` is the untouched block edge."""
+    u = (x - x0) / dx
+    if not (u >= 0.0 and u < wb.shape[1] - 1):
         return False
     i = int(math.floor(u))
     return wb[k, i] >= w_top - _EDGE_TOL_M and wb[k, i + 1] >= w_top - _EDGE_TOL_M
 
 
 @njit(inline="always")
-def _tip_on_block_edge(wb, x0, dx, cx, sgn, phi, r, k, w_top):  # pragma: no cover - numba
-    """Whether the columns under the tip are the untouched block edge (an entry or exit through the top)."""
-    u = (cx + r * math.sin(phi) - x0) / dx
-    ncol = wb.shape[1]
-    if not (u >= 0.0 and u < ncol - 1):
-        return False
-    i = int(math.floor(u))
-    return wb[k, i] >= w_top - _EDGE_TOL_M and wb[k, i + 1] >= w_top - _EDGE_TOL_M
+def _on_block_edge(wb, x0, dx, cx, phi, r, k, hv, w_top):  # pragma: no cover - numba
+    """Whether the chip ``hv`` of the element ends on the untouched block edge (the entry ramp: the
+    ray leaves the material through the flat top of the part, not through an earlier tooth's arc)."""
+    return hv > 0.0 and _column_on_block_edge(wb, x0, dx, cx + (r - hv) * math.sin(phi), k, w_top)
 
 
 @njit(inline="always")
@@ -129,7 +120,7 @@ def _ramp_end(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, w_top, lo, h
     for _ in range(BISECTIONS):
         s = 0.5 * (lo + hi)
         hv, ph, cx, cw = _chip_at(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, s)
-        if _on_block_edge(wb, x0, dx, cx, cw, sgn, ph, r, k, hv, w_top) == edge_at_lo:
+        if _on_block_edge(wb, x0, dx, cx, ph, r, k, hv, w_top) == edge_at_lo:
             lo = s
         else:
             hi = s
@@ -155,6 +146,25 @@ def _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, la
     return w * ix, w * iy, w * iz
 
 
+@njit(inline="always")
+def _engaged_end(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law, h_end, s_end, crosses,
+                 inside_at_start):  # pragma: no cover - numba
+    """One end of an element's engaged part of the step: ``(s, on the block edge, force (3))``; at the
+    step's end ``s_end`` with its chip ``h_end``, or, where the element ``crosses`` the boundary, at
+    the crossing with the law's limit h -> 0+."""
+    if crosses:
+        s = _crossing(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, inside_at_start)
+        ph = ph0 + s * dphi
+        edge = _column_on_block_edge(wb, x0, dx, cx0 + s * (cx1 - cx0) + r * math.sin(ph), k, w_top)
+        fx, fy, fz = _element_force(_H_EDGE, ph, db, law)
+    else:
+        s = s_end
+        ph = ph0 + s * dphi
+        edge = _on_block_edge(wb, x0, dx, cx0 + s * (cx1 - cx0), ph, r, k, h_end, w_top)
+        fx, fy, fz = _element_force(h_end, ph, db, law)
+    return s, edge, fx, fy, fz
+
+
 @njit(cache=True, nogil=True)
 def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi, offset, radius, db, law, h0, h1,
                           out):  # pragma: no cover - numba
@@ -173,8 +183,6 @@ def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi
     out[1] = 0.0
     out[2] = 0.0
     events = 0
-    cw0 = sgn * cy0
-    cw1 = sgn * cy1
     for j in range(nt):
         r = radius[j]
         for k in range(nk):
@@ -185,24 +193,10 @@ def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi
             ph0 = ang0 + offset[j, k]
             ph1 = ph0 + dphi
             # the ends of the engaged part and whether the chip ends on the block edge there
-            if enter:
-                s_lo = _crossing(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, False)
-                c_lo = cx0 + s_lo * (cx1 - cx0)
-                e_lo = _tip_on_block_edge(wb, x0, dx, c_lo, sgn, ph0 + s_lo * dphi, r, k, w_top)
-                flx, fly, flz = _element_force(_H_EDGE, ph0 + s_lo * dphi, db, law)
-            else:
-                s_lo = 0.0
-                e_lo = _on_block_edge(wb, x0, dx, cx0, cw0, sgn, ph0, r, k, h0[j, k], w_top)
-                flx, fly, flz = _element_force(h0[j, k], ph0, db, law)
-            if leave:
-                s_hi = _crossing(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, True)
-                c_hi = cx0 + s_hi * (cx1 - cx0)
-                e_hi = _tip_on_block_edge(wb, x0, dx, c_hi, sgn, ph0 + s_hi * dphi, r, k, w_top)
-                fhx, fhy, fhz = _element_force(_H_EDGE, ph0 + s_hi * dphi, db, law)
-            else:
-                s_hi = 1.0
-                e_hi = _on_block_edge(wb, x0, dx, cx1, cw1, sgn, ph1, r, k, h1[j, k], w_top)
-                fhx, fhy, fhz = _element_force(h1[j, k], ph1, db, law)
+            s_lo, e_lo, flx, fly, flz = _engaged_end(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db,
+                                                     law, h0[j, k], 0.0, enter, False)
+            s_hi, e_hi, fhx, fhy, fhz = _engaged_end(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db,
+                                                     law, h1[j, k], 1.0, leave, True)
             if not (enter or leave or e_lo != e_hi):
                 continue  # smooth over the whole step: the trapezoidal rule as it is
             events += 1
@@ -213,7 +207,7 @@ def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi
                 ax, ay, az = _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law,
                                              s_lo, s_m, flx, fly, flz, fmx, fmy, fmz)
                 bx, by, bz = _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law,
-                                             s_m, 1.0 if not leave else s_hi, fmx, fmy, fmz, fhx, fhy, fhz)
+                                             s_m, s_hi, fmx, fmy, fmz, fhx, fhy, fhz)
                 ix, iy, iz = ax + bx, ay + by, az + bz
             else:
                 ix, iy, iz = _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law,
