@@ -250,7 +250,7 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                         dF[2, 0] += gz * dh[j, kk, 0]
                         dF[2, 1] += gz * dh[j, kk, 1]
             # entries and exits inside the step, integrated over their engaged parts
-            if exact:
+            if exact and it == 1:  # from the predictor, kept over the iteration (module entry_exit)
                 step_force_correction(wb, x0, dx, sgn, w_top, c_n[0], c_n[1], cx, cy, omega * t0, omega * h,
                                       offset, radius, db, law, h_n, hh, Dv)
             # residual (LinearSystemData.residual)
