@@ -27,8 +27,11 @@ this sense. ``D`` is not a force at ``t1``: after the step the acceleration is r
 consistent with the point force ``F1`` (``a1 - M^-1 J^T R_c^T D``), so the next step starts from
 the true state (:func:`acceleration_shift`).
 
-Order: the linear interpolation of the centre over the step is ``O(h^2)`` and the quadrature of the
-engaged part ``O(h^3)`` per event, so the scheme is second order again where the ramp is resolved
+``D`` is computed once per step, at the Newton predictor (constant acceleration), and kept over
+the iteration: the converged centre differs from the predicted one by ``O(h^2)``, which changes the
+step's integral by ``O(h^3)`` per event, and it costs one evaluation per step instead of one per
+iteration. Order: the linear interpolation of the centre over the step is ``O(h^2)`` and the
+quadrature of the engaged part ``O(h^3)`` per event, so the scheme is second order again where the ramp is resolved
 by the sub-intervals (a ramp of angle ``delta`` is resolved when ``dphi / N_SUB^2 < delta``).
 Elements that enter and leave within one step are not seen (engagements shorter than a step).
 
@@ -52,8 +55,8 @@ __all__ = ["N_SUB", "BISECTIONS", "step_force_correction", "acceleration_shift"]
 
 #: Trapezoidal sub-intervals of each smooth piece of an element's engaged part of a step.
 N_SUB = 4
-#: Bisections locating an entry, an exit or the end of an entry ramp (resolve 2**-24 of a step).
-BISECTIONS = 24
+#: Bisections locating an entry, an exit or the end of an entry ramp (resolve 2**-20 of a step).
+BISECTIONS = 20
 #: Chip of the law's limit h -> 0+ at the entry or exit (the edge force ``K_e db`` alone), m.
 _H_EDGE = 1e-300
 #: Tolerance of "on the block edge" for the boundary of a column, m (the edge is a stored constant).
@@ -70,29 +73,20 @@ def _element_force(hv, phi, db, law):  # pragma: no cover - numba
 
 
 @njit(inline="always")
-def _on_block_edge(wb, x0, dx, cx, cw, sgn, phi, r, k, hv, w_top):  # pragma: no cover - numba
-    """Whether the chip ``hv`` of the element ends on the untouched block edge (the entry ramp: the
-    ray leaves the material through the flat top of the part, not through an earlier tooth's arc)."""
-    if hv <= 0.0:
-        return False
-    rho = r - hv
-    u = (cx + rho * math.sin(phi) - x0) / dx
-    ncol = wb.shape[1]
-    if not (u >= 0.0 and u < ncol - 1):
+def _column_on_block_edge(wb, x0, dx, x, k, w_top):  # pragma: no cover - numba
+    """Whether the column interval at ``x`` (m) of disc ``k`` is the untouched block edge."""
+    u = (x - x0) / dx
+    if not (u >= 0.0 and u < wb.shape[1] - 1):
         return False
     i = int(math.floor(u))
     return wb[k, i] >= w_top - _EDGE_TOL_M and wb[k, i + 1] >= w_top - _EDGE_TOL_M
 
 
 @njit(inline="always")
-def _tip_on_block_edge(wb, x0, dx, cx, sgn, phi, r, k, w_top):  # pragma: no cover - numba
-    """Whether the columns under the tip are the untouched block edge (an entry or exit through the top)."""
-    u = (cx + r * math.sin(phi) - x0) / dx
-    ncol = wb.shape[1]
-    if not (u >= 0.0 and u < ncol - 1):
-        return False
-    i = int(math.floor(u))
-    return wb[k, i] >= w_top - _EDGE_TOL_M and wb[k, i + 1] >= w_top - _EDGE_TOL_M
+def _on_block_edge(wb, x0, dx, cx, phi, r, k, hv, w_top):  # pragma: no cover - numba
+    """Whether the chip ``hv`` of the element ends on the untouched block edge (the entry ramp: the
+    ray leaves the material through the flat top of the part, not through an earlier tooth's arc)."""
+    return hv > 0.0 and _column_on_block_edge(wb, x0, dx, cx + (r - hv) * math.sin(phi), k, w_top)
 
 
 @njit(inline="always")
@@ -129,7 +123,7 @@ def _ramp_end(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, w_top, lo, h
     for _ in range(BISECTIONS):
         s = 0.5 * (lo + hi)
         hv, ph, cx, cw = _chip_at(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, s)
-        if _on_block_edge(wb, x0, dx, cx, cw, sgn, ph, r, k, hv, w_top) == edge_at_lo:
+        if _on_block_edge(wb, x0, dx, cx, ph, r, k, hv, w_top) == edge_at_lo:
             lo = s
         else:
             hi = s
@@ -155,6 +149,25 @@ def _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, la
     return w * ix, w * iy, w * iz
 
 
+@njit(inline="always")
+def _engaged_end(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law, h_end, s_end, crosses,
+                 inside_at_start):  # pragma: no cover - numba
+    """One end of an element's engaged part of the step: ``(s, on the block edge, force (3))``; at the
+    step's end ``s_end`` with its chip ``h_end``, or, where the element ``crosses`` the boundary, at
+    the crossing with the law's limit h -> 0+."""
+    if crosses:
+        s = _crossing(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, inside_at_start)
+        ph = ph0 + s * dphi
+        edge = _column_on_block_edge(wb, x0, dx, cx0 + s * (cx1 - cx0) + r * math.sin(ph), k, w_top)
+        fx, fy, fz = _element_force(_H_EDGE, ph, db, law)
+    else:
+        s = s_end
+        ph = ph0 + s * dphi
+        edge = _on_block_edge(wb, x0, dx, cx0 + s * (cx1 - cx0), ph, r, k, h_end, w_top)
+        fx, fy, fz = _element_force(h_end, ph, db, law)
+    return s, edge, fx, fy, fz
+
+
 @njit(cache=True, nogil=True)
 def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi, offset, radius, db, law, h0, h1,
                           out):  # pragma: no cover - numba
@@ -173,8 +186,6 @@ def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi
     out[1] = 0.0
     out[2] = 0.0
     events = 0
-    cw0 = sgn * cy0
-    cw1 = sgn * cy1
     for j in range(nt):
         r = radius[j]
         for k in range(nk):
@@ -184,27 +195,15 @@ def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi
             leave = h1[j, k] <= 0.0
             ph0 = ang0 + offset[j, k]
             ph1 = ph0 + dphi
+            if not (enter or leave):  # engaged at both ends: an event only where the entry ramp ends
+                if (_on_block_edge(wb, x0, dx, cx0, ph0, r, k, h0[j, k], w_top)
+                        == _on_block_edge(wb, x0, dx, cx1, ph1, r, k, h1[j, k], w_top)):
+                    continue  # smooth over the whole step: the trapezoidal rule as it is
             # the ends of the engaged part and whether the chip ends on the block edge there
-            if enter:
-                s_lo = _crossing(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, False)
-                c_lo = cx0 + s_lo * (cx1 - cx0)
-                e_lo = _tip_on_block_edge(wb, x0, dx, c_lo, sgn, ph0 + s_lo * dphi, r, k, w_top)
-                flx, fly, flz = _element_force(_H_EDGE, ph0 + s_lo * dphi, db, law)
-            else:
-                s_lo = 0.0
-                e_lo = _on_block_edge(wb, x0, dx, cx0, cw0, sgn, ph0, r, k, h0[j, k], w_top)
-                flx, fly, flz = _element_force(h0[j, k], ph0, db, law)
-            if leave:
-                s_hi = _crossing(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, True)
-                c_hi = cx0 + s_hi * (cx1 - cx0)
-                e_hi = _tip_on_block_edge(wb, x0, dx, c_hi, sgn, ph0 + s_hi * dphi, r, k, w_top)
-                fhx, fhy, fhz = _element_force(_H_EDGE, ph0 + s_hi * dphi, db, law)
-            else:
-                s_hi = 1.0
-                e_hi = _on_block_edge(wb, x0, dx, cx1, cw1, sgn, ph1, r, k, h1[j, k], w_top)
-                fhx, fhy, fhz = _element_force(h1[j, k], ph1, db, law)
-            if not (enter or leave or e_lo != e_hi):
-                continue  # smooth over the whole step: the trapezoidal rule as it is
+            s_lo, e_lo, flx, fly, flz = _engaged_end(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db,
+                                                     law, h0[j, k], 0.0, enter, False)
+            s_hi, e_hi, fhx, fhy, fhz = _engaged_end(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db,
+                                                     law, h1[j, k], 1.0, leave, True)
             events += 1
             if e_lo != e_hi:  # the ramp on the block edge starts or ends inside: split there too
                 s_m = _ramp_end(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, w_top, s_lo, s_hi, e_lo)
@@ -213,7 +212,7 @@ def step_force_correction(wb, x0, dx, sgn, w_top, cx0, cy0, cx1, cy1, ang0, dphi
                 ax, ay, az = _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law,
                                              s_lo, s_m, flx, fly, flz, fmx, fmy, fmz)
                 bx, by, bz = _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law,
-                                             s_m, 1.0 if not leave else s_hi, fmx, fmy, fmz, fhx, fhy, fhz)
+                                             s_m, s_hi, fmx, fmy, fmz, fhx, fhy, fhz)
                 ix, iy, iz = ax + bx, ay + by, az + bz
             else:
                 ix, iy, iz = _piece_integral(wb, x0, dx, sgn, cx0, cy0, cx1, cy1, ph0, dphi, r, k, db, law,
@@ -262,6 +261,7 @@ class StepForce:
         self.last_chips: np.ndarray = self.h0
         self.last_center: np.ndarray = self.c0
         self.last_d = np.zeros(3)
+        self._d_t1 = math.nan
 
     def force(self, t1_s: float, center1_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(F1, dF1/dc, D)``: the point force on the tool at the step's end (cut frame, N), its
@@ -273,7 +273,11 @@ class StepForce:
         wb, x0, dx, sgn, _, w_top = m.workpiece._kernel_state()[:6]
         law = m.law
         law_arr = np.array([law.ktc_pa, law.krc_pa, law.kac_pa, law.kte_n_per_m, law.kre_n_per_m, law.kae_n_per_m])
+        if t1_s == self._d_t1:  # D of this step, from its first evaluation (the predictor)
+            self.last_chips, self.last_center = h1, c1
+            return f, dfdc, self.last_d
         d = np.zeros(3)
+        self._d_t1 = t1_s
         if self.exact:
             step_force_correction(wb, x0, dx, sgn, w_top, self.c0[0], self.c0[1], float(c1[0]), float(c1[1]),
                                   self.omega * self.t0, self.omega * (t1_s - self.t0),
@@ -288,4 +292,5 @@ class StepForce:
         self.t0 = float(t1_s)
         self.c0 = np.array(center1_m, dtype=float)
         self.h0 = np.ascontiguousarray(self.last_chips, dtype=float).copy()
+        self._d_t1 = math.nan
         return self.last_d

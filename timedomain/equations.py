@@ -308,8 +308,9 @@ def linear_system_data(S: PassSetup) -> LinearSystemData:
 
 def linear_system_python(S: PassSetup):
     """Python evaluation of the linearized path (the reference of the compiled kernel): residual,
-    constant tangent ``(K, C, M)``, centre ``(dq, t) -> c (2,)``, initial dq (zero) and the dict of the
-    last cut-frame force on the tool."""
+    constant tangent ``(K, C, M)``, centre ``(dq, t) -> c (2,)``, initial dq (zero), the dict of the
+    last cut-frame force on the tool and the ``accepted_acceleration`` hook of
+    :func:`timedomain.newmark.integrate` (entries and exits inside a step, :mod:`timedomain.entry_exit`)."""
     d = linear_system_data(S)
     q0 = np.zeros(d.M.shape[0])
     residual, accepted, last = corrected_residual(d, S.milling, S.omega, 0.0, q0, exact=S.exact_entry_exit)

@@ -11,6 +11,10 @@ pose, the nonlinear milling force of :class:`timedomain.workpiece_force.MillingF
                      + P k o (dz(d0 + P^T dq) - dz(d0))            (k o P^T dq without backlash)
     c(dq, t) = (s(t), 0) + c_off + J_c dq
 
+The force of a step's end carries the correction of :mod:`timedomain.entry_exit` for the edge
+elements that enter or leave the part (or end their entry ramp) inside the step, and the accepted
+acceleration is that of the point force (``entry_exit="exact"``, the default of the methods).
+
 Nothing of the physics is defined here. The compiled loop calls
 
 * :func:`cases.milling.edge_force_law` and :func:`cases.milling.project_cut_frame` (wrapped with
@@ -246,7 +250,7 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                         dF[2, 0] += gz * dh[j, kk, 0]
                         dF[2, 1] += gz * dh[j, kk, 1]
             # entries and exits inside the step, integrated over their engaged parts
-            if exact:
+            if exact and it == 1:  # from the predictor, kept over the iteration (module entry_exit)
                 step_force_correction(wb, x0, dx, sgn, w_top, c_n[0], c_n[1], cx, cy, omega * t0, omega * h,
                                       offset, radius, db, law, h_n, hh, Dv)
             # residual (LinearSystemData.residual)
