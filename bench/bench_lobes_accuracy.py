@@ -1,6 +1,6 @@
 """Error against cost of each lobe method on the milling benchmark, against the independent reference.
 
-Run: .venv/bin/python bench/bench_lobes_accuracy.py [--every K]
+Run: .venv/bin/python bench/bench_lobes_accuracy.py [--every K] [--only TEXT]
 
 For each benchmark case of ``tests/test_lobes_accuracy.py`` (reference: the independent plain SDM
 of ``tests/lobes_plain_reference.py``, stored in ``tests/data/lobes_accuracy_reference.json``) and
@@ -39,7 +39,9 @@ def methods():
         ("SDM m = 80 (one level)", SemiDiscretization(m=80)),
         ("SDM m = 160 (one level)", SemiDiscretization(m=160)),
         ("SDM m = 40/80 Richardson", SemiDiscretization(m=40, richardson=True)),
-        ("RefinedSDM m0 = 40, tol 1 % (default)", RefinedSDM()),
+        ("RefinedSDM m0 = 40, tol 1 % (default, fast search)", RefinedSDM()),
+        ("RefinedSDM m0 = 40, tol 1 %, plain search (previous default)",
+         RefinedSDM(SemiDiscretization(search="plain"))),
         ("RefinedSDM m0 = 20, tol 1 %", RefinedSDM(SemiDiscretization(m=20))),
         ("RefinedSDM free-exact m0 = 20, tol 1 %", RefinedSDM(SemiDiscretization(m=20, scheme="free-exact"))),
         ("ZOA", ZeroOrder()),
@@ -49,6 +51,7 @@ def methods():
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--every", type=int, default=1, help="use every K-th reference speed (default 1: all 101)")
+    ap.add_argument("--only", default="", help="run only the methods whose label contains this text")
     args = ap.parse_args(argv)
     data = ref.load()
     print("case | method | max shifted error | within 1 % | unconverged | CPU s per 200 speeds")
@@ -58,7 +61,7 @@ def main(argv=None) -> int:
         b_ref = np.array([r["depth_m"] for r in rows])
         sp = ref.shifted_speeds(rpm)
         p = lobe_problem(name)
-        for label, meth in methods():
+        for label, meth in [(lab, m) for lab, m in methods() if args.only in lab]:
             t0 = time.process_time()
             res = solve(p, meth, sp.reshape(-1), depth_max_m=ref.DEPTH_MAX)
             cpu = (time.process_time() - t0) * 200 / sp.size

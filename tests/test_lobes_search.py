@@ -76,7 +76,7 @@ def test_fast_and_plain_search_agree_on_the_benchmark(ae_m, mode):
     p = insperger_2dof()
     from dataclasses import replace
     p = replace(p, cut=replace(p.cut, ae_m=ae_m, mode=mode))
-    rpm = np.linspace(5000.0, 25000.0, 41)
+    rpm = np.linspace(5000.0, 25000.0, 13)
     a = solve(p, RefinedSDM(), rpm)
     b = solve(p, RefinedSDM(SemiDiscretization(search="plain")), rpm)
     assert (a.status == b.status).all()

@@ -11,7 +11,7 @@ import pytest
 from robolobes import cases, linearize
 from robolobes.cases.milling import Cut, CuttingLaw, Tool, cut_frame
 from robolobes.core.errors import BadInput
-from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
+from robolobes.lobes import LobeProblem, PhysicalStructure, RefinedSDM, SemiDiscretization, solve
 from robolobes.workspace import (MapMethod, MapProblem, mean_force_cut_frame, pose_table, solve_map, solve_pose,
                                  start_pose, target)
 
@@ -161,7 +161,7 @@ def test_reduced_map_within_one_percent_of_full_model(alu):
     for i in range(pr.n_poses):
         lin = linearize.linearize(robot, ds["theta_rad"].values[i])
         p = LobeProblem(PhysicalStructure.from_linear(lin, ds["feed_direction"].values[i]), alu.tool, alu.cut, alu.law)
-        ref = solve(p, SemiDiscretization(m=40), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
+        ref = solve(p, RefinedSDM(), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
         got = ds["depth_limit_m"].values[i]
         # capped at the searched 10 mm (inf: no limit below it)
         np.testing.assert_allclose(np.minimum(got, 0.01), np.minimum(ref, 0.01), rtol=0.01)
@@ -234,7 +234,8 @@ def test_bad_map_inputs(steel):
 @pytest.mark.slow
 def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     # The check at full fidelity: 20 random poses of a 0.4 m x 0.4 m placement map (18-DOF
-    # orthogonal, 100 speeds, m = 40, reduction <= 300 Hz) against lobes.solve of the full model.
+    # orthogonal, 100 speeds, refined to an error estimate <= 1 % from m = 40, reduction <= 300 Hz)
+    # against the default lobes.solve (the same rule) of the full model.
     rng = np.random.default_rng(11)
     pr = MapProblem.make(alu, "orthogonal", "placement", n=400)
     table = pose_table(pr)
@@ -250,7 +251,7 @@ def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     for k, i in enumerate(pick):
         lin = linearize.linearize(robot, table["theta"][i])
         p = LobeProblem(PhysicalStructure.from_linear(lin, table["feed"][i]), alu.tool, alu.cut, alu.law)
-        ref = solve(p, SemiDiscretization(m=40), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
+        ref = solve(p, RefinedSDM(), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
         a, b = np.minimum(got.depth_limit_m[k], 0.01), np.minimum(ref, 0.01)
         worst = max(worst, float(np.max(np.abs(a / b - 1))))
         n_cmp += len(b)

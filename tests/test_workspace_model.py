@@ -18,7 +18,7 @@ from robolobes.cases import load_case
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, fk, linearize
 from robolobes.linearize.extra_elements import TcpMode
-from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
+from robolobes.lobes import LobeProblem, PhysicalStructure, RefinedSDM, solve
 from robolobes.main import main
 
 CASE = load_case("tx200-aluminium")
@@ -41,11 +41,12 @@ def _map_limits(args, out) -> np.ndarray:
 
 
 def _solve_with(element) -> np.ndarray:
-    """Limits (3,) m at Tab. 7 of the basic robot plus ``element`` (full structure, m = 40)."""
+    """Limits (3,) m at Tab. 7 of the basic robot plus ``element`` (full structure, the default
+    refined lobes: the rule the map uses by default)."""
     robot = build_model(CASE.robot, "basic", extra_elements=(element,))
     lin = linearize(robot, CASE.path.start_q_rad)
     p = LobeProblem(PhysicalStructure.from_linear(lin, CASE.cut.feed_direction), CASE.tool, CASE.cut, CASE.law)
-    return solve(p, SemiDiscretization(m=40), list(SPEEDS), depth_max_m=0.01, rtol=1e-3).depth_limit_m
+    return solve(p, RefinedSDM(), list(SPEEDS), depth_max_m=0.01, rtol=1e-3).depth_limit_m
 
 
 @pytest.fixture(scope="module")
