@@ -72,37 +72,109 @@ class ForceEffects:
     dynamometer: tuple | None = None        # (fn_hz, zeta)
 
 
-def _chip(spec: CutSpec, eff: ForceEffects, j: int, phi: np.ndarray) -> np.ndarray:
-    n = len(spec.pitch_rad)
-    h = np.full(phi.shape, np.inf)
-    ang = 0.0
+def _theta(spec: CutSpec) -> np.ndarray:
+    return np.concatenate([[0.0], -np.cumsum(spec.pitch_rad[:-1])])
+
+
+def _lags(spec: CutSpec, j: int) -> list:
+    """Angles (rad) from tooth ``j - k`` to tooth ``j``, k = 1..N."""
+    n, ang, out = len(spec.pitch_rad), 0.0, []
     for k in range(1, n + 1):
-        ang += spec.pitch_rad[(j - k) % n]          # angle from tooth j-k to tooth j
-        tau = ang / spec.omega_rad_s
-        h = np.minimum(h, spec.feed_m_per_s * tau * np.sin(phi) + eff.tooth_radius_m[j] - eff.tooth_radius_m[(j - k) % n])
-    return np.maximum(h, 0.0)
+        ang += spec.pitch_rad[(j - k) % n]
+        out.append(ang)
+    return out
+
+
+def _forces_on_workpiece(spec: CutSpec, eff: ForceEffects, phase: np.ndarray, r: np.ndarray | None,
+                         n_slices: int) -> np.ndarray:
+    """Forces on the workpiece (M, 3), N, at spindle angles ``phase`` (M,) = ``Omega t`` of one revolution on a
+    uniform grid, with the tool displaced by ``r`` (M, 2) m in (x, y) of the cut frame (None: rigid)."""
+    m = len(phase)
+    db = spec.ap_m / n_slices
+    z = (np.arange(n_slices) + 0.5) * db
+    R = spec.diameter_m / 2
+    y_stock = -R + spec.ae_m                       # the uncut stock's face (down milling: material at y < it)
+    dr = np.zeros((m, 2)) if r is None else r
+    theta = _theta(spec)
+    out = np.zeros((m, 3))
+    for j in range(len(spec.pitch_rad)):
+        phi = np.mod(phase[:, None] + theta[j] - 2 * z[None, :] * math.tan(spec.helix_rad) / spec.diameter_m,
+                     2 * math.pi)
+        sin, cos = np.sin(phi), np.cos(phi)
+        tip_y = (R + eff.tooth_radius_m[j]) * cos + dr[:, 1:2]
+        engaged = (phi >= math.pi / 2) & (phi <= math.pi) & (tip_y <= y_stock)
+        h = np.full(phi.shape, np.inf)
+        for k, ang in enumerate(_lags(spec, j), start=1):
+            shift = ang / (2 * math.pi) * m                  # samples between the two teeth
+            prev = _delayed(dr, shift)                       # r(t - tau)
+            d = dr - prev
+            hk = ((spec.feed_m_per_s * ang / spec.omega_rad_s + d[:, 0:1]) * sin + d[:, 1:2] * cos
+                  + eff.tooth_radius_m[j] - eff.tooth_radius_m[(j - k) % len(spec.pitch_rad)])
+            h = np.minimum(h, hk)
+        cutting = engaged & (h > 0)
+        ft = np.where(cutting, spec.ktc_pa * h * db + eff.kte_n_per_m * db, 0.0)
+        fr = np.where(cutting, spec.krc_pa * h * db + eff.kre_n_per_m * db, 0.0)
+        out[:, 0] -= np.sum(-ft * cos - fr * sin, axis=1)
+        out[:, 1] -= np.sum(ft * sin - fr * cos, axis=1)
+    return out
+
+
+def _delayed(x: np.ndarray, shift: float) -> np.ndarray:
+    """A periodic signal (M, k) delayed by ``shift`` samples (fractional: by its Fourier series)."""
+    m = len(x)
+    X = np.fft.rfft(x, axis=0)
+    k = np.arange(X.shape[0])
+    return np.fft.irfft(X * np.exp(-2j * np.pi * k * shift / m)[:, None], n=m, axis=0)
+
+
+def tool_receptance_cut(harmonics_hz: np.ndarray, theta_deg=None, feed_direction=(1.0, 0.0, 0.0)) -> np.ndarray:
+    """The independent TX200's tool-tip receptance (F, 2, 2), m/N, in (x, y) of the cut frame
+    (``x`` along the feed, ``z`` into the spindle, ``y = z x x``) at ``harmonics_hz`` (F,)."""
+    from .tx200 import POSE_TAB7_DEG, TX200
+
+    robot = TX200()
+    q = POSE_TAB7_DEG if theta_deg is None else np.asarray(theta_deg, float)
+    zc = -robot.tcp_rotation(q)[:, 2]
+    f = np.asarray(feed_direction, float)
+    xc = f - (f @ zc) * zc
+    xc /= np.linalg.norm(xc)
+    R = np.vstack([xc, np.cross(zc, xc), zc])       # rows: cut axes in base coordinates
+    H = robot.frf(q, np.maximum(np.asarray(harmonics_hz, float), 1e-6))   # (3, 3, F), base axes
+    Hc = np.einsum("ai,ijf,bj->fab", R, H, R)
+    return Hc[:, :2, :2]
+
+
+def periodic_forces(spec: CutSpec = CutSpec(), eff: ForceEffects = ForceEffects(), *, structure: bool = True,
+                    samples: int = SAMPLES_PER_REV, n_slices: int = 40, tol_n: float = 1e-9) -> np.ndarray:
+    """One revolution (samples, 3) of the steady forces on the workpiece, N, at ``Omega t = 2 pi k / samples``.
+
+    ``structure``: the tool on the independent TX200's tool-tip receptance at the Tab. 7 pose (the
+    periodic steady state by fixed-point iteration: displacement ``r = H * F_tool`` harmonic by
+    harmonic, including the static deflection, then the forces at that displacement; converged to
+    ``tol_n``), else rigid."""
+    phase = 2 * math.pi * np.arange(samples) / samples
+    f = _forces_on_workpiece(spec, eff, phase, None, n_slices)
+    if not structure:
+        return f
+    harm = np.arange(samples // 2 + 1) * spec.spindle_rpm / 60.0
+    H = tool_receptance_cut(harm)
+    for _ in range(200):
+        F_tool = -np.fft.rfft(f[:, :2], axis=0)                # (K, 2)
+        r = np.fft.irfft(np.einsum("kab,kb->ka", H, F_tool), n=samples, axis=0)
+        new = _forces_on_workpiece(spec, eff, phase, r, n_slices)
+        step = float(np.abs(new - f).max())
+        f = new
+        if step < tol_n:
+            return f
+    raise RuntimeError(f"the periodic cut did not converge (last change {step:.3g} N)")
 
 
 def rigid_forces(t_s: np.ndarray, spec: CutSpec = CutSpec(), eff: ForceEffects = ForceEffects(),
                  n_slices: int = 40) -> np.ndarray:
     """Forces on the workpiece (n, 3), N, cut frame, at times ``t_s`` (n,): rigid tool, no dynamometer."""
-    t = np.asarray(t_s, float)
-    db = spec.ap_m / n_slices
-    z = (np.arange(n_slices) + 0.5) * db
-    phi_st = math.pi - math.acos(1 - 2 * spec.ae_m / spec.diameter_m)
-    theta = np.concatenate([[0.0], -np.cumsum(spec.pitch_rad[:-1])])
-    out = np.zeros((len(t), 3))
-    for j in range(len(spec.pitch_rad)):
-        phi = spec.omega_rad_s * t[:, None] + theta[j] - 2 * z[None, :] * math.tan(spec.helix_rad) / spec.diameter_m
-        phi = np.mod(phi, 2 * math.pi)
-        engaged = (phi >= phi_st) & (phi <= math.pi)
-        h = _chip(spec, eff, j, phi)
-        cutting = engaged & (h > 0)
-        ft = np.where(cutting, spec.ktc_pa * h * db + eff.kte_n_per_m * db, 0.0)
-        fr = np.where(cutting, spec.krc_pa * h * db + eff.kre_n_per_m * db, 0.0)
-        out[:, 0] -= np.sum(-ft * np.cos(phi) - fr * np.sin(phi), axis=1)
-        out[:, 1] -= np.sum(ft * np.sin(phi) - fr * np.cos(phi), axis=1)
-    return out
+    phase = spec.omega_rad_s * np.asarray(t_s, float)
+    m = len(phase)
+    return _forces_on_workpiece(spec, eff, phase, None, n_slices) if m else np.zeros((0, 3))
 
 
 def _dynamometer(t: np.ndarray, f: np.ndarray, fn_hz: float, zeta: float) -> np.ndarray:
@@ -117,8 +189,9 @@ def measured_forces(spec: CutSpec = CutSpec(), eff: ForceEffects = ForceEffects(
                     lead_in_s: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
     """Noise-free forces through the measurement chain: ``(t_s (n,), force_n (n, 3))`` over ``window_s``."""
     rate = spec.spindle_rpm / 60.0 * SAMPLES_PER_REV
-    t = np.arange(math.ceil((window_s[0] - lead_in_s) * rate), math.floor(window_s[1] * rate) + 1) / rate
-    f = rigid_forces(t, spec, eff)
+    k = np.arange(math.ceil((window_s[0] - lead_in_s) * rate), math.floor(window_s[1] * rate) + 1)
+    t = k / rate
+    f = periodic_forces(spec, eff)[k % SAMPLES_PER_REV]
     if eff.dynamometer is not None:
         f = _dynamometer(t, f, *eff.dynamometer)
     keep = t >= window_s[0] - 1e-12
