@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 import pytest
-from generators.draws import CASES, run_case
+from generators.draws import run_case
 from generators.tx200 import POSE_OFFSETS_DEG, POSE_TAB7_DEG, TX200, Effects
 from robolobes.identify.effects import Parameter
 from robolobes.identify.evidence import below_threshold, credibility, determined, margin

@@ -17,15 +17,12 @@ Tolerances asserted:
 """
 
 import math
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from generators.forces import (  # noqa: E402  (the generators package lives beside the tests)
+from generators.forces import (
     SAMPLES_PER_REV,
     WINDOW_S,
     CutSpec,
