@@ -537,7 +537,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
     n_tests = 2 * max(1, max_effects) * max(1, len(candidates))
     trials = _Trials(poses, candidates, progress, z_threshold(alpha, n_tests))
     sel = stepwise_select([], candidates, trials, alpha=alpha, max_effects=max_effects, progress=progress,
-                          repeatable=lambda c: c.repeatable, drop=trials.drop, accept=accept)
+                          repeatable=lambda c: c.repeatable, drop=trials.drop, accept=accept,
+                          params_of=lambda st, k: st[k][1])
     final = list(sel.state)
     floor, sig_r = noise_floor(poses, sel.final.residual)
     verdict = _unexplained(poses, sel.final.residual, sig_r, floor, sel.error_after, alpha, final)

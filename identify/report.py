@@ -78,11 +78,12 @@ def _summary_lines(title: str, result, provenance: dict) -> list[str]:
                   "within its noise (`effects: []`).", ""]
     from .signatures import diagnosis_markdown
     lines += diagnosis_markdown(result.extra)
-    lines += ["## Selection steps", "", "| step | kept | z | threshold | error before | error after |",
-              "|---|---|---|---|---|---|"]
+    lines += ["## Selection steps", "", "| step | action | kept | removed | z | threshold | error before | error after |",
+              "|---|---|---|---|---|---|---|---|"]
     for i, s in enumerate(result.steps, 1):
-        lines.append(f"| {i} | {s.kept or '-'} | {_g(s.statistic, '.3g')} | {_g(s.threshold, '.3g')} | "
-                     f"{_g(s.error_before, '.4g')} | {_g(s.error_after, '.4g')} |")
+        action = s.action + (" (provisional)" if getattr(s, "provisional", False) else "")
+        lines.append(f"| {i} | {action} | {s.kept or '-'} | {s.removed or '-'} | {_g(s.statistic, '.3g')} | "
+                     f"{_g(s.threshold, '.3g')} | {_g(s.error_before, '.4g')} | {_g(s.error_after, '.4g')} |")
     return lines
 
 

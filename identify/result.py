@@ -61,9 +61,12 @@ class EffectFit:
 class SelectionStep:
     """One selection step: candidates tried, their held-out errors, the one kept (or none).
 
-    ``action``: ``"add"`` (a forward step) or ``"drop"`` (a backward step that removed ``removed``,
-    whose gain ``statistic`` no longer passed ``threshold``). ``rejected``: candidates that could not
-    be findings (not credible, or below their detection threshold), name -> reason.
+    ``action``: ``"add"`` (a forward step), ``"drop"`` (a backward step that removed ``removed``,
+    whose gain ``statistic`` no longer passed ``threshold``) or ``"replace"`` (``removed``, not
+    credible at the final joint fit, replaced by ``kept``, which the held-out data cannot tell from it). ``rejected``: candidates that could not
+    be findings (not credible, or below their detection threshold), name -> reason. ``provisional``:
+    the effect kept was not credible on its own and entered to be refitted with the next one
+    (:mod:`identify.selection`).
     """
 
     candidates: dict  # name -> held-out error with that effect added
@@ -75,6 +78,7 @@ class SelectionStep:
     action: str = "add"
     removed: str | None = None
     rejected: dict = field(default_factory=dict)
+    provisional: bool = False
 
     def to_json(self) -> dict:
         return dict(self.__dict__)

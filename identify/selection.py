@@ -35,6 +35,25 @@ Before a candidate can be chosen it must be a possible finding (``accept(effect,
 outside its physical range) and above its own detection threshold. The best candidate of a step is
 the acceptable one with the lowest held-out error; it is added when it passes the test and lowers
 the held-out error.
+
+A provisional step (forward-backward only): when every fitted candidate of a step is rejected as
+not credible (none for being below its threshold), the best of them is most often a single effect
+standing in for two (a servo's rotor damping pushed to its bound to mimic a second axis's change).
+If it passes the same test and the model has room for at least one more effect, it enters
+*provisionally* (``SelectionStep.provisional``): the next forward step refits it jointly with the
+next effect, and the backward step removes it when it is no longer significant. This adds no test
+(the step is one of the ``S`` forward steps, its candidates among the ``L``), so the correction
+is unchanged; and whatever is left in the final model is judged on the final joint fit, so an
+effect still on a bound there is reported not credible, never a finding.
+
+A replace step (with ``params_of``): an effect of the final model that is not credible at the final
+joint fit is replaced by the credible candidate, refitted jointly with the others, that the
+held-out data cannot tell from it (the current model's gain over it does not pass ``z_thr``), the
+lowest held-out error first (``SelectionStep.action = "replace"``). A servo whose rotor frequency
+sits on its upper bound is a joint correction of its axis (no rotor resonance in the band): the
+replacement reports it as what the data show. A replacement removes an effect and adds one that
+the data cannot tell from it; it adds no effect, so it adds no false positive beyond the forward
+tests counted above.
 """
 
 from __future__ import annotations
@@ -47,6 +66,9 @@ import numpy as np
 from scipy.stats import norm
 
 from .result import EffectFit, SelectionStep
+
+#: The prefix of :func:`identify.evidence.accept`'s reason for a fit that is not credible.
+NOT_CREDIBLE = "not credible"
 
 __all__ = ["Trial", "Selection", "forward_select", "stepwise_select", "heldout_error", "significance", "z_threshold"]
 
@@ -143,7 +165,8 @@ def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any,
                     progress: Callable[[str], None] | None = None,
                     repeatable: Callable[[Any], bool] = lambda e: False,
                     drop: Callable[[Any, int], Any] | None = None,
-                    accept: Callable[[Any, Trial], tuple[bool, str]] = _always) -> Selection:
+                    accept: Callable[[Any, Trial], tuple[bool, str]] = _always,
+                    params_of: Callable[[Any, int], dict] | None = None) -> Selection:
     """Forward-backward selection with a joint refit at every step (see the module doc).
 
     Parameters
@@ -156,6 +179,9 @@ def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any,
     repeatable : whether a candidate may enter more than once (a second tool mode).
     drop : ``drop(state, k) -> state`` without its ``k``-th effect (others refitted); None: forward only.
     accept : ``accept(effect, trial) -> (ok, reason)``: whether the fitted effect can be a finding.
+    params_of : ``params_of(state, k) -> dict``, the ``k``-th effect's parameters in ``state``; with
+        ``drop``, an effect of the final model that is not credible at the final joint fit is replaced
+        by a credible candidate the held-out data cannot tell from it (module doc).
     """
     n_forward = 2 * max(1, max_effects)
     n_tests = n_forward * max(1, len(candidates))
@@ -179,8 +205,11 @@ def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any,
             results[name(c)] = (c, t)
             if not ok:
                 rejected[name(c)] = why
-        usable = [k for k in results if k not in rejected]
+        usable = [k for k, (_, t) in results.items() if k not in rejected and not t.evidence.get("screened_out")]
         errors = {k: v[1].error for k, v in results.items()}
+        provisional = not usable and len(chosen) < max_effects - 1 and drop is not None
+        if provisional:   # every fit stopped on a bound: perhaps it stands in for two effects (module doc)
+            usable = [k for k, why in rejected.items() if why.startswith(NOT_CREDIBLE)]
         if not usable:
             steps.append(SelectionStep(candidates=errors, kept=None, error_before=current.error,
                                        error_after=current.error, statistic=float("nan"), threshold=thr,
@@ -192,17 +221,21 @@ def stepwise_select(state: Any, candidates: Sequence[Any], trial: Callable[[Any,
         kept = best_name if (z > thr and best.error < current.error) else None
         steps.append(SelectionStep(candidates=errors, kept=kept, error_before=current.error,
                                    error_after=best.error if kept else current.error, statistic=float(z),
-                                   threshold=thr, rejected=rejected))
+                                   threshold=thr, rejected=rejected, provisional=bool(provisional and kept)))
         if kept is None:
             break
         fits.append(EffectFit(name=best_name, params=dict(best.params), uncertainty=dict(best.uncertainty),
                               evidence={**best.evidence, "heldout_error_without": current.error,
                                         "heldout_error_with": best.error, "z": float(z), "z_threshold": thr,
+                                        "provisional": bool(provisional),
                                         "alternatives": _alternatives(results, rejected, best_name, best, thr)}))
         chosen.append(best_c)
         current = best
         if drop is not None:
             current = _backward(current, chosen, fits, steps, trial, drop, thr, name, progress)
+    if drop is not None and params_of is not None:
+        current = _replace_not_credible(current, candidates, chosen, fits, steps, trial, drop, accept, params_of,
+                                        thr, name, repeatable, progress)
     final_state = current.state if current.state is not None else state
     return Selection(effects=tuple(fits), steps=tuple(steps), state=final_state, base=base, final=current,
                      chosen=tuple(chosen), n_tests=n_tests, threshold=thr)
@@ -244,6 +277,49 @@ def _backward(current: Trial, chosen: list, fits: list, steps: list, trial, drop
         del chosen[worst]
         del fits[worst]
         current = worst_t
+    return current
+
+
+def _replace_not_credible(current: Trial, candidates, chosen: list, fits: list, steps: list, trial, drop, accept,
+                          params_of, thr, name, repeatable, progress) -> Trial:
+    """Replace each effect of the final model that is not credible at the final joint fit by the credible
+    candidate (refitted jointly with the others) with the lowest held-out error among those the data
+    cannot tell from it: the current model's gain over it does not pass ``thr``."""
+    k = 0
+    while k < len(chosen):
+        here = Trial(current.residual, current.measured, current.sigma, params=dict(params_of(current.state, k)))
+        if accept(chosen[k], here)[0]:
+            k += 1
+            continue
+        rest = drop(current.state, k)
+        others = chosen[:k] + chosen[k + 1:]
+        best = None
+        for c in candidates:
+            if c is chosen[k] or (not repeatable(c) and any(c is x for x in others)):
+                continue
+            if progress is not None:
+                progress(f"replace {name(chosen[k])}: {name(c)}")
+            t = trial(rest, c)
+            if t.evidence.get("screened_out") or not accept(c, t)[0]:
+                continue
+            z = significance(t.residual, current.residual, current.sigma)
+            if z <= thr and (best is None or t.error < best[1].error):
+                best = (c, t, z)
+        if best is None:
+            k += 1
+            continue
+        c, t, z = best
+        old = name(chosen[k])
+        steps.append(SelectionStep(candidates={name(c): t.error}, kept=name(c), error_before=current.error,
+                                   error_after=t.error, statistic=float(z), threshold=thr, action="replace",
+                                   removed=old))
+        del chosen[k]
+        del fits[k]
+        chosen.append(c)
+        fits.append(EffectFit(name=name(c), params=dict(t.params), uncertainty=dict(t.uncertainty),
+                              evidence={**t.evidence, "replaces": old, "z_replaced_over_it": float(z),
+                                        "z_threshold": thr}))
+        current = t
     return current
 
 

@@ -186,6 +186,13 @@ class TX200:
             K[i, -1] = K[-1, i] = -kk
         return M, C, K, J
 
+    def tcp_rotation(self, theta_deg) -> np.ndarray:
+        """Rotation (3, 3) of the TCP frame in base axes at motor angles ``theta_deg`` (columns: TCP x, y, z)."""
+        q = np.zeros(self.model.nq)
+        q[self.n_base:self.n_base + 6] = np.radians(theta_deg)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return np.array(self.data.oMf[self.tcp_frame].rotation)
+
     def frf(self, theta_deg, f_hz) -> np.ndarray:
         """Tool-tip receptance (3, 3, F), m/N, base axes, at ``f_hz`` (F,), with the sensor's gain."""
         M, C, K, J = self.matrices(theta_deg)

@@ -1,0 +1,214 @@
+"""An independent cutting-force generator for test data: Altintas' mechanistic milling force, rigid tool.
+
+Nothing here imports ``robolobes``: the force law is written from the textbook (Altintas,
+*Manufacturing Automation*, 2nd ed., ch. 2.3-2.5), the cut's numbers are typed in from the shipped
+case ``tx200-aluminium`` (paper Tab. 7-8, NOTES.md), and every effect is built here in its own way.
+
+Model (rigid tool and workpiece; the robot's vibration at the 623 Hz tooth passing is left out,
+see :data:`ROBOT_VIBRATION_NOTE`):
+
+* immersion of tooth ``j`` at height ``z`` above the tip: ``phi_j(t, z) = Omega t + theta_j - 2 z tan(beta) / D``,
+  measured clockwise from ``+y`` (feed ``+x``), ``theta_0 = 0``, ``theta_(j+1) = theta_j - pitch_j``;
+* down milling: a tooth cuts for ``pi - arccos(1 - 2 ae / D) <= phi <= pi``;
+* chip thickness with tooth radii ``R + r_j``: the smallest over the ``k = 1..N`` teeth ahead of
+  ``j`` of ``v_f tau_jk sin(phi) + r_j - r_(j-k)`` (``tau_jk`` the time since tooth ``j-k`` passed
+  the same angle), and zero when negative (the tooth is out of the material);
+* forces per axial element ``db``: ``dFt = Ktc h db + Kte db``, ``dFr = Krc h db + Kre db``; on the tool
+  ``dFx = -dFt cos(phi) - dFr sin(phi)``, ``dFy = dFt sin(phi) - dFr cos(phi)``; the data are the
+  forces on the workpiece (minus those), ``z`` zero (``Kac = Kae = 0``);
+* the dynamometer: a second-order stage ``wn^2 / (s^2 + 2 zeta wn s + wn^2)`` on each axis, simulated
+  in time (``scipy.signal.lsim``) from a lead-in of the periodic force so the window has no start
+  transient;
+* noise: white Gaussian, ``noise_n`` N on each axis and sample.
+
+Files: ``forces.csv`` (``t_s,fx_n,fy_n,fz_n``) and ``cut.toml`` (``case``, ``sample_rate_hz``,
+``window_s``), the reader's format for a cutting-force set.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["CutSpec", "ForceEffects", "rigid_forces", "write_force_set", "WINDOW_S", "SAMPLES_PER_REV"]
+
+#: Steady cut of the aluminium pass (the tool is fully engaged and the feed constant after 0.228 s).
+WINDOW_S = (0.25, 0.40)
+#: Samples per spindle revolution (2 deg steps).
+SAMPLES_PER_REV = 180
+ROBOT_VIBRATION_NOTE = ("rigid: the robot's modes (< 100 Hz) are far below the 623 Hz tooth passing; the "
+                        "cross-check against robolobes' pass bounds what that leaves out")
+
+
+@dataclass(frozen=True)
+class CutSpec:
+    """The aluminium cut of the shipped case (paper Tab. 7, 8), SI."""
+
+    diameter_m: float = 0.010
+    helix_rad: float = math.radians(30.0)
+    pitch_rad: tuple = (math.radians(170.0), math.radians(190.0))
+    ktc_pa: float = 661.553e6
+    krc_pa: float = 253.458e6
+    ae_m: float = 0.004
+    ap_m: float = 0.0016
+    spindle_rpm: float = 18700.0
+    feed_m_per_s: float = 3.7 / 60.0
+
+    @property
+    def omega_rad_s(self) -> float:
+        return self.spindle_rpm / 60.0 * 2 * math.pi
+
+
+@dataclass(frozen=True)
+class ForceEffects:
+    """What the generator adds to the nominal cut; the default is none."""
+
+    kte_n_per_m: float = 0.0
+    kre_n_per_m: float = 0.0
+    tooth_radius_m: tuple = (0.0, 0.0)      # r_j, tooth-tip radius offsets (runout)
+    dynamometer: tuple | None = None        # (fn_hz, zeta)
+
+
+def _theta(spec: CutSpec) -> np.ndarray:
+    return np.concatenate([[0.0], -np.cumsum(spec.pitch_rad[:-1])])
+
+
+def _lags(spec: CutSpec, j: int) -> list:
+    """Angles (rad) from tooth ``j - k`` to tooth ``j``, k = 1..N."""
+    n, ang, out = len(spec.pitch_rad), 0.0, []
+    for k in range(1, n + 1):
+        ang += spec.pitch_rad[(j - k) % n]
+        out.append(ang)
+    return out
+
+
+def _forces_on_workpiece(spec: CutSpec, eff: ForceEffects, phase: np.ndarray, r: np.ndarray | None,
+                         n_slices: int) -> np.ndarray:
+    """Forces on the workpiece (M, 3), N, at spindle angles ``phase`` (M,) = ``Omega t`` of one revolution on a
+    uniform grid, with the tool displaced by ``r`` (M, 2) m in (x, y) of the cut frame (None: rigid)."""
+    m = len(phase)
+    db = spec.ap_m / n_slices
+    z = (np.arange(n_slices) + 0.5) * db
+    R = spec.diameter_m / 2
+    y_stock = -R + spec.ae_m                       # the uncut stock's face (down milling: material at y < it)
+    dr = np.zeros((m, 2)) if r is None else r
+    theta = _theta(spec)
+    out = np.zeros((m, 3))
+    for j in range(len(spec.pitch_rad)):
+        phi = np.mod(phase[:, None] + theta[j] - 2 * z[None, :] * math.tan(spec.helix_rad) / spec.diameter_m,
+                     2 * math.pi)
+        sin, cos = np.sin(phi), np.cos(phi)
+        tip_y = (R + eff.tooth_radius_m[j]) * cos + dr[:, 1:2]
+        engaged = (phi >= math.pi / 2) & (phi <= math.pi) & (tip_y <= y_stock)
+        h = np.full(phi.shape, np.inf)
+        for k, ang in enumerate(_lags(spec, j), start=1):
+            shift = ang / (2 * math.pi) * m                  # samples between the two teeth
+            prev = _delayed(dr, shift)                       # r(t - tau)
+            d = dr - prev
+            hk = ((spec.feed_m_per_s * ang / spec.omega_rad_s + d[:, 0:1]) * sin + d[:, 1:2] * cos
+                  + eff.tooth_radius_m[j] - eff.tooth_radius_m[(j - k) % len(spec.pitch_rad)])
+            h = np.minimum(h, hk)
+        cutting = engaged & (h > 0)
+        ft = np.where(cutting, spec.ktc_pa * h * db + eff.kte_n_per_m * db, 0.0)
+        fr = np.where(cutting, spec.krc_pa * h * db + eff.kre_n_per_m * db, 0.0)
+        out[:, 0] -= np.sum(-ft * cos - fr * sin, axis=1)
+        out[:, 1] -= np.sum(ft * sin - fr * cos, axis=1)
+    return out
+
+
+def _delayed(x: np.ndarray, shift: float) -> np.ndarray:
+    """A periodic signal (M, k) delayed by ``shift`` samples (fractional: by its Fourier series)."""
+    m = len(x)
+    X = np.fft.rfft(x, axis=0)
+    k = np.arange(X.shape[0])
+    return np.fft.irfft(X * np.exp(-2j * np.pi * k * shift / m)[:, None], n=m, axis=0)
+
+
+def tool_receptance_cut(harmonics_hz: np.ndarray, theta_deg=None, feed_direction=(1.0, 0.0, 0.0)) -> np.ndarray:
+    """The independent TX200's tool-tip receptance (F, 2, 2), m/N, in (x, y) of the cut frame
+    (``x`` along the feed, ``z`` into the spindle, ``y = z x x``) at ``harmonics_hz`` (F,)."""
+    from .tx200 import POSE_TAB7_DEG, TX200
+
+    robot = TX200()
+    q = POSE_TAB7_DEG if theta_deg is None else np.asarray(theta_deg, float)
+    zc = -robot.tcp_rotation(q)[:, 2]
+    f = np.asarray(feed_direction, float)
+    xc = f - (f @ zc) * zc
+    xc /= np.linalg.norm(xc)
+    R = np.vstack([xc, np.cross(zc, xc), zc])       # rows: cut axes in base coordinates
+    H = robot.frf(q, np.maximum(np.asarray(harmonics_hz, float), 1e-6))   # (3, 3, F), base axes
+    Hc = np.einsum("ai,ijf,bj->fab", R, H, R)
+    return Hc[:, :2, :2]
+
+
+def periodic_forces(spec: CutSpec = CutSpec(), eff: ForceEffects = ForceEffects(), *, structure: bool = True,
+                    samples: int = SAMPLES_PER_REV, n_slices: int = 40, tol_n: float = 1e-9) -> np.ndarray:
+    """One revolution (samples, 3) of the steady forces on the workpiece, N, at ``Omega t = 2 pi k / samples``.
+
+    ``structure``: the tool on the independent TX200's tool-tip receptance at the Tab. 7 pose (the
+    periodic steady state by fixed-point iteration: displacement ``r = H * F_tool`` harmonic by
+    harmonic, including the static deflection, then the forces at that displacement; converged to
+    ``tol_n``), else rigid."""
+    phase = 2 * math.pi * np.arange(samples) / samples
+    f = _forces_on_workpiece(spec, eff, phase, None, n_slices)
+    if not structure:
+        return f
+    harm = np.arange(samples // 2 + 1) * spec.spindle_rpm / 60.0
+    H = tool_receptance_cut(harm)
+    for _ in range(200):
+        F_tool = -np.fft.rfft(f[:, :2], axis=0)                # (K, 2)
+        r = np.fft.irfft(np.einsum("kab,kb->ka", H, F_tool), n=samples, axis=0)
+        new = _forces_on_workpiece(spec, eff, phase, r, n_slices)
+        step = float(np.abs(new - f).max())
+        f = new
+        if step < tol_n:
+            return f
+    raise RuntimeError(f"the periodic cut did not converge (last change {step:.3g} N)")
+
+
+def rigid_forces(t_s: np.ndarray, spec: CutSpec = CutSpec(), eff: ForceEffects = ForceEffects(),
+                 n_slices: int = 40) -> np.ndarray:
+    """Forces on the workpiece (n, 3), N, cut frame, at times ``t_s`` (n,): rigid tool, no dynamometer."""
+    phase = spec.omega_rad_s * np.asarray(t_s, float)
+    m = len(phase)
+    return _forces_on_workpiece(spec, eff, phase, None, n_slices) if m else np.zeros((0, 3))
+
+
+def _dynamometer(t: np.ndarray, f: np.ndarray, fn_hz: float, zeta: float) -> np.ndarray:
+    from scipy import signal
+
+    w = 2 * math.pi * fn_hz
+    sys_ = signal.lti([w * w], [1.0, 2 * zeta * w, w * w])
+    return np.column_stack([signal.lsim(sys_, f[:, k], t)[1] for k in range(3)])
+
+
+def measured_forces(spec: CutSpec = CutSpec(), eff: ForceEffects = ForceEffects(), window_s=WINDOW_S,
+                    lead_in_s: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """Noise-free forces through the measurement chain: ``(t_s (n,), force_n (n, 3))`` over ``window_s``."""
+    rate = spec.spindle_rpm / 60.0 * SAMPLES_PER_REV
+    k = np.arange(math.ceil((window_s[0] - lead_in_s) * rate), math.floor(window_s[1] * rate) + 1)
+    t = k / rate
+    f = periodic_forces(spec, eff)[k % SAMPLES_PER_REV]
+    if eff.dynamometer is not None:
+        f = _dynamometer(t, f, *eff.dynamometer)
+    keep = t >= window_s[0] - 1e-12
+    return t[keep], f[keep]
+
+
+def write_force_set(directory, eff: ForceEffects = ForceEffects(), *, noise_n: float = 2.0, seed: int = 0,
+                    spec: CutSpec = CutSpec(), case: str = "tx200-aluminium") -> dict:
+    """Write ``forces.csv`` and ``cut.toml`` into the new ``directory``. Returns the truth: ``t_s``,
+    ``clean`` (n, 3) and ``noise`` (n, 3), N."""
+    d = Path(directory)
+    d.mkdir(parents=False, exist_ok=False)
+    t, clean = measured_forces(spec, eff)
+    noise = np.random.default_rng(seed).normal(0.0, noise_n, clean.shape)
+    np.savetxt(d / "forces.csv", np.column_stack([t, clean + noise]), delimiter=",", header="t_s,fx_n,fy_n,fz_n",
+               comments="", fmt="%.10g")
+    rate = spec.spindle_rpm / 60.0 * SAMPLES_PER_REV
+    (d / "cut.toml").write_text(f'case = "{case}"\nsample_rate_hz = {rate:.10g}\n'
+                                f"window_s = [{t[0]:.10g}, {t[-1]:.10g}]\n")
+    return {"t_s": t, "clean": clean, "noise": noise}
