@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from .compute import ChunkResult, compute_chunk
 from .poses import solve_pose, start_pose, target
 from .problem import MapMethod, MapProblem
 from .store import create_store, open_for_resume, write_chunk
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["MapResult", "solve_map", "pose_table"]
 
@@ -68,7 +71,7 @@ class MapResult:
 
     problem: MapProblem
     method: MapMethod
-    dataset: object
+    dataset: xr.Dataset
     stats: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
