@@ -17,9 +17,18 @@ The command line is :func:`robolobes.main.main` (``robolobes ...`` or ``python -
 if __name__ != "robolobes":  # this folder imported by itself (from the repository root): a second copy
     raise ImportError(f"{__name__!r} is the folder of the robolobes package: import robolobes instead")
 
-from importlib.metadata import PackageNotFoundError, version as _version
 
-try:
-    __version__ = _version("robolobes")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0+unknown"
+
+def __getattr__(name: str) -> str:
+    """``robolobes.__version__``, read from the installed metadata on first use (importlib.metadata
+    costs more start-up time than ``robolobes --help`` itself, so it is not imported before)."""
+    if name != "__version__":
+        raise AttributeError(f"module 'robolobes' has no attribute {name!r}")
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        value = version("robolobes")
+    except PackageNotFoundError:  # running from a source tree that was not installed
+        value = "0+unknown"
+    globals()["__version__"] = value
+    return value

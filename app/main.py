@@ -125,6 +125,19 @@ def main(argv: list[str] | None = None) -> int:
     raised before any work; the CLIs turn OSErrors on a user's paths into it); 130 Ctrl-C (SIGINT),
     143 SIGTERM (one line, however many signals follow); 1 out of memory (one line). Any other
     exception is an internal error and keeps its traceback.
+
+    The lobes of a two-mode model (a hammer test's modes in a TOML file), five speeds, as JSON:
+
+    >>> import contextlib, io, json, pathlib, tempfile
+    >>> modes = pathlib.Path(tempfile.mkdtemp()) / "modes.toml"
+    >>> _ = modes.write_text("".join(f"[[modes]]\\nfreq_hz = 922\\ndamping_ratio = 0.011\\nstiffness_n_per_m = 1.34e6\\n"
+    ...                              f"direction = {d}\\n" for d in ("[1, 0]", "[0, 1]")))
+    >>> out = io.StringIO()
+    >>> with contextlib.redirect_stdout(out):
+    ...     code = main(["lobes", "--modal", str(modes), "--teeth", "2", "--diameter-mm", "10", "--ae-mm", "0.5",
+    ...                  "--down", "--ktc-mpa", "600", "--krc-mpa", "200", "--n-rpm", "5", "--json", "--quiet"])
+    >>> code, json.loads(out.getvalue())["rpm"]
+    (0, [2000.0, 7750.0, 13500.0, 19250.0, 25000.0])
     """
     in_main_thread = threading.current_thread() is threading.main_thread()
     old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)} if in_main_thread else {}

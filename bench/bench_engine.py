@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,7 @@ def main(n: int = 20000) -> None:
     jitter = np.array([0.0, 1e-12])  # defeat the memo: a new state each call, as in Newton
 
     def force(i):
-        model.force(a1[i % spr], c1[i % spr] + jitter * (i + 1))
+        model.force(float(a1[i % spr]), c1[i % spr] + jitter * (i + 1))
 
     t_force = _per_call(force, n)
 
@@ -59,16 +60,18 @@ def main(n: int = 20000) -> None:
     nc = 5 * spr
     t2 = t[-1] + np.arange(nc + 1) * cut.spindle_period_s / spr
     c2, a2 = straight_path(tool, cut, t2, 12e-3)
-    t_commit = _per_call(lambda i: m2.commit(a2[i], c2[i], a2[i + 1], c2[i + 1]), nc - 1)
+    t_commit = _per_call(lambda i: m2.commit(float(a2[i]), c2[i], float(a2[i + 1]), c2[i + 1]), nc - 1)
 
     # Newmark: 18-DOF linear system, prefactored (the linear fast path and modified Newton)
     k = np.diag(np.linspace(1e6, 5e6, 18))
     sys = LinearSystem(M=np.eye(18), C=1e-3 * k, K=k, force=lambda tt: np.full(18, math.sin(100 * tt)))
     steps = 5000
     res = {}
-    for name, kw in (("linear fast path", dict(constant_tangent=sys.matrices, linear=True)),
-                     ("constant tangent", dict(constant_tangent=sys.matrices)),
-                     ("full Newton", dict(tangent=sys.tangent))):
+    variants: tuple[tuple[str, dict[str, Any]], ...] = (
+        ("linear fast path", dict(constant_tangent=sys.matrices, linear=True)),
+        ("constant tangent", dict(constant_tangent=sys.matrices)),
+        ("full Newton", dict(tangent=sys.tangent)))
+    for name, kw in variants:
         t0 = time.perf_counter()
         integrate(sys.residual, np.zeros(18), np.zeros(18), t0_s=0.0, h_s=1e-5, n_steps=steps,
                   options=NewmarkOptions(atol=1e-14), on_step=lambda s: None, **kw)

@@ -21,7 +21,7 @@ import math
 import time
 import warnings
 from dataclasses import asdict, replace
-from typing import Callable
+from typing import Callable, cast
 
 import numpy as np
 
@@ -239,7 +239,7 @@ def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic")
 
 def _slowest_decay(lin) -> float:
     """Smallest modal decay rate ``zeta w_n`` of a linearization, 1/s."""
-    return float(np.min(-np.asarray(lin.modes().poles).real))
+    return float(np.min(-np.real(np.asarray(lin.modes().poles))))
 
 
 def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Progress = _quiet,
@@ -294,9 +294,13 @@ def simulate_run(case, material, variant, settings, t_end, damping_scale=1.0, st
 def _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
                   lins: Linearizations) -> TimeDomainRun:
     from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
+    from robolobes.timedomain.result import SimulationResult
     robot = lins.robot(case.robot, variant, damping_scale)
     pb = SimulationProblem(robot, case, t_end_s=t_end, stats_window_s=stats_window)
-    r = simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(), progress=progress)
+    # a SimulationProblem with a Newmark method gives a SimulationResult (simulate's return is a union)
+    r = cast(SimulationResult, simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(),
+                                        progress=progress))
+    assert r.summary is not None
     s = r.summary.to_json()
     summary = {k: s[k] for k in _TD_KEYS if s.get(k) is not None}
     verdict = as_verdict(s.get("verdict", s.get("stable")), s.get("verdict_reason") or s.get("note") or "")

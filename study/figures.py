@@ -39,12 +39,19 @@ def plot_frfs(res: StudyResult, path: Path) -> None:
     _finish(fig, path)
 
 
+def _nominal_run(res: StudyResult, material: str):
+    """The basic variant's pass at nominal damping (every study computes it)."""
+    run = res.run(material)
+    assert run is not None, f"the study has no nominal time-domain run of {material}"
+    return run
+
+
 def plot_time_domain(res: StudyResult, path: Path) -> None:
     """Forces (paper axes) of the basic passes; steel also at its smallest stabilizing damping."""
     plt = pyplot()
     fig, axes = plt.subplots(2, 1, figsize=(9, 6))
     for ax, mat in zip(axes, ("aluminium", "steel")):
-        run = res.run(mat)
+        run = _nominal_run(res, mat)
         f = np.asarray(run.series.force_paper_axes_n)
         ax.plot(run.series.t_s, f[:, 1], lw=0.4, label="Fy, nominal damping")
         ax.plot(run.series.t_s, f[:, 0], lw=0.4, label="Fx, nominal damping")
@@ -99,12 +106,13 @@ def _plot_operating_point(ax, res: StudyResult, mat: str) -> None:
 
 def _plot_engaged_forces(ax, res: StudyResult) -> None:
     for mat, col in (("aluminium", "tab:blue"), ("steel", "tab:red")):
-        r = res.run(mat).series
+        run = _nominal_run(res, mat)
+        r = run.series
         t = np.asarray(r.t_s)
         t0 = r.steady_window_s[0]
         sel = (t >= t0) & (t <= t0 + 0.6)
         ax.plot(t[sel] - t0, np.asarray(r.force_paper_axes_n)[sel, 1], lw=0.5, color=col,
-                label=f"{mat}: {res.run(mat).verdict.status}")
+                label=f"{mat}: {run.verdict.status}")
     ax.set_xlabel("time from full engagement (s)")
     ax.set_ylabel("Fy (N, paper axes)")
     ax.set_title("time domain [basic]: normal force", fontsize=10)
@@ -133,6 +141,6 @@ def write_figures(res: StudyResult, out: Path) -> None:
         plot_lobes(d.result, out / d.figure, operating_point=res.operating_point(d.material, d.variant, d.pose).point,
                    title=f"{res.cases[d.material]} [{d.variant}], {d.pose} of the pass")
     plot_time_domain(res, out / "time_domain.png")
-    plot_wall(res.run("aluminium").series, out / "wall_aluminium.png")
-    plot_wall(res.run("steel").series, out / "wall_steel.png")
+    plot_wall(_nominal_run(res, "aluminium").series, out / "wall_aluminium.png")
+    plot_wall(_nominal_run(res, "steel").series, out / "wall_steel.png")
     plot_main(res, out / "study.png")

@@ -146,8 +146,9 @@ def _roughness(data: dict) -> str | None:
         r = rough.get(f"robolobes aluminium {v}") or {}
         if r.get("Ra") is None or r.get("Rt") is None or not meas:
             continue
-        parts.append(f"{v}: {prose.range_comparison('Ra', r['Ra'], *meas['Ra'], 'um', 2)}, "
-                     f"{prose.range_comparison('Rt', r['Rt'], *meas['Rt'], 'um', 1)}")
+        (ra_lo, ra_hi), (rt_lo, rt_hi) = meas["Ra"], meas["Rt"]  # measured ranges, um
+        parts.append(f"{v}: {prose.range_comparison('Ra', r['Ra'], ra_lo, ra_hi, 'um', 2)}, "
+                     f"{prose.range_comparison('Rt', r['Rt'], rt_lo, rt_hi, 'um', 1)}")
     if not parts:
         return None
     return "**Roughness of the aluminium wall** (computed by robolobes, against Tab. 11): " + "; ".join(parts) + "."

@@ -46,7 +46,7 @@ def replace_block(text: str, block: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="readme_numbers", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="readme_numbers", description=(__doc__ or "").splitlines()[0])
     ap.add_argument("results", help="a study's results.json (the committed one: docs/study-results.json)")
     ap.add_argument("readme", nargs="?", default="README.md")
     ap.add_argument("--check", action="store_true", help="exit 1 if the README's block differs; write nothing")

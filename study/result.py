@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from robolobes.core.verdict import Verdict
+from robolobes.core.verdict import Status, Verdict
 
 __all__ = ["ModeSet", "DominantMode", "OperatingPoint", "LobeDiagram", "AbsoluteLimit", "TimeDomainRun",
            "DampingProbe", "DampingSearch", "Tab10Row", "RoughnessRow", "MaterialFacts", "StudyResult",
@@ -31,7 +31,7 @@ def as_verdict(v, reason: str = "") -> Verdict:
         return Verdict.from_stable(v, reason)
     if v == "marginal":
         return Verdict("undetermined", reason or "the cut depth lies within the discretization error of the limit")
-    return Verdict(str(v), reason)
+    return Verdict(cast(Status, str(v)), reason)  # Verdict checks the status at run time
 
 
 @dataclass(frozen=True)

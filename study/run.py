@@ -47,6 +47,7 @@ def run_study(out_dir: str | os.PathLike = "robolobes-study", quick: bool = Fals
     res = compute_study(settings, lambda f: prog(0.97 * f))
     prog(0.97, "report")
     with out:
+        assert out.path is not None  # set by entering the OutputDir
         write_study(res, out.path)
     prog(1.0, "done")
     return to_json(res)

@@ -1,6 +1,69 @@
-"""Test configuration: single-threaded BLAS (see app/main.py, robolobes.main), set before numpy is imported."""
+"""Test configuration and the fixtures shared by the test modules.
+
+BLAS is single-threaded (see app/main.py, robolobes.main), set before numpy is imported.
+
+Shared fixtures (session scope: each is built once per test run and shared by every test that
+asks for it). Sharing is safe because each object is immutable: the specs and cases are frozen
+dataclasses with read-only arrays, and a robot (``FlexibleRobot``) is a constant model whose
+algorithms take a ``pin.Data`` workspace per call (docs/guide/development.md).
+
+* ``tx200_spec``: the built-in TX200 robot spec (``cases.load_robot("tx200")``);
+* ``alu_case``, ``steel_case``: the built-in milling cases ``tx200-aluminium`` / ``tx200-steel``;
+* ``tx200_robot``: ``tx200_robot(variant)`` is the TX200 built as that variant
+  (``"basic"``, ``"gravity"``, ``"orthogonal"``, ``"backlash"``), nominal damping, no extra
+  elements, built once per variant. A robot with other arguments (damping scale, extra elements,
+  another spec) is built by the test itself.
+"""
+
+from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING, Callable
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+
+import pytest  # noqa: E402  (after the BLAS settings: pytest's plugins may import numpy)
+
+if TYPE_CHECKING:
+    from robolobes.cases.spec import MillingCase, RobotSpec
+    from robolobes.linearize import FlexibleRobot
+
+
+@pytest.fixture(scope="session")
+def tx200_spec() -> RobotSpec:
+    """The built-in TX200 robot spec (SI units; frozen)."""
+    from robolobes import cases
+
+    return cases.load_robot("tx200")
+
+
+@pytest.fixture(scope="session")
+def alu_case() -> MillingCase:
+    """The built-in aluminium case on the TX200 (frozen)."""
+    from robolobes import cases
+
+    return cases.load_case("tx200-aluminium")
+
+
+@pytest.fixture(scope="session")
+def steel_case() -> MillingCase:
+    """The built-in steel case on the TX200 (frozen)."""
+    from robolobes import cases
+
+    return cases.load_case("tx200-steel")
+
+
+@pytest.fixture(scope="session")
+def tx200_robot(tx200_spec: RobotSpec) -> Callable[[str], FlexibleRobot]:
+    """``tx200_robot(variant="basic")``: the TX200 built as ``variant``, once per variant (immutable)."""
+    from robolobes.linearize import build_model
+
+    built: dict[str, FlexibleRobot] = {}
+
+    def robot(variant: str = "basic") -> FlexibleRobot:
+        if variant not in built:
+            built[variant] = build_model(tx200_spec, variant)
+        return built[variant]
+
+    return robot

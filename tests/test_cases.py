@@ -52,8 +52,8 @@ def test_assumptions_are_listed_in_one_place():
                      "links.elbow.gb_m.z": 0.2, "links.wrist.gb_m.z": 0.05}
 
 
-def test_cutting_cases():
-    al, st = load_case("tx200-aluminium"), load_case("tx200-steel")
+def test_cutting_cases(alu_case, steel_case):
+    al, st = alu_case, steel_case
     # Tab. 8
     assert al.tool.diameter_m == 0.01 and al.tool.teeth == 2
     assert_allclose(np.degrees(al.tool.pitch_rad), [170, 190])
@@ -81,9 +81,9 @@ def _copy_case(tmp_path, edit_case=None, edit_robot=None):
     return tmp_path / "mycase.toml"
 
 
-def test_user_case_by_path_round_trips(tmp_path):
+def test_user_case_by_path_round_trips(tmp_path, alu_case):
     c = load_case(_copy_case(tmp_path))
-    ref = load_case("tx200-aluminium")
+    ref = alu_case
     assert_allclose(c.robot.joint_stiffness, ref.robot.joint_stiffness)
     assert c.cut == ref.cut and c.tool == ref.tool
 

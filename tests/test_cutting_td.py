@@ -110,10 +110,10 @@ def second_order_chip(fz, teeth, phi):
     return fz * math.sin(phi) - eps * fz / R * math.sin(phi) * math.cos(phi) + fz**2 * math.cos(phi) ** 2 / (2 * R)
 
 
-def test_entry_peak_of_down_milling():
+def test_entry_peak_of_down_milling(alu_case):
     """Down-milling enters with the thickest chip: the peak Fy on the tool is at entry,
     ap h(phi_st) (Ktc sin phi_st - Krc cos phi_st)."""
-    case = load_case("tx200-aluminium")
+    case = alu_case
     cut = case.cut
     tool = tool_()  # the aluminium cut with a straight, equal-pitch tool: one force peak per tooth
     fz = cut.feed_per_tooth_m
@@ -143,9 +143,9 @@ def test_entry_peak_of_down_milling():
     assert_allclose(chips.max(0), h_star, rtol=8e-4)
 
 
-def test_entry_and_exit_of_the_part():
+def test_entry_and_exit_of_the_part(alu_case):
     """Zero force before the tool reaches the entry face, zero after it has left the exit face."""
-    case = load_case("tx200-aluminium")
+    case = alu_case
     tool, cut = case.tool, case.cut  # helix 30, pitch 170/190, 22 discs
     length = 6e-3  # longer than the engaged width R sin(phi_st) = 4.9 mm: a steady stretch exists
     wp = Workpiece(tool, cut, x_entry_m=0.0, part_length_m=length)
@@ -182,11 +182,11 @@ def test_entry_and_exit_of_the_part():
 
 
 @pytest.mark.parametrize("runout_um", [(6.929, 0.0), (60.0, 0.0)])
-def test_runout_alternates_the_chips_as_regeneration_says(runout_um):
+def test_runout_alternates_the_chips_as_regeneration_says(runout_um, steel_case):
     """Steel cut, straight tool with runout, up-milling at ae = R so that phi = 90 deg is in the cut
     (there the chip is exactly the static chip of cases.milling.regeneration, second-order terms
     vanish). With 60 um runout (> fz) the short tooth does not cut at all."""
-    case = load_case("tx200-steel")
+    case = steel_case
     tool = tool_(runout_um=runout_um)
     c0 = case.cut
     cut = Cut(ae_m=R * (1 - 1e-6), ap_m=c0.ap_m, spindle_rpm=c0.spindle_rpm, feed_per_tooth_m=c0.feed_per_tooth_m,
@@ -205,10 +205,10 @@ def test_runout_alternates_the_chips_as_regeneration_says(runout_um):
     assert chips.max(0)[0] > chips.max(0)[1]
 
 
-def test_variable_pitch_alternates_the_force_peaks():
+def test_variable_pitch_alternates_the_force_peaks(alu_case):
     """Paper Fig. 15: with pitch 170/190 deg the teeth cut fz 190/180 and fz 170/180, and the Fy
     peaks alternate high/low in that ratio."""
-    case = load_case("tx200-aluminium")
+    case = alu_case
     tool, cut = case.tool, case.cut
     wp, model, t_now, x0 = steady(tool, cut, law=case.law)
     tk, f, chips = one_revolution(model, tool, cut, t_now, x0, samples=1800)
@@ -226,12 +226,12 @@ def test_variable_pitch_alternates_the_force_peaks():
     assert_allclose(chips.max(0) / chips.max(0).max(), regen / regen.max(), rtol=3e-3)
 
 
-def test_rigid_aluminium_statistics_match_the_papers_model_rows():
+def test_rigid_aluminium_statistics_match_the_papers_model_rows(alu_case):
     """Tab. 10 (0.4-1.4 s, steady cut): the paper's four robot models; a rigid tool is their stiff
     limit. Mapping (module docstring of timedomain.workpiece_force): paper Fx = F_tool . x_c,
     paper Fy = -F_tool . y_c. Our rigid statistics must fall within the spread of the paper's rows
     widened by 2 % (the robot models differ among themselves by 2-9 %)."""
-    case = load_case("tx200-aluminium")
+    case = alu_case
     tool, cut = case.tool, case.cut
     wp, model, t_now, x0 = steady(tool, cut, law=case.law)
     _, f, _ = one_revolution(model, tool, cut, t_now, x0, samples=360)  # one sample per degree
@@ -250,8 +250,8 @@ def test_rigid_aluminium_statistics_match_the_papers_model_rows():
     assert np.all(f[:, 1] >= 0.0)
 
 
-def test_tangent_matches_finite_differences():
-    case = load_case("tx200-aluminium")
+def test_tangent_matches_finite_differences(alu_case):
+    case = alu_case
     tool, cut = case.tool, case.cut
     wp, model, t_now, x0 = steady(tool, cut, law=case.law, n_rev=2, spr=180)
     checked = 0
@@ -279,10 +279,10 @@ def test_tangent_matches_finite_differences():
     assert checked >= 10
 
 
-def test_directional_tangent_is_the_linear_model():
+def test_directional_tangent_is_the_linear_model(alu_case):
     """The 'directional' tangent is dz * sum of cases.milling.directional_matrix over the engaged
     elements: for chips bounded by the previous tooth's arc it approximates the geometric one."""
-    case = load_case("tx200-aluminium")
+    case = alu_case
     tool, cut = case.tool, case.cut
     wp = Workpiece(tool, cut, x_entry_m=0.0, part_length_m=30e-3)
     geo = MillingForce(tool, case.law, cut, wp, tangent="geometric")
@@ -302,8 +302,8 @@ def test_directional_tangent_is_the_linear_model():
     assert_allclose(g, out.dtool_dcenter_n_per_m, rtol=0, atol=2 * cut.feed_per_tooth_m / R * np.abs(g).max())
 
 
-def test_workpiece_force_is_minus_tool_force_and_results_are_read_only():
-    case = load_case("tx200-aluminium")
+def test_workpiece_force_is_minus_tool_force_and_results_are_read_only(alu_case):
+    case = alu_case
     wp, model, t_now, x0 = steady(case.tool, case.cut, law=case.law, n_rev=1, spr=90)
     c, a = straight_path(case.tool, case.cut, t_now + np.linspace(0, 1e-3, 11), x0)
     out = max((model.evaluate(ai, ci) for ai, ci in zip(a, c)), key=lambda o: np.abs(o.tool_n).max())
@@ -313,8 +313,8 @@ def test_workpiece_force_is_minus_tool_force_and_results_are_read_only():
         assert not arr.flags.writeable
 
 
-def test_bad_force_input_is_named():
-    case = load_case("tx200-aluminium")
+def test_bad_force_input_is_named(alu_case):
+    case = alu_case
     wp = Workpiece(case.tool, case.cut, x_entry_m=0.0, part_length_m=5e-3)
     model = MillingForce(case.tool, case.law, case.cut, wp)
     with pytest.raises(ValueError, match="tool centre must be a finite"):

@@ -211,7 +211,8 @@ def test_control_state_space_in_and_feedthrough_refused():
     sys = control.ss(ss.A, ss.B[:, :2], ss.S[:2], np.zeros((2, 2)))
     speeds = [9000.0, 15000.0]
     a = solve(_problem(model_structure()), ZeroOrder(), speeds).depth_limit_m
-    b = solve(LobeProblem(sys, TOOL, CUT, LAW), ZeroOrder(), speeds).depth_limit_m
+    # a python-control system is accepted and converted (not in the declared type)
+    b = solve(LobeProblem(sys, TOOL, CUT, LAW), ZeroOrder(), speeds).depth_limit_m  # pyright: ignore[reportArgumentType]
     np.testing.assert_allclose(b, a, rtol=1e-9)
     with pytest.raises(LobeError, match="algebraic loop through the chip"):
         StateSpace.from_control(control.ss(ss.A, ss.B[:, :2], ss.S[:2], 1e-9 * np.eye(2)))

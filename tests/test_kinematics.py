@@ -12,7 +12,6 @@ import warnings
 import numpy as np
 import pytest
 
-from robolobes import cases
 from robolobes.linearize.kinematics import (BRANCHES, ElbowSingularityError, JointLimitError, JointLimitWarning,
                                   KinematicsError, RobotStructureError, ShoulderSingularityError, TargetError,
                                   UnreachableError, WristSingularityError, arm_geometry, branch_index, branch_name,
@@ -23,8 +22,8 @@ DEG = math.pi / 180
 
 
 @pytest.fixture(scope="module")
-def spec():
-    return cases.load_robot("tx200")
+def spec(tx200_spec):
+    return tx200_spec  # the shared TX200 spec (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +89,7 @@ def test_tab7_tool_axis_vertical_to_angle_rounding(spec, tab7):
 
 
 def test_tab7_branch_and_wrist_centre(spec, tab7):
-    assert branch_name(branch_of(spec, tab7)) == "front-up-noflip"
+    assert branch_name(int(branch_of(spec, tab7))) == "front-up-noflip"
     g = arm_geometry(spec)
     # NOTES: DH a2 = 0.95, d4 = 0.8, y offsets 0.235 + 0.044 - 0.279 = 0, shoulder x offset 0.25
     assert g.a2 == pytest.approx(0.95, abs=1e-12) and g.a3 == pytest.approx(0.8, abs=1e-12)

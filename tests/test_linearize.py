@@ -16,13 +16,13 @@ from numpy.testing import assert_allclose
 from robolobes import cases
 from robolobes.core.errors import BadInput
 import robolobes.linearize as L
-from robolobes.cases.spec import JointSpec, LinkSpec, PayloadSpec, RobotSpec
+from robolobes.cases.spec import Axis, JointSpec, LinkSpec, PayloadSpec, RobotSpec
 
 SPEC = cases.load_robot("tx200")
 TAB7 = SPEC.pose("tab7")
 
 
-def one_joint_robot(axis="z", k=1e5, d=50.0, m=20.0, com=(0.3, 0.1, 0.2), payload_m=5.0):
+def one_joint_robot(axis: Axis = "z", k=1e5, d=50.0, m=20.0, com=(0.3, 0.1, 0.2), payload_m=5.0):
     """A single revolute joint carrying one link and a payload: closed-form dynamics."""
     links = (LinkSpec("base", 10.0, np.zeros(3), np.array([0, 0, 0.5]), np.eye(3)),
              LinkSpec("link", m, np.array(com), np.array([0.2, 0.0, 0.3]) - np.array(com), np.diag([0.4, 0.5, 0.6])))
@@ -64,10 +64,10 @@ def test_one_joint_gravity_stiffness_closed_form():
 
 
 @pytest.mark.parametrize("variant", ["gravity", "orthogonal"])
-def test_gravity_stiffness_matches_finite_differences(variant):
+def test_gravity_stiffness_matches_finite_differences(variant, tx200_robot):
     # pinocchio's analytic dg/dq against central differences of g(q), h = 1e-6 rad: truncation
     # error O(h^2 |g'''|) ~ 1e-9 of the entries, round-off ~ 1e-10 |g| / h: 1e-6 relative is safe.
-    robot = L.build_model(SPEC, variant)
+    robot = tx200_robot(variant)
     q = L.equilibrium(robot, TAB7).q
     dg = pin.computeGeneralizedGravityDerivatives(robot.model, robot.create_data(), q)
     h = 1e-6
@@ -96,10 +96,10 @@ def _potential_energy_numpy(spec, q):
     return V
 
 
-def test_gravity_torque_matches_independent_potential_energy():
+def test_gravity_torque_matches_independent_potential_energy(tx200_robot):
     # g(q) = dV/dq with V from an independent numpy chain: checks the assembly of masses, centres
     # of mass, joint placements and the payload. Central differences, h = 1e-6: error < 1e-5 N m.
-    robot = L.build_model(SPEC, "gravity")
+    robot = tx200_robot("gravity")
     rng = np.random.default_rng(1)
     for q in [TAB7] + [rng.uniform(-2, 2, 6) for _ in range(3)]:
         g = pin.computeGeneralizedGravity(robot.model, robot.create_data(), q)
@@ -109,25 +109,25 @@ def test_gravity_torque_matches_independent_potential_energy():
         assert_allclose(g, grad, atol=1e-4, rtol=1e-7)
 
 
-def test_total_moving_mass():
+def test_total_moving_mass(tx200_robot):
     # Tab. 4: every link but the fixed base, plus the 44.4 kg payload = 819 kg
-    robot = L.build_model(SPEC, "orthogonal")
+    robot = tx200_robot("orthogonal")
     assert_allclose(pin.computeTotalMass(robot.model), 364 + 256 + 99 + 41 + 14 + 0.6 + 44.4, rtol=1e-12)
 
 
-def test_tab7_tcp_and_tool_axis():
+def test_tab7_tcp_and_tool_axis(tx200_robot):
     # NOTES.md: TCP about (0.794, 0.185, 0.316) m, tool axis vertical. The printed Tab. 7 angles are
     # rounded to 0.01 deg (<= 8.7e-5 rad each); the tool-axis tilt from six rounded angles is at
     # most 6 x 8.7e-5 = 5.2e-4 rad, so (0, 0, -1) holds to that bound, not to 1e-6 (see the
     # kinematics tests for the IK-corrected start pose, vertical to 1e-12).
-    p, R = L.tcp_pose(L.build_model(SPEC, "basic"), L.rigid_q(L.build_model(SPEC, "basic"), TAB7))
+    p, R = L.tcp_pose(tx200_robot("basic"), L.rigid_q(tx200_robot("basic"), TAB7))
     assert_allclose(p, [0.794, 0.185, 0.316], atol=1e-3)  # "about": three printed decimals
     assert_allclose(R[:, 2], [0, 0, -1], atol=5.2e-4)
 
 
 @pytest.mark.parametrize("variant", ["basic", "gravity", "orthogonal", "backlash"])
-def test_frf_static_limit_and_modal_superposition(variant):
-    lin = L.linearize(L.build_model(SPEC, variant), TAB7)
+def test_frf_static_limit_and_modal_superposition(variant, tx200_robot):
+    lin = L.linearize(tx200_robot(variant), TAB7)
     w = 2 * np.pi * np.concatenate([[0.0], np.geomspace(1, 2000, 200)])
     direct = lin.frf(w).H
     modal = lin.frf(w, method="modal").H
@@ -140,10 +140,10 @@ def test_frf_static_limit_and_modal_superposition(variant):
 
 
 @pytest.mark.parametrize("variant", ["basic", "orthogonal"])
-def test_reciprocity(variant):
+def test_reciprocity(variant, tx200_robot):
     # Maxwell-Betti: symmetric M, C, K give H_xy = H_yx. The orthogonal variant includes gravity
     # compensation (non-symmetric K, see the next test), so build it without the compensation.
-    robot = L.build_model(SPEC, variant)
+    robot = tx200_robot(variant)
     if variant == "orthogonal":
         robot = L.model.assemble(SPEC, tuple(e for e in robot.elements if not isinstance(e, L.GravityCompensation)))
     lin = L.linearize(robot, TAB7)
@@ -152,18 +152,18 @@ def test_reciprocity(variant):
     assert_allclose(H, np.swapaxes(H, 0, 1), rtol=0, atol=1e-10 * np.max(np.abs(H)))
 
 
-def test_gravity_compensation_breaks_symmetry_only_slightly():
+def test_gravity_compensation_breaks_symmetry_only_slightly(tx200_robot):
     # Cancelling gravity on axes 2, 3, 5 only is not conservative: K is non-symmetric by the
     # off-diagonal gravity terms of those rows, tiny next to the joint stiffness (1e5-1e6 N m/rad).
-    lin = L.linearize(L.build_model(SPEC, "gravity"), TAB7)
+    lin = L.linearize(tx200_robot("gravity"), TAB7)
     asym = np.max(np.abs(lin.K - lin.K.T)) / np.max(np.abs(lin.K))
     assert 1e-7 < asym < 1e-3
 
 
-def test_gravity_compensation_cancels_load_on_compensated_axes():
+def test_gravity_compensation_cancels_load_on_compensated_axes(tx200_robot):
     # With compensation, axes 2, 3, 5 carry no spring torque at equilibrium (q = theta there),
     # while the uncompensated axes 1, 4, 6 do deflect (eq. 9 and section 2.1.1)
-    robot = L.build_model(SPEC, "gravity")
+    robot = tx200_robot("gravity")
     eq = L.equilibrium(robot, TAB7)
     d = eq.deflection[robot.motion_dofs]
     assert_allclose(d[[1, 2, 4]], 0, atol=1e-13)
@@ -172,11 +172,11 @@ def test_gravity_compensation_cancels_load_on_compensated_axes():
     assert abs(d[3]) > 1e-5
 
 
-def test_virtual_joint_stiffness_limit():
+def test_virtual_joint_stiffness_limit(tx200_robot):
     # As k_v -> inf the 18-DOF model's modes tend to the 6-DOF model's (same gravity and
     # compensation). The virtual springs act in series with the drive: the relative frequency
     # change is of order k_joint / k_v (6e6 / 1e11 = 6e-5) and shrinks like 1/k_v.
-    base = L.linearize(L.build_model(SPEC, "gravity"), TAB7).modes().freq_hz
+    base = L.linearize(tx200_robot("gravity"), TAB7).modes().freq_hz
     errs = []
     for kv in (1e9, 1e11):
         spec = replace(SPEC, orthogonal_stiffness_n_m_per_rad=kv)
@@ -186,10 +186,10 @@ def test_virtual_joint_stiffness_limit():
     assert_allclose(errs[0] / errs[1], 100, rtol=0.05)  # first order in 1/k_v
 
 
-def test_static_deflection_under_tcp_force_matches_compliance():
+def test_static_deflection_under_tcp_force_matches_compliance(tx200_robot):
     # Nonlinear static equilibrium under a small TCP force vs the linear compliance: equal to
     # O(F^2) (geometric nonlinearity ~ deflection / lever arm ~ 1e-5 relative for 100 N)
-    robot = L.build_model(SPEC, "basic")
+    robot = tx200_robot("basic")
     lin = L.linearize(robot, TAB7)
     F = np.array([30.0, -100.0, 50.0])
     eq = L.equilibrium(robot, TAB7, f_tcp=F)
@@ -213,10 +213,10 @@ def test_backlash_equilibrium_closed_form_one_joint():
     assert_allclose(1e5 * (abs(eq.deflection[0]) - 1e-4), tau, rtol=1e-3)
 
 
-def test_backlash_equilibrium_tx200_residual_and_side():
+def test_backlash_equilibrium_tx200_residual_and_side(tx200_robot):
     # The real dead-zone residual is met, and each loaded axis sits beyond the dead zone on the
     # side its load pushes (eq. 12); the compensated axes 2, 3, 5 stay centred.
-    bl = L.build_model(SPEC, "backlash")
+    bl = tx200_robot("backlash")
     eq = L.equilibrium(bl, TAB7)
     assert eq.residual < 1e-8
     d = eq.deflection[bl.motion_dofs]
@@ -225,17 +225,17 @@ def test_backlash_equilibrium_tx200_residual_and_side():
     assert_allclose(d[[1, 2, 4]], 0, atol=1e-13)
 
 
-def test_basic_variant_magnitudes_at_tab7():
+def test_basic_variant_magnitudes_at_tab7(tx200_robot):
     # Numbers stated in the README (robot modes in the tens of hertz, TCP stiffness of order 1 N/um
     # is what robots of this class show). Values are this model's, rounded as printed there.
-    lin = L.linearize(L.build_model(SPEC, "basic"), TAB7)
+    lin = L.linearize(tx200_robot("basic"), TAB7)
     f = lin.modes().freq_hz
     assert_allclose(f[:6], [15.77, 25.15, 27.72, 33.52, 92.73, 142.3], rtol=2e-3)
     assert_allclose(np.diag(lin.stiffness()) / 1e6, [0.966, 2.993, 6.020], rtol=2e-3)
 
 
-def test_bad_input_errors():
-    robot = L.build_model(SPEC, "basic")
+def test_bad_input_errors(tx200_robot):
+    robot = tx200_robot("basic")
     with pytest.raises(ValueError, match="unknown model variant 'flexible'"):
         L.build_model(SPEC, "flexible")
     with pytest.raises(ValueError, match=r"theta .* shape \(6,\)"):
@@ -258,8 +258,8 @@ def test_singular_stiffness_reports_clearly():
         lin.stiffness()
 
 
-def test_control_interop():
-    lin = L.linearize(L.build_model(SPEC, "basic"), TAB7)
+def test_control_interop(tx200_robot):
+    lin = L.linearize(tx200_robot("basic"), TAB7)
     w = 2 * np.pi * np.array([5.0, 25.0, 60.0])
     frd = lin.frf(w).to_control()
     assert_allclose(frd.frdata if hasattr(frd, "frdata") else frd.fresp, lin.frf(w).H, rtol=1e-14)
@@ -269,11 +269,11 @@ def test_control_interop():
     assert_allclose(resp, lin.frf(w).H, rtol=1e-8)
 
 
-def test_pass_map_matches_single_pose_linearization():
+def test_pass_map_matches_single_pose_linearization(alu_case):
     # The batched map at s = 0 is the single-pose linearization at the pass start (same code path,
     # stacked): equal to round-off.
     from robolobes.linearize.maps import pass_map
-    case = cases.load_case("tx200-aluminium")
+    case = alu_case
     robot = L.build_model(case.robot, "basic")
     with pytest.warns(L.JointLimitWarning, match=r"A3 .*= -212.14 deg, wrapped to \+147.86 deg"):
         pas = L.Pass.from_case(case)
@@ -281,12 +281,13 @@ def test_pass_map_matches_single_pose_linearization():
     lin = L.linearize(robot, case.path.start_q_rad)
     assert_allclose(m.freq_hz[0], lin.modes().freq_hz, rtol=1e-10)
     assert_allclose(m.tcp_stiffness_n_per_m[0], lin.stiffness(), rtol=1e-8)
+    assert m.path_s_m is not None  # a pass map has its path coordinate
     assert_allclose(m.path_s_m, [0, pas.travel_m / 2, pas.travel_m])
 
 
-def test_grid_map_reports_unreachable_targets():
+def test_grid_map_reports_unreachable_targets(alu_case):
     from robolobes.linearize.maps import grid_map
-    case = cases.load_case("tx200-aluminium")
+    case = alu_case
     robot = L.build_model(case.robot, "basic")
     p0, R0 = L.fk(case.robot, case.path.start_q_rad)
     pts = np.array([p0, p0 + [3.0, 0, 0]])

@@ -129,7 +129,7 @@ def test_tool_validation_messages():
     with pytest.raises(MillingError, match="helix"):
         Tool(diameter_m=D, teeth=2, helix_rad=math.pi / 2)
     with pytest.raises(MillingError, match="mode"):
-        Cut(ae_m=1e-3, ap_m=1e-3, spindle_rpm=1e4, mode="sideways")
+        Cut(ae_m=1e-3, ap_m=1e-3, spindle_rpm=1e4, mode="sideways")  # pyright: ignore[reportArgumentType]  # deliberately invalid input
     with pytest.raises(MillingError, match="finite"):
         Cut(ae_m=float("nan"), ap_m=1e-3, spindle_rpm=1e4)
 

@@ -60,7 +60,7 @@ def test_other_order_and_ratio():
 
 
 def test_non_finite_levels():
-    v, e = richardson(np.array([math.inf, 1.0, math.inf]), np.array([math.inf, math.inf, 2.0]))
+    v, e = (np.asarray(a) for a in richardson(np.array([math.inf, 1.0, math.inf]), np.array([math.inf, math.inf, 2.0])))
     assert v[0] == math.inf and e[0] == 0.0  # both "no limit": agree exactly
     assert v[1] == math.inf and e[1] == math.inf  # levels disagree on what they found
     assert v[2] == 2.0 and e[2] == math.inf

@@ -6,6 +6,7 @@ is expected, a run interrupted while writing) and checks the bytes on disk after
 
 import json
 import os
+from pathlib import Path
 
 import pytest
 
@@ -17,10 +18,16 @@ INPUTS = {"command": "test", "case": "tx200-aluminium", "duration_s": 0.5}
 OTHER = {"command": "test", "case": "tx200-steel", "duration_s": 0.5}
 
 
+def _work(out: OutputDir) -> Path:
+    """The staging directory of an entered OutputDir."""
+    assert out.path is not None
+    return out.path
+
+
 def _write_result(out: OutputDir, text="result"):
-    (out.path / "summary.json").write_text(json.dumps({"x": text, "provenance": out.provenance}))
-    (out.path / "sub").mkdir()
-    (out.path / "sub" / "series.csv").write_text("t_s\n0\n")
+    (_work(out) / "summary.json").write_text(json.dumps({"x": text, "provenance": out.provenance}))
+    (_work(out) / "sub").mkdir()
+    (_work(out) / "sub" / "series.csv").write_text("t_s\n0\n")
 
 
 # ---- directories --------------------------------------------------------------------------------
@@ -75,7 +82,7 @@ def test_same_inputs_replace_other_inputs_are_refused(tmp_path):
         OutputDir(target, "test", OTHER)
     assert json.loads((target / "summary.json").read_text())["x"] == "second"
     with OutputDir(target, "test", OTHER, replace=True) as out:  # explicit replace of a robolobes output
-        (out.path / "only.txt").write_text("new")
+        (_work(out) / "only.txt").write_text("new")
     assert sorted(p.name for p in target.iterdir()) == [MARKER, "only.txt"]  # old files of the old run gone
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
@@ -88,7 +95,7 @@ def test_error_or_ctrl_c_leaves_the_previous_output_as_it_was(tmp_path):
     for exc in (KeyboardInterrupt, RuntimeError):
         with pytest.raises(exc):
             with OutputDir(target, "test", INPUTS) as out:
-                (out.path / "summary.json").write_text("half")
+                (_work(out) / "summary.json").write_text("half")
                 raise exc()
         assert {p: p.read_bytes() for p in target.rglob("*") if p.is_file()} == before
         assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no partial staging left
@@ -98,7 +105,7 @@ def test_empty_directory_is_accepted(tmp_path):
     target = tmp_path / "empty"
     target.mkdir()
     with OutputDir(target, "test", INPUTS) as out:
-        (out.path / "a.txt").write_text("a")
+        (_work(out) / "a.txt").write_text("a")
     assert (target / "a.txt").read_text() == "a"
 
 
@@ -113,14 +120,14 @@ def test_resume_keeps_partial_work_for_the_same_inputs_only(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         with OutputDir(target, "test", INPUTS, resume=True) as out:
             assert not out.resumed
-            (out.path / "chunk0.npy").write_text("0")
+            (_work(out) / "chunk0.npy").write_text("0")
             raise KeyboardInterrupt
     assert not target.exists()
     with pytest.raises(OutputRefused, match="other inputs"):
         OutputDir(target, "test", OTHER, resume=True)
     with OutputDir(target, "test", INPUTS, resume=True) as out:
-        assert out.resumed and (out.path / "chunk0.npy").read_text() == "0"
-        (out.path / "chunk1.npy").write_text("1")
+        assert out.resumed and (_work(out) / "chunk0.npy").read_text() == "0"
+        (_work(out) / "chunk1.npy").write_text("1")
     assert sorted(p.name for p in target.iterdir()) == [MARKER, "chunk0.npy", "chunk1.npy"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map"]
 
@@ -129,7 +136,7 @@ def test_oserror_while_writing_names_the_users_path(tmp_path):
     target = tmp_path / "out"
     with pytest.raises(BadInput, match=f"cannot write {target}"):
         with OutputDir(target, "test", INPUTS) as out:
-            (out.path / "missing-dir" / "x.txt").write_text("x")  # FileNotFoundError inside the output
+            (_work(out) / "missing-dir" / "x.txt").write_text("x")  # FileNotFoundError inside the output
     assert not target.exists()
 
 

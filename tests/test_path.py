@@ -12,7 +12,6 @@ import warnings
 import numpy as np
 import pytest
 
-from robolobes import cases
 from robolobes.linearize.kinematics import JointLimitWarning, UnreachableError, fk, jacobian
 from robolobes.linearize.path import FeedProfile, Pass, PassError
 
@@ -24,20 +23,15 @@ def build(case):
 
 
 @pytest.fixture(scope="module")
-def alu():
-    return cases.load_case("tx200-aluminium")
-
-
-@pytest.fixture(scope="module")
-def pas(alu):
-    return build(alu)
+def pas(alu_case):
+    return build(alu_case)
 
 
 # ------------------------------------------------------------------------------- feed profile
-def test_profile_end_points(pas, alu):
-    V = alu.cut.feed_rate_m_per_s(alu.tool)
-    L = alu.path.travel_m(alu.tool)
-    T = alu.path.ramp_s
+def test_profile_end_points(pas, alu_case):
+    V = alu_case.cut.feed_rate_m_per_s(alu_case.tool)
+    L = alu_case.path.travel_m(alu_case.tool)
+    T = alu_case.path.ramp_s
     assert V == pytest.approx(3.7 / 60) and L == pytest.approx(0.102)     # 3700 mm/min; 1 + 10 + 90 + 1 mm
     assert pas.duration_s == pytest.approx(T + L / V, rel=1e-15)
     assert pas.s(0.0) == 0.0 and pas.velocity(0.0) == 0.0 and pas.acceleration(0.0) == 0.0
@@ -117,9 +111,9 @@ def test_tcp_on_line_constant_orientation(pas):
     assert np.allclose(pas.tcp_position(pas.duration_s) - pas.start_position, pas.travel_m * pas.direction)
 
 
-def test_theta_continuous_from_start_pose(pas, alu):
+def test_theta_continuous_from_start_pose(pas, alu_case):
     # theta(0) is the start pose as given (A3 = -212.14 deg, not +147.86)
-    assert np.array_equal(pas.theta(0.0), alu.path.start_q_rad)
+    assert np.array_equal(pas.theta(0.0), alu_case.path.start_q_rad)
     assert math.degrees(pas.theta(0.0)[2]) == pytest.approx(-212.14)
     n = 20001
     t, th = pas.theta_table(n)
@@ -153,10 +147,10 @@ def test_theta_at_s_matches_pose_and_jacobian(pas):
     assert np.allclose(J @ qd, np.r_[pas.feed_m_per_s * pas.direction, 0, 0, 0], atol=1e-12)
 
 
-def test_part_entry_exit(pas, alu):
-    D, a = alu.tool.diameter_m, alu.path.approach_m
+def test_part_entry_exit(pas, alu_case):
+    D, a = alu_case.tool.diameter_m, alu_case.path.approach_m
     assert pas.part_entry_s == pytest.approx(a)                              # 1 mm
-    assert pas.part_exit_s == pytest.approx(a + D + alu.path.part_length_m)  # 101 mm
+    assert pas.part_exit_s == pytest.approx(a + D + alu_case.path.part_length_m)  # 101 mm
     # ae = 4 mm < R = 5 mm: edge contact over the chord w = sqrt(R^2 - (R - ae)^2) = 4.899 mm
     w = math.sqrt(0.005 ** 2 - 0.001 ** 2)
     assert pas.contact_entry_s == pytest.approx(a + 0.005 - w)
@@ -165,7 +159,7 @@ def test_part_entry_exit(pas, alu):
                    (pas.contact_entry_s, pas.contact_entry_t), (pas.contact_exit_s, pas.contact_exit_t)):
         assert pas.s(t_) == pytest.approx(s_, abs=1e-12)
     # entry during the ramp for aluminium: the ramp covers V T / 2 = 3.08 mm > 1 mm approach
-    assert pas.part_entry_t < alu.path.ramp_s
+    assert pas.part_entry_t < alu_case.path.ramp_s
 
 
 def test_pose_at_errors(pas):
@@ -177,27 +171,27 @@ def test_pose_at_errors(pas):
         pas.theta_table(1)
 
 
-def test_tab7_warning_at_construction(alu):
+def test_tab7_warning_at_construction(alu_case):
     with pytest.warns(JointLimitWarning, match=r"joint A3 \(sample 0\) = -212\.14 deg, wrapped to \+147\.86 deg, "
                                                r"is 2\.86 deg past its upper limit \+145\.00 deg"):
-        Pass.from_case(alu)
+        Pass.from_case(alu_case)
 
 
-def test_steel_case_builds():
-    steel = cases.load_case("tx200-steel")
+def test_steel_case_builds(steel_case):
+    steel = steel_case
     ps = build(steel)
     assert ps.feed_m_per_s == pytest.approx(0.28 / 60)
     assert ps.duration_s == pytest.approx(0.1 + 0.102 / (0.28 / 60))
     assert np.array_equal(ps.theta(0.0), steel.path.start_q_rad)
 
 
-def test_pass_errors(alu):
-    too_long_ramp = dataclasses.replace(alu, path=dataclasses.replace(alu.path, ramp_s=5.0))
+def test_pass_errors(alu_case):
+    too_long_ramp = dataclasses.replace(alu_case, path=dataclasses.replace(alu_case.path, ramp_s=5.0))
     with pytest.raises(PassError, match="too short for two 5 s ramps"):
         build(too_long_ramp)
-    plunge = dataclasses.replace(alu, cut=dataclasses.replace(alu.cut, feed_direction=(0.0, 0.0, 1.0)))
+    plunge = dataclasses.replace(alu_case, cut=dataclasses.replace(alu_case.cut, feed_direction=(0.0, 0.0, 1.0)))
     with pytest.raises(PassError, match="not perpendicular"):
         build(plunge)
-    far = dataclasses.replace(alu, path=dataclasses.replace(alu.path, part_length_m=2.0))
+    far = dataclasses.replace(alu_case, path=dataclasses.replace(alu_case.path, part_length_m=2.0))
     with pytest.raises(UnreachableError, match=r"at s = [0-9.]+ mm of the pass"):
         build(far)

@@ -86,8 +86,8 @@ def test_two_threads_share_one_robot():
             np.testing.assert_array_equal(numbers, single[i])
 
 
-def test_linearize_leaves_the_robot_unchanged():
-    robot = build_model(SPEC, "orthogonal")
+def test_linearize_leaves_the_robot_unchanged(tx200_robot):
+    robot = tx200_robot("orthogonal")
     assert not hasattr(robot, "data")
     state = {k: v for k, v in vars(robot).items()}
     linearize(robot, POSES[1])

@@ -37,18 +37,17 @@ def test_negative_amplitude_is_rejected():
         eccentric_runout(Tool(diameter_m=0.01, teeth=2), -1e-6, 0.0)
 
 
-def test_runout_family_is_exact_for_outputs_without_cross_terms():
+def test_runout_family_is_exact_for_outputs_without_cross_terms(alu_case):
     """The identification family (cubic spline in a = e cos phi over 5 runs, plus the quadratic change
     b = e sin phi makes at a = 0) is exact for any model output that is a quadratic in a plus a
     quadratic in b (no a*b term); the stand-in context returns such an output instead of simulating.
     With theta = (0, theta_1): r_0 = a, r_1 = a cos theta_1 + b sin theta_1."""
     import math
 
-    from robolobes.cases import load_case
     from robolobes.identify.cutting_effects import Runout
     from robolobes.identify.effects import ModelState
 
-    st = ModelState(case=load_case("tx200-aluminium"))   # 170/190 deg pitch: (e, phi) both enter
+    st = ModelState(case=alu_case)   # 170/190 deg pitch: (e, phi) both enter
     c1 = math.cos(st.case.tool.tooth_angle_rad[1])
 
     class Ctx:

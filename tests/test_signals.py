@@ -165,6 +165,6 @@ def test_roughness_bad_input():
     with pytest.raises(SignalError, match="not longer than the cutoff"):
         roughness(x, np.zeros_like(x), form="gaussian")
     with pytest.raises(SignalError, match="form must be 'line' or 'gaussian'"):
-        roughness(x, np.zeros_like(x), form="spline")
+        roughness(x, np.zeros_like(x), form="spline")  # pyright: ignore[reportArgumentType]  # deliberately invalid input
     with pytest.raises(SignalError, match="cutoff_m must be > 0, got -1.0"):
         roughness(_profile(), np.zeros_like(_profile()), form="gaussian", cutoff_m=-1.0)

@@ -101,7 +101,7 @@ def test_bracket_search_brackets_a_known_critical_scale(critical):
         return DampingProbe(s, Verdict("stable" if s >= critical else "unstable"), {})
     d = compute.bracket_search(check, (1.0, 10.0, 20.0, 40.0), 0.1, "synthetic", "basic")
     lo, hi = d.bracket
-    assert hi >= critical and (lo is None or lo < critical)
+    assert hi is not None and hi >= critical and (lo is None or lo < critical)
     if lo is not None:
         assert hi - lo <= 0.1
 
@@ -111,7 +111,7 @@ def test_bracket_search_counts_undetermined_as_not_stable():
     def check(s):
         return DampingProbe(s, Verdict("stable" if s >= 12 else "undetermined" if s > 11 else "unstable"), {})
     lo, hi = compute.bracket_search(check, (1.0, 10.0, 20.0), 0.1, "synthetic", "basic").bracket
-    assert 12 <= hi <= 12.1 and lo < 12
+    assert hi is not None and lo is not None and 12 <= hi <= 12.1 and lo < 12
 
 
 # ---------------------------------------------------------------- the README block
@@ -202,18 +202,16 @@ def test_damping_brackets_are_consistent_with_their_probes(quick):
             assert p["verdict"] == "stable" if float(sc) >= hi else p["verdict"] != "stable"
 
 
-def test_start_pose_modes_are_the_eigenvalues_of_the_tab7_linearization(quick):
+def test_start_pose_modes_are_the_eigenvalues_of_the_tab7_linearization(quick, tx200_robot, alu_case):
     # independent of modes_summary / modal_analysis: eigenvalues of the first-order state matrix
     # [[0, I], [-M^-1 K, -M^-1 C]] by numpy, at the case's Tab. 7 pose (= the pass at s = 0); every
     # oscillating mode's |lambda| / 2 pi is among the study's frequencies (the 18-DOF model also has
     # overdamped real poles, listed as modes too); 1e-8: two eigen-solvers on a 12 x 12 / 36 x 36 matrix
-    from robolobes import cases
     from robolobes.linearize.linear import linearize
-    from robolobes.linearize.model import build_model
     _, res = quick
-    case = cases.load_case("tx200-aluminium")
+    case = alu_case
     for variant in ("basic", "orthogonal"):
-        lin = linearize(build_model(case.robot, variant), case.path.start_q_rad)
+        lin = linearize(tx200_robot(variant), case.path.start_q_rad)
         M, C, K = (np.asarray(x) for x in (lin.M, lin.C, lin.K))
         n = M.shape[0]
         A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
@@ -256,6 +254,7 @@ def _previous_output(out):
     from robolobes.study.settings import StudySettings
     cs, _, paper = compute.load_inputs()
     with OutputDir(out, "study", compute.study_inputs(StudySettings.make(True), cs, paper)) as o:
+        assert o.path is not None
         (o.path / "report.md").write_text("previous report")
 
 

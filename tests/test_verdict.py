@@ -84,6 +84,7 @@ def test_decisive_when_the_rate_exceeds_four_standard_errors(rate, f_hz):
     right, total = 0, 0
     for r, t, x in _draws(rate, f_hz, 40, 31):
         v = decide(t, x, TP, chip, t_start_s=0.0, t_end_s=t[-1])
+        assert v.growth is not None
         if abs(r) > 4 * v.growth.se_per_s:
             total += 1
             right += v.verdict.status == ("stable" if r < 0 else "unstable")
@@ -111,6 +112,7 @@ def test_undetermined_states_the_window_that_would_decide():
     v = decide(t, x, TP, BIG_CHIP, t_start_s=0.0, t_end_s=t[-1])
     assert v.verdict.status == "undetermined" and v.verdict.stable is None
     g = v.growth
+    assert g is not None and v.duration_to_decide_s is not None
     assert_allclose(v.duration_to_decide_s, 0.5 * g.t_quantile * g.se_per_s / abs(g.rate_per_s), rtol=0.02)
     assert v.duration_to_decide_s > 0.5
 
@@ -131,7 +133,7 @@ def test_two_beating_robot_modes_ringing_down_are_never_unstable():
         x = np.stack([forced + ring, 0.4 * forced + 0.6 * ring], 1) + 1e-11 * rng.standard_normal((t.size, 2))
         v = decide(t, x, TP, chip, t_start_s=0.0, t_end_s=t[-1])
         assert v.verdict.status in allowed, (duration, v.verdict.reason)
-    assert -1.6 < v.growth.rate_per_s < -0.7
+    assert v.growth is not None and -1.6 < v.growth.rate_per_s < -0.7
 
 
 @pytest.mark.parametrize("rate, expect", [(-1.0, "stable"), (1.0, "unstable")])
@@ -148,6 +150,7 @@ def test_flip_of_the_tooth_period(rate, expect):
     x = x + 1e-10 * rng.standard_normal(t.size)
     v = decide(t, x, tp, BIG_CHIP, t_start_s=0.0, t_end_s=t[-1])
     assert v.verdict.status == expect, v.verdict.reason
+    assert v.growth is not None
     assert_allclose(v.growth.rate_per_s, rate, atol=0.02)
 
 
@@ -240,6 +243,7 @@ def test_short_window_is_undetermined_with_the_length_needed():
     v = decide(t, np.sin(t), TP, BIG_CHIP, t_start_s=0.0, t_end_s=t[-1])
     need = GrowthRule().min_periods * TP
     assert v.verdict.status == "undetermined" and v.growth is None
+    assert v.duration_to_decide_s is not None
     assert_allclose(v.duration_to_decide_s, need, rtol=1e-12)
     j = v.to_json()
     assert j["verdict"] == "undetermined" and j["stable"] is None and j["growth_rate_per_s"] is None
@@ -273,6 +277,7 @@ def test_beat_period_of_the_closest_ringing_modes():
     t, x = _signal(-3.0, 0.3, 20.0, rng)
     v = decide(t, x, TP, BIG_CHIP, t_start_s=0.0, t_end_s=t[-1], beat_period_s=0.39)
     assert v.verdict.status == "undetermined" and "beat period" in v.verdict.reason
+    assert v.duration_to_decide_s is not None
     assert_allclose(v.duration_to_decide_s, 0.39)
 
 

@@ -8,22 +8,12 @@ import warnings
 import numpy as np
 import pytest
 
-from robolobes import cases, linearize
+from robolobes import linearize
 from robolobes.cases.milling import Cut, CuttingLaw, Tool, cut_frame
 from robolobes.core.errors import BadInput
 from robolobes.lobes import LobeProblem, PhysicalStructure, RefinedSDM, SemiDiscretization, solve
 from robolobes.workspace import (MapMethod, MapProblem, mean_force_cut_frame, pose_table, solve_map, solve_pose,
                                  start_pose, target)
-
-
-@pytest.fixture(scope="module")
-def alu():
-    return cases.load_case("tx200-aluminium")
-
-
-@pytest.fixture(scope="module")
-def steel():
-    return cases.load_case("tx200-steel")
 
 
 # ------------------------------------------------------------------------------------ mean force
@@ -48,61 +38,61 @@ def test_mean_force_closed_form():
         np.testing.assert_allclose(mean_force_cut_frame(tool, cut, law), want, rtol=1e-12, atol=1e-12)
 
 
-def test_mean_force_against_paper_tab10(alu):
+def test_mean_force_against_paper_tab10(alu_case):
     # Paper Tab. 10, aluminium, model rows: mean Fy = -25.67 N (force on the workpiece along the
     # paper's y, i.e. the force on the tool along y_c has mean +25.67 N; see cases/milling.py).
     # The paper's mean comes from its simulation with vibration and the real pass; the
     # revolution mean of the static chip agrees to 0.5 %.
-    f = mean_force_cut_frame(alu.tool, alu.cut, alu.law)
+    f = mean_force_cut_frame(alu_case.tool, alu_case.cut, alu_case.law)
     np.testing.assert_allclose(f[1], 25.67, rtol=5e-3)
 
 
-def test_static_deflection_against_nonlinear_equilibrium(alu):
+def test_static_deflection_against_nonlinear_equilibrium(alu_case, tx200_robot):
     # Second method: the static equilibrium of the nonlinear model under the mean force on the TCP
     # (linearize.equilibrium) moves the TCP by C F to first order; the load stiffness of F and the
     # geometric nonlinearity are ~|F| lever / k_joint ~ 1e-4 relative: rtol 1e-3.
-    robot = linearize.build_model(alu.robot, "basic")
-    q0 = np.asarray(alu.path.start_q_rad)
+    robot = tx200_robot("basic")
+    q0 = np.asarray(alu_case.path.start_q_rad)
     lin = linearize.linearize(robot, q0)
-    feed = np.asarray(alu.cut.feed_direction)
-    f_cut = mean_force_cut_frame(alu.tool, alu.cut, alu.law)
+    feed = np.asarray(alu_case.cut.feed_direction)
+    f_cut = mean_force_cut_frame(alu_case.tool, alu_case.cut, alu_case.law)
     R = cut_frame(feed, lin.tool_axis)
     d_cut = lin.compliance("cut", feed) @ f_cut
     e0 = linearize.equilibrium(robot, q0)
     e1 = linearize.equilibrium(robot, q0, R.T @ f_cut)
     d_eq = R @ (np.asarray(e1.tcp_position) - np.asarray(e0.tcp_position))
-    np.testing.assert_allclose(d_cut, d_eq, rtol=1e-3, atol=1e-3 * np.linalg.norm(d_eq))
+    np.testing.assert_allclose(d_cut, d_eq, rtol=1e-3, atol=1e-3 * float(np.linalg.norm(d_eq)))
 
 
 # ----------------------------------------------------------------------------------------- poses
-def test_targets_and_ik_roundtrip(alu):
-    q0, p0, R0 = start_pose(alu)
-    tgt = target(alu, p0, R0, offset_m=(0.05, -0.1, 0.02), yaw_rad=0.3, tool_rotation_rad=0.7, tilt_rad=0.1,
+def test_targets_and_ik_roundtrip(alu_case):
+    q0, p0, R0 = start_pose(alu_case)
+    tgt = target(alu_case, p0, R0, offset_m=(0.05, -0.1, 0.02), yaw_rad=0.3, tool_rotation_rad=0.7, tilt_rad=0.1,
                  s_m=0.03)
     # feed turned by the yaw about z; feed perpendicular to the tilted tool axis (2.5-D cut)
     np.testing.assert_allclose(tgt.feed, [math.cos(0.3), math.sin(0.3), 0.0], atol=1e-15)
     # the tilt about the feed keeps feed . tool axis as it was (the Tab. 7 axis is 3.4e-5 rad off
     # vertical, README), so the cut frame stays valid
-    untilted = target(alu, p0, R0, yaw_rad=0.3, tool_rotation_rad=0.7)
+    untilted = target(alu_case, p0, R0, yaw_rad=0.3, tool_rotation_rad=0.7)
     assert abs(tgt.feed @ tgt.R[:, 2] - untilted.feed @ untilted.R[:, 2]) < 1e-15
     assert abs(tgt.feed @ tgt.R[:, 2]) < 1e-4
     np.testing.assert_allclose(tgt.R.T @ tgt.R, np.eye(3), atol=1e-14)
-    sol = solve_pose(alu, tgt, q0)
+    sol = solve_pose(alu_case, tgt, q0)
     assert sol.reachable
-    p, R = linearize.fk(alu.robot, sol.theta)
+    p, R = linearize.fk(alu_case.robot, sol.theta)
     np.testing.assert_allclose(p, tgt.p_m, atol=1e-9)
     np.testing.assert_allclose(R, tgt.R, atol=1e-9)
     # tool rotation leaves the tool axis where it was
-    t2 = target(alu, p0, R0, tool_rotation_rad=1.0)
+    t2 = target(alu_case, p0, R0, tool_rotation_rad=1.0)
     np.testing.assert_allclose(t2.R[:, 2], R0[:, 2], atol=1e-15)
 
 
-def test_paper_pose_within_tolerance_and_unreachable_kept(alu):
-    q0, p0, R0 = start_pose(alu)
+def test_paper_pose_within_tolerance_and_unreachable_kept(alu_case):
+    q0, p0, R0 = start_pose(alu_case)
     # Tab. 7: A3 is 2.86 deg past +145 deg: reachable within the 5 deg tolerance, not strictly
-    sol = solve_pose(alu, target(alu, p0, R0), q0)
+    sol = solve_pose(alu_case, target(alu_case, p0, R0), q0)
     assert sol.reason == 1 and sol.reachable
-    far = solve_pose(alu, target(alu, p0, R0, offset_m=(3.0, 0.0, 0.0)), q0)
+    far = solve_pose(alu_case, target(alu_case, p0, R0, offset_m=(3.0, 0.0, 0.0)), q0)
     assert far.reason == 2 and not far.reachable and np.all(np.isnan(far.theta)) and "reach" in far.message
 
 
@@ -126,20 +116,20 @@ def _assert_bitwise(a, b):
         assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), k
 
 
-def test_map_equals_lobes_solve_at_its_poses(steel):
+def test_map_equals_lobes_solve_at_its_poses(steel_case, tx200_robot):
     # Each map pose against lobes.solve of the full structure there (same m, depth range, rtol):
     # the reduction is off, so the numbers are the same computation: rtol 1e-12.
-    pr = _small(steel)
+    pr = _small(steel_case)
     res = solve_map(pr, FAST, scheduler="serial")
     ds = res.dataset
-    robot = linearize.build_model(steel.robot, "basic")
+    robot = tx200_robot("basic")
     checked = 0
     for i in range(pr.n_poses):
         if not ds["reachable"].values[i]:
             continue
         lin = linearize.linearize(robot, ds["theta_rad"].values[i])
         feed = ds["feed_direction"].values[i]
-        p = LobeProblem(PhysicalStructure.from_linear(lin, feed), steel.tool, steel.cut, steel.law)
+        p = LobeProblem(PhysicalStructure.from_linear(lin, feed), steel_case.tool, steel_case.cut, steel_case.law)
         ref = solve(p, SemiDiscretization(m=20), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3)
         np.testing.assert_allclose(ds["depth_limit_m"].values[i], ref.depth_limit_m, rtol=1e-12)
         checked += 1
@@ -149,18 +139,18 @@ def test_map_equals_lobes_solve_at_its_poses(steel):
     assert s["n_poses"] == pr.n_poses and s["n_speeds"] == 4 and s["computed_poses"] == pr.n_poses
 
 
-def test_reduced_map_within_one_percent_of_full_model(alu):
+def test_reduced_map_within_one_percent_of_full_model(alu_case, tx200_robot):
     # The modal truncation (modes <= 300 Hz) against lobes.solve with the full 18-DOF structure,
     # at two poses, 8 speeds of the aluminium cut: depth limits within 1 % (the bound).
-    pr = MapProblem.make(alu, "orthogonal", "placement", n=2, x_range_m=(0.0, 0.1), y_range_m=(0.0, 0.0),
+    pr = MapProblem.make(alu_case, "orthogonal", "placement", n=2, x_range_m=(0.0, 0.1), y_range_m=(0.0, 0.0),
                          speeds_rpm=np.linspace(4000, 25000, 8))
     meth = MapMethod(chunk_poses=2)
     res = solve_map(pr, meth, scheduler="serial")
     ds = res.dataset
-    robot = linearize.build_model(alu.robot, "orthogonal")
+    robot = tx200_robot("orthogonal")
     for i in range(pr.n_poses):
         lin = linearize.linearize(robot, ds["theta_rad"].values[i])
-        p = LobeProblem(PhysicalStructure.from_linear(lin, ds["feed_direction"].values[i]), alu.tool, alu.cut, alu.law)
+        p = LobeProblem(PhysicalStructure.from_linear(lin, ds["feed_direction"].values[i]), alu_case.tool, alu_case.cut, alu_case.law)
         ref = solve(p, RefinedSDM(), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
         got = ds["depth_limit_m"].values[i]
         # capped at the searched 10 mm (inf: no limit below it)
@@ -168,8 +158,8 @@ def test_reduced_map_within_one_percent_of_full_model(alu):
         assert ds["truncation_frf_error"].values[i] < 0.01
 
 
-def test_kill_and_resume_bitwise(steel, tmp_path):
-    pr = _small(steel)
+def test_kill_and_resume_bitwise(steel_case, tmp_path):
+    pr = _small(steel_case)
     whole = _arrays(solve_map(pr, FAST, scheduler="serial").dataset)
     path = tmp_path / "map.zarr"
 
@@ -186,9 +176,9 @@ def test_kill_and_resume_bitwise(steel, tmp_path):
     assert again.stats["computed_poses"] == 0
 
 
-def test_unreachable_chunk_is_done(steel, tmp_path):
+def test_unreachable_chunk_is_done(steel_case, tmp_path):
     # a chunk whose poses are all unreachable holds only NaN (zarr writes no chunk): done says it ran
-    pr = _small(steel, n=2, x_range_m=(2.0, 2.0), y_range_m=(0.0, 0.1))
+    pr = _small(steel_case, n=2, x_range_m=(2.0, 2.0), y_range_m=(0.0, 0.1))
     res = solve_map(pr, FAST, path=tmp_path / "m.zarr", scheduler="serial")
     ds = res.dataset
     assert not ds["reachable"].values.any() and ds["done"].values.all()
@@ -196,19 +186,19 @@ def test_unreachable_chunk_is_done(steel, tmp_path):
     assert solve_map(pr, FAST, path=tmp_path / "m.zarr", scheduler="serial").stats["computed_poses"] == 0
 
 
-def test_store_of_other_inputs_is_refused(steel, tmp_path):
+def test_store_of_other_inputs_is_refused(steel_case, tmp_path):
     path = tmp_path / "map.zarr"
-    solve_map(_small(steel, n=2, y_range_m=(0.0, 0.0)), FAST, path=path, scheduler="serial")
+    solve_map(_small(steel_case, n=2, y_range_m=(0.0, 0.0)), FAST, path=path, scheduler="serial")
     with pytest.raises(BadInput, match="other inputs"):
-        solve_map(_small(steel, n=2, y_range_m=(0.0, 0.0), speeds=(3000.0,)), FAST, path=path, scheduler="serial")
+        solve_map(_small(steel_case, n=2, y_range_m=(0.0, 0.0), speeds=(3000.0,)), FAST, path=path, scheduler="serial")
     (tmp_path / "mine").mkdir()
     with pytest.raises(BadInput, match="not a robolobes map store"):
-        solve_map(_small(steel, n=2), FAST, path=tmp_path / "mine", scheduler="serial")
+        solve_map(_small(steel_case, n=2), FAST, path=tmp_path / "mine", scheduler="serial")
 
 
-def test_local_cluster_and_process_pool_bitwise_equal(steel):
+def test_local_cluster_and_process_pool_bitwise_equal(steel_case):
     distributed = pytest.importorskip("distributed")
-    pr = _small(steel)
+    pr = _small(steel_case)
     serial = _arrays(solve_map(pr, FAST, scheduler="serial").dataset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -222,26 +212,26 @@ def test_local_cluster_and_process_pool_bitwise_equal(steel):
     _assert_bitwise(_arrays(solve_map(pr, FAST, scheduler="local", workers=2).dataset), serial)
 
 
-def test_bad_map_inputs(steel):
+def test_bad_map_inputs(steel_case):
     with pytest.raises(BadInput, match="n \\(number of poses\\)"):
-        MapProblem.make(steel, "basic", "placement", n=0)
+        MapProblem.make(steel_case, "basic", "placement", n=0)
     with pytest.raises(BadInput, match="over must be one of"):
-        MapProblem.make(steel, "basic", "everywhere", n=3)
+        MapProblem.make(steel_case, "basic", "everywhere", n=3)  # pyright: ignore[reportArgumentType]  # deliberately invalid input
     with pytest.raises(BadInput, match="speeds_rpm"):
-        MapProblem.make(steel, "basic", "pass", n=3, speeds_rpm=np.linspace(1, 2, 5000))
+        MapProblem.make(steel_case, "basic", "pass", n=3, speeds_rpm=np.linspace(1, 2, 5000))
 
 
 @pytest.mark.slow
-def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
+def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu_case, tx200_robot):
     # The check at full fidelity: 20 random poses of a 0.4 m x 0.4 m placement map (18-DOF
     # orthogonal, 100 speeds, refined to an error estimate <= 1 % from m = 40, reduction <= 300 Hz)
     # against the default lobes.solve (the same rule) of the full model.
     rng = np.random.default_rng(11)
-    pr = MapProblem.make(alu, "orthogonal", "placement", n=400)
+    pr = MapProblem.make(alu_case, "orthogonal", "placement", n=400)
     table = pose_table(pr)
     ok = np.flatnonzero(table["reason"] <= 1)
     pick = np.sort(rng.choice(ok, size=20, replace=False))
-    robot = linearize.build_model(alu.robot, "orthogonal")
+    robot = tx200_robot("orthogonal")
     from robolobes.workspace import compute_chunk
 
     got = compute_chunk(pr, MapMethod(), 0, table["theta"][pick], table["feed"][pick], np.ones(20, bool))
@@ -250,7 +240,7 @@ def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     worst, n_cmp = 0.0, 0
     for k, i in enumerate(pick):
         lin = linearize.linearize(robot, table["theta"][i])
-        p = LobeProblem(PhysicalStructure.from_linear(lin, table["feed"][i]), alu.tool, alu.cut, alu.law)
+        p = LobeProblem(PhysicalStructure.from_linear(lin, table["feed"][i]), alu_case.tool, alu_case.cut, alu_case.law)
         ref = solve(p, RefinedSDM(), pr.speeds_rpm, depth_max_m=0.01, rtol=1e-3).depth_limit_m
         a, b = np.minimum(got.depth_limit_m[k], 0.01), np.minimum(ref, 0.01)
         worst = max(worst, float(np.max(np.abs(a / b - 1))))
@@ -259,17 +249,17 @@ def test_twenty_random_poses_of_a_placement_map_agree_with_solve(alu):
     assert worst < 0.01
 
 
-def test_tool_modes_add_in_series(alu):
+def test_tool_modes_add_in_series(alu_case, tx200_robot):
     # A tool-tip mode in series with the robot: the receptances add. Closed form of the mode
     # (Mode docstring): d d^T / (k (1 - r^2 + 2 i zeta r)); no truncation here: rtol 1e-9.
     from robolobes.lobes import Mode
     from robolobes.workspace import pose_structure
 
     mode = Mode(900.0, 0.03, 2e7, (0.6, 0.8))
-    pr = MapProblem.make(alu, "basic", "pass", n=1, tool_modes=(mode,))
-    robot = linearize.build_model(alu.robot, "basic")
-    lin = linearize.linearize(robot, alu.path.start_q_rad)
-    feed = np.asarray(alu.cut.feed_direction)
+    pr = MapProblem.make(alu_case, "basic", "pass", n=1, tool_modes=(mode,))
+    robot = tx200_robot("basic")
+    lin = linearize.linearize(robot, alu_case.path.start_q_rad)
+    feed = np.asarray(alu_case.cut.feed_direction)
     st, report = pose_structure(pr, MapMethod(reduce_max_freq_hz=None), lin, feed)
     f = np.array([50.0, 300.0, 900.0, 1500.0])
     r = f / 900.0
@@ -281,34 +271,34 @@ def test_tool_modes_add_in_series(alu):
     np.testing.assert_allclose(st.frf(w).H, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
 
 
-def test_optimizer_optimum_confirmed_by_lobes_solve(steel):
+def test_optimizer_optimum_confirmed_by_lobes_solve(steel_case, tx200_robot):
     # Tool rotation only, tiny budget. The baseline (rotation 0) is a start, so the optimum is at
     # least it; the reported minimum depth (full structure) equals an independent lobes.solve at
     # the optimum's worst pass pose, at the chosen speed: rtol 1e-12 (the same computation).
     from robolobes.workspace.optimize import OptimizeProblem, optimize_placement
 
-    mp = MapProblem.make(steel, "basic", "placement", n=1)
+    mp = MapProblem.make(steel_case, "basic", "placement", n=1)
     opt = OptimizeProblem(mp, ("tool_rotation_rad",), {"tool_rotation_rad": (-math.pi, math.pi)}, n_s=2)
     res = optimize_placement(opt, n_starts=3, n_local=1, max_local_evals=4)
     assert res.baseline.feasible and res.best.feasible
     assert res.best.min_depth_m >= res.baseline.min_depth_m
     assert not res.baseline.strict_ok   # Tab. 7: A3 2.86 deg past +145 deg, accepted within 5 deg
-    # README: steel, basic, Tab. 7: 0.643 mm at 3100 rpm (stability(), Richardson); m = 40 here
+    # README: steel_case, basic, Tab. 7: 0.643 mm at 3100 rpm (stability(), Richardson); m = 40 here
     np.testing.assert_allclose(res.baseline.depth_m[0], 0.643e-3, rtol=0.01)
-    robot = linearize.build_model(steel.robot, "basic")
+    robot = tx200_robot("basic")
     lin = linearize.linearize(robot, res.best.theta[res.best.worst])
-    p = LobeProblem(PhysicalStructure.from_linear(lin, res.best.feed), steel.tool, steel.cut, steel.law)
+    p = LobeProblem(PhysicalStructure.from_linear(lin, res.best.feed), steel_case.tool, steel_case.cut, steel_case.law)
     ref = solve(p, SemiDiscretization(m=40), [3100.0], depth_max_m=opt.depth_max_m, rtol=1e-3).depth_limit_m[0]
     np.testing.assert_allclose(res.best.min_depth_m, ref, rtol=1e-12)
 
 
-def test_coarse_prescan_keeps_the_sdm_limits(steel):
+def test_coarse_prescan_keeps_the_sdm_limits(steel_case, tx200_robot):
     # SemiDiscretization(prescan_m=12): the free-exact prescan only brackets; the SDM at m = 40
     # verifies and refines, so the limits equal those with the default prescan to the root
     # bracket (rtol 1e-3 of solve; observed 6e-14 at the bench poses).
-    robot = linearize.build_model(steel.robot, "basic")
-    lin = linearize.linearize(robot, steel.path.start_q_rad)
-    p = LobeProblem(PhysicalStructure.from_linear(lin, steel.cut.feed_direction), steel.tool, steel.cut, steel.law)
+    robot = tx200_robot("basic")
+    lin = linearize.linearize(robot, steel_case.path.start_q_rad)
+    p = LobeProblem(PhysicalStructure.from_linear(lin, steel_case.cut.feed_direction), steel_case.tool, steel_case.cut, steel_case.law)
     speeds = np.linspace(2000, 8000, 7)
     a = solve(p, SemiDiscretization(m=40), speeds).depth_limit_m
     b = solve(p, SemiDiscretization(m=40, prescan_m=12), speeds).depth_limit_m

@@ -89,7 +89,7 @@ def test_optimize_cli_bad_input(tmp_path, capsys, bad, words):
     assert not out.exists()
 
 
-def test_optimize_cli_mrr_and_strict_keys(tmp_path, capsys):
+def test_optimize_cli_mrr_and_strict_keys(tmp_path, capsys, steel_case):
     # --objective mrr over 3 speeds, tiny budget. The printed removal rate is the printed depth
     # times a_e f_z N n (case numbers, closed form) in cm^3/min: rtol 1e-9. The paper's placement is
     # not strictly feasible: A3 2.86 deg past +145 deg (Tab. 7, NOTES.md).
@@ -105,7 +105,7 @@ def test_optimize_cli_mrr_and_strict_keys(tmp_path, capsys):
               "objective_note", "strict_optimum", "baseline_strict_violation"):
         assert k in js, k
     assert js["objective"] == "mrr" and js["best_rpm"] in (2000.0, 4000.0, 6000.0)
-    c = load_case("tx200-steel")
+    c = steel_case
     mrr = js["optimized_min_depth_m"] * c.cut.ae_m * c.cut.feed_per_tooth_m * c.tool.teeth * js["best_rpm"] / 60.0
     assert js["optimized_mrr_cm3_per_min"] == pytest.approx(mrr * 1e6 * 60.0, rel=1e-9)
     assert js["mrr_gain"] >= 1.0
@@ -133,7 +133,7 @@ def test_optimize_cli_bad_speed_options(tmp_path, capsys, bad, words):
     assert not out.exists()
 
 
-def test_map_lead_tilt_sweeps_tilt_with_lead_fixed_at_zero(tmp_path, capsys):
+def test_map_lead_tilt_sweeps_tilt_with_lead_fixed_at_zero(tmp_path, capsys, steel_case):
     # Two tilts, -8 and +8 deg. At each pose the tool axis (TCP z from fk of the stored joints) keeps
     # the start pose's component along the feed (no lead: 2.6e-6, Tab. 7's printed angles are
     # 3.4e-5 rad off vertical) and makes the tilt angle with the start pose's axis: geometry, to
@@ -141,7 +141,6 @@ def test_map_lead_tilt_sweeps_tilt_with_lead_fixed_at_zero(tmp_path, capsys):
     import numpy as np
     import xarray as xr
 
-    from robolobes.cases import load_case
     from robolobes.linearize import fk
 
     out = tmp_path / "lt"
@@ -151,7 +150,7 @@ def test_map_lead_tilt_sweeps_tilt_with_lead_fixed_at_zero(tmp_path, capsys):
     js = json.loads(capsys.readouterr().out)
     assert js["lead_deg"] == 0.0 and "perpendicular to the tool axis" in js["lead_note"]
     ds = xr.open_zarr(out / "map.zarr", consolidated=False)
-    case = load_case("tx200-steel")
+    case = steel_case
     z0 = np.asarray(fk(case.robot, case.path.start_q_rad)[1])[:, 2]
     for i, tilt in enumerate(np.radians([-8.0, 8.0])):
         assert ds["reachable"].values[i]

@@ -8,15 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from robolobes import cases
 from robolobes.core.errors import BadInput
 from robolobes.workspace import MapProblem
 from robolobes.workspace import optimize as wo
-
-
-@pytest.fixture(scope="module")
-def steel():
-    return cases.load_case("tx200-steel")
 
 
 def _problem(case, **kw):
@@ -24,23 +18,23 @@ def _problem(case, **kw):
     return wo.OptimizeProblem(mp, ("tool_rotation_rad",), {"tool_rotation_rad": (-1.0, 1.0)}, n_s=2, **kw)
 
 
-def test_mrr_per_depth_is_ae_fz_n_rpm(steel):
+def test_mrr_per_depth_is_ae_fz_n_rpm(steel_case):
     # a_e v_f with v_f = f_z N n / 60 (n in rpm), from the case's own numbers: closed form, rtol 1e-12
-    c = steel.cut
-    want = c.ae_m * c.feed_per_tooth_m * steel.tool.teeth * np.array([1550.0, 3100.0]) / 60.0
-    np.testing.assert_allclose(wo.mrr_per_depth_m2_per_s(steel, [1550.0, 3100.0]), want, rtol=1e-12)
+    c = steel_case.cut
+    want = c.ae_m * c.feed_per_tooth_m * steel_case.tool.teeth * np.array([1550.0, 3100.0]) / 60.0
+    np.testing.assert_allclose(wo.mrr_per_depth_m2_per_s(steel_case, [1550.0, 3100.0]), want, rtol=1e-12)
 
 
-def test_mrr_needs_speeds_and_depth_refuses_them(steel):
+def test_mrr_needs_speeds_and_depth_refuses_them(steel_case):
     with pytest.raises(BadInput, match="mrr objective needs"):
-        _problem(steel, objective="mrr")
+        _problem(steel_case, objective="mrr")
     with pytest.raises(BadInput, match="speeds_rpm is for the mrr objective"):
-        _problem(steel, speeds_rpm=(3000.0,))
+        _problem(steel_case, speeds_rpm=(3000.0,))
     with pytest.raises(BadInput, match="objective must be one of"):
-        _problem(steel, objective="volume")
+        _problem(steel_case, objective="volume")
 
 
-def test_mrr_objective_finds_the_closed_form_best_speed(steel, monkeypatch):
+def test_mrr_objective_finds_the_closed_form_best_speed(steel_case, monkeypatch):
     # Two pass poses with known lobes: pose 0 a_0(n) = A / (1 + (n/n0)^2), pose 1 a_1 = 0.3 A.
     # MRR(n) = c n min(a_0, a_1), c = a_e f_z N / 60. For n/n0 <= x* = sqrt(1/0.3 - 1) the min is
     # 0.3 A (MRR rising with n); above, c A n / (1 + (n/n0)^2) falls (n > n0). So the best speed is
@@ -55,37 +49,37 @@ def test_mrr_objective_finds_the_closed_form_best_speed(steel, monkeypatch):
         return A / (1 + (n / n0) ** 2) if next(calls) % 2 == 0 else np.full(len(n), 0.3 * A)
 
     monkeypatch.setattr(wo, "_depths_at", fake_depths)
-    opt = _problem(steel, objective="mrr", speeds_rpm=tuple(speeds))
+    opt = _problem(steel_case, objective="mrr", speeds_rpm=tuple(speeds))
     ev = wo.evaluate_pass(opt, [0.0])
-    c = steel.cut.ae_m * steel.cut.feed_per_tooth_m * steel.tool.teeth / 60.0
+    c = steel_case.cut.ae_m * steel_case.cut.feed_per_tooth_m * steel_case.tool.teeth / 60.0
     assert ev.feasible and ev.rpm == n_star
     np.testing.assert_allclose(ev.mrr_m3_per_s, 0.3 * A * c * n_star, rtol=1e-12)
     np.testing.assert_allclose(ev.depth_m, [A / (1 + (n_star / n0) ** 2), 0.3 * A], rtol=1e-12)
     assert ev.depth_by_speed_m.shape == (2, len(speeds))
     # the depth objective at the chosen speed n0 (the case's op speed replaced): no speed freedom
-    opt_d = wo.OptimizeProblem(MapProblem.make(steel, "basic", "placement", n=1, op_rpm=n0),
+    opt_d = wo.OptimizeProblem(MapProblem.make(steel_case, "basic", "placement", n=1, op_rpm=n0),
                                ("tool_rotation_rad",), {"tool_rotation_rad": (-1.0, 1.0)}, n_s=2)
     ev_d = wo.evaluate_pass(opt_d, [0.0])
     assert ev_d.rpm == n0 and ev_d.min_depth_m == pytest.approx(0.3 * A, rel=1e-12)
 
 
-def test_depth_with_no_limit_counts_as_depth_max_in_the_mrr(steel, monkeypatch):
+def test_depth_with_no_limit_counts_as_depth_max_in_the_mrr(steel_case, monkeypatch):
     # inf (stable up to depth_max_m at every speed): MRR = depth_max_m c n_max, a lower bound
     monkeypatch.setattr(wo, "_depths_at", lambda opt, *a: np.full(len(opt.eval_speeds_rpm), np.inf))
-    opt = _problem(steel, objective="mrr", speeds_rpm=(1000.0, 2000.0))
+    opt = _problem(steel_case, objective="mrr", speeds_rpm=(1000.0, 2000.0))
     ev = wo.evaluate_pass(opt, [0.0])
-    c = steel.cut.ae_m * steel.cut.feed_per_tooth_m * steel.tool.teeth / 60.0
+    c = steel_case.cut.ae_m * steel_case.cut.feed_per_tooth_m * steel_case.tool.teeth / 60.0
     assert ev.rpm == 2000.0
     np.testing.assert_allclose(ev.mrr_m3_per_s, opt.depth_max_m * c * 2000.0, rtol=1e-12)
 
 
-def test_strict_violation_of_the_papers_pose(steel):
+def test_strict_violation_of_the_papers_pose(steel_case):
     # Tab. 7 (NOTES.md): A3 = 147.86 deg, 2.86 deg past the datasheet's +145 deg
-    text = wo.strict_violation(steel.robot, np.asarray(steel.path.start_q_rad)[None, :])
+    text = wo.strict_violation(steel_case.robot, np.asarray(steel_case.path.start_q_rad)[None, :])
     assert text == "A3 2.86 deg past +145 deg at 1 of 1 pass poses"
-    inside = np.asarray(steel.path.start_q_rad).copy()
+    inside = np.asarray(steel_case.path.start_q_rad).copy()
     inside[2] = math.radians(140.0)
-    assert wo.strict_violation(steel.robot, inside) == ""
+    assert wo.strict_violation(steel_case.robot, inside) == ""
 
 
 # ------------------------------------------------------------------------- strict limits, two branches
@@ -111,10 +105,10 @@ def _fake_evaluate(x_strict: float, strict_calls: list):
     return fake
 
 
-def test_strict_optimum_is_the_tolerant_one_when_it_is_strict_feasible(steel, monkeypatch):
+def test_strict_optimum_is_the_tolerant_one_when_it_is_strict_feasible(steel_case, monkeypatch):
     calls = []
     monkeypatch.setattr(wo, "evaluate_pass", _fake_evaluate(0.5, calls))
-    res, strict = wo.optimize_with_strict(_problem(steel), n_starts=6, n_local=1, max_local_evals=60)
+    res, strict = wo.optimize_with_strict(_problem(steel_case), n_starts=6, n_local=1, max_local_evals=60)
     assert res.best.strict_ok and strict.how == "tolerant optimum" and strict.result is None
     assert strict.best is res.best
     assert not any(calls)   # no second run with strict limits
@@ -122,10 +116,10 @@ def test_strict_optimum_is_the_tolerant_one_when_it_is_strict_feasible(steel, mo
     np.testing.assert_allclose(res.best.x[0], 0.3, atol=0.02)
 
 
-def test_strict_run_when_the_tolerant_optimum_is_past_a_strict_range(steel, monkeypatch):
+def test_strict_run_when_the_tolerant_optimum_is_past_a_strict_range(steel_case, monkeypatch):
     calls = []
     monkeypatch.setattr(wo, "evaluate_pass", _fake_evaluate(0.1, calls))
-    res, strict = wo.optimize_with_strict(_problem(steel), n_starts=6, n_local=1, max_local_evals=60)
+    res, strict = wo.optimize_with_strict(_problem(steel_case), n_starts=6, n_local=1, max_local_evals=60)
     assert not res.best.strict_ok and strict.how == "strict run" and any(calls)
     assert "A3 3.00 deg past +145 deg" in strict.note
     # the strict optimum is the feasible edge x -> 0.1: supremum 1e-3 (1 - 0.2^2) = 0.96e-3; the
@@ -136,13 +130,13 @@ def test_strict_run_when_the_tolerant_optimum_is_past_a_strict_range(steel, monk
     np.testing.assert_allclose(res.best.min_depth_m, 1e-3, rtol=1e-3)
 
 
-def test_time_domain_check_point_lies_between_the_limits_at_the_optimums_speed(steel):
+def test_time_domain_check_point_lies_between_the_limits_at_the_optimums_speed(steel_case):
     # Baseline limits 1 / 2 mm at 2000 / 3000 rpm, optimum best at 3000 rpm with 4 mm: the check
     # runs at 3000 rpm at sqrt(2 x 4) = 2.83 mm (geometric mean, below 1.5 x 2 = 3 mm), between the
     # baseline's 2 mm there and the optimum's 4 mm.
     from robolobes.workspace.verify import check_point as _td_point
 
-    opt = _problem(steel, objective="mrr", speeds_rpm=(2000.0, 3000.0))
+    opt = _problem(steel_case, objective="mrr", speeds_rpm=(2000.0, 3000.0))
     s, theta, feed, sp = np.zeros(2), np.zeros((2, 6)), np.array([1.0, 0, 0]), np.array([2000.0, 3000.0])
     base = wo.PassEvaluation(np.zeros(1), True, "", np.full(2, 2e-3), theta, feed, s, speeds_rpm=sp,
                              depth_by_speed_m=np.array([[1e-3, 2e-3], [1.5e-3, 2e-3]]), rpm=3000.0, mrr_m3_per_s=1.0)
@@ -153,4 +147,4 @@ def test_time_domain_check_point_lies_between_the_limits_at_the_optimums_speed(s
     np.testing.assert_allclose(d, math.sqrt(8) * 1e-3, rtol=1e-12)
     # no gain there: the case's own depth, and the limits still reported
     rpm, d, b, o = _td_point(wo.Optimum(opt, base, base, ()))
-    assert d == steel.cut.ap_m and b == o == 2e-3
+    assert d == steel_case.cut.ap_m and b == o == 2e-3

@@ -73,11 +73,11 @@ def plain_zoa(modes, ae: float, mode: str, speeds: np.ndarray, n_freq: int = 600
 
 def _lobe_curves(lj: np.ndarray, w: np.ndarray, speeds: np.ndarray, out: np.ndarray) -> None:
     """Lower ``out`` (S,) by the lobe curves of one eigenvalue sequence ``lj`` (F,) at ``w`` (F,) rad/s."""
-    ok = (lj.real > 0) & (1 / (2 * np.maximum(lj.real, 1e-300)) < 1.5 * DEPTH_MAX)
+    ok = (np.real(lj) > 0) & (1 / (2 * np.maximum(np.real(lj), 1e-300)) < 1.5 * DEPTH_MAX)
     # a segment joins two neighbouring samples of one eigenvalue branch (eigvals may swap
     # the order: such a segment jumps and is dropped)
     seg = ok[:-1] & ok[1:] & (np.abs(lj[1:] - lj[:-1]) < 0.05 * np.abs(lj[:-1]))
-    b = 1 / (2 * lj.real)
+    b = 1 / (2 * np.real(lj))
     eps = math.pi + 2 * np.angle(lj)
     k_max = int(w.max() * 60 / (N_TEETH * speeds.min()) / (2 * math.pi)) + 1
     for k in range(k_max + 1):

@@ -246,6 +246,7 @@ def run_map(args: argparse.Namespace) -> int:
     out = _out_dir(args, problem, method)
     cb, close = _progress(args.quiet)
     with out:
+        assert out.path is not None  # set by entering the OutputDir
         try:
             result = solve_map(problem, method, path=out.path / "map.zarr", scheduler=args.scheduler,
                                workers=args.workers, progress=cb)
@@ -405,7 +406,7 @@ def optimize_problem_from_args(args):
     if args.objective == "mrr" and args.at_rpm is not None:
         raise BadInput("--at-rpm is for --objective depth (mrr searches --rpm-min..--rpm-max)")
     case = load_case(case_ref)
-    speeds = _mrr_speeds(args, case) if args.objective == "mrr" else ()
+    speeds = tuple(_mrr_speeds(args, case)) if args.objective == "mrr" else ()
     mp = MapProblem.make(case, args.variant, "placement", n=1, speeds_rpm=[case.cut.spindle_rpm],
                          op_rpm=args.at_rpm, tool_modes=_tool_modes(args, case), model_file=args.model)
     return OptimizeProblem(mp, tuple(names), {k: rng[k] for k in names}, n_s=args.n_s, strict=args.strict,
@@ -461,6 +462,7 @@ def run_optimize(args: argparse.Namespace) -> int:
         js["time_domain"] = time_domain_check(opt, res, args.td_end_s)
     js["wall_s"] = time.perf_counter() - t0
     with out:
+        assert out.path is not None  # set by entering the OutputDir
         js.update(out.provenance)
         if res.best.feasible:
             from robolobes.core.io import write_text

@@ -238,6 +238,7 @@ def evaluate_pass(opt: OptimizeProblem, x, method: MapMethod | None = None, *, f
     values.update(zip(opt.variables, x.tolist()))
     s = np.linspace(0.0, _travel(opt.map_problem.case), opt.n_s)
     thetas, feed, why = _pass_poses(opt, values, s)
+    assert feed is not None  # the pass has n_s >= 1 points, each sets the feed
     strict_ok = why == ""
     speeds = opt.eval_speeds_rpm
     if thetas is None:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from .compute import ChunkResult, compute_chunk
 from .poses import solve_pose, start_pose, target
 from .problem import MapMethod, MapProblem
 from .store import create_store, open_for_resume, write_chunk
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["MapResult", "solve_map", "pose_table"]
 
@@ -68,7 +71,7 @@ class MapResult:
 
     problem: MapProblem
     method: MapMethod
-    dataset: object
+    dataset: xr.Dataset
     stats: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
@@ -196,6 +199,16 @@ def solve_map(problem: MapProblem, method: MapMethod | None = None, *, path: str
     progress : callable(done_poses, total_poses), optional
     on_chunk : callable(n_chunks_written), optional
         Called after each chunk is stored (a test hook: raising there interrupts the map).
+
+    One pose (the steel case's own placement) at the case's speed, in this process:
+
+    >>> from robolobes.cases import load_case
+    >>> from robolobes.workspace import MapProblem
+    >>> pb = MapProblem.make(load_case("tx200-steel"), "basic", "placement", n=1, x_range_m=(0.0, 0.0),
+    ...                      y_range_m=(0.0, 0.0), speeds_rpm=[3100.0])
+    >>> s = solve_map(pb, scheduler="serial").summary()
+    >>> s["n_poses"], 0.1e-3 < s["min_depth_limit_m"] < 1.6e-3   # the cut's 1.6 mm is above the limit
+    (1, True)
     """
     import tempfile
 

@@ -8,6 +8,7 @@ the optimum's placement, at a depth between their two lobe limits (so the check 
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
 
@@ -47,6 +48,7 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
 
     from robolobes.linearize.kinematics import JointLimitWarning
     from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+    from robolobes.timedomain.result import SimulationResult
 
     from .compute import build_robot
 
@@ -59,7 +61,9 @@ def _time_domain(opt, ev, t_end_s: float, depth_m: float, rpm: float) -> dict:
         warnings.simplefilter("ignore", JointLimitWarning)
         prob = SimulationProblem(build_robot(mp), case, t_end_s=None)
         t_end = min(t_end_s, prob.pass_duration_s)
-        run = simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end), LinearizedNewmark())
+        # a SimulationProblem with a Newmark method gives a SimulationResult (simulate's return is a union)
+        run = cast(SimulationResult, simulate(SimulationProblem(build_robot(mp), case, t_end_s=t_end),
+                                              LinearizedNewmark()))
     s = run.summary
     if s is None:
         raise RuntimeError("the time-domain check's simulation returned no summary")
