@@ -167,38 +167,56 @@ def _structure_error(chain: KinematicChain, what: str):
 
 def _detect(chain: KinematicChain) -> OPWGeometry:
     data = chain.model.createData()
-    q = np.zeros(6)
-    pts, d = joint_axes(chain, q, data)
+    sign, zero = np.ones(6), np.zeros(6)
+    pts, d = joint_axes(chain, zero, data)
     defects = _defects(pts, d)
-    # base frame: z along axis 1, x towards axis 2
-    cross12 = np.cross(d[0], d[1])
-    if np.linalg.norm(cross12) < 1e-6:
+    F, origin = _base_frame(chain, pts, d)
+    sign[0], sign[1] = _side(d[0], F[:, 2]), _side(d[1], F[:, 1])
+    zero[1] = _upper_arm_zero(chain, pts, d, F, sign[1])
+    pts, d = joint_axes(chain, zero, data)
+    sign[2] = _side(d[2], F[:, 1])
+    sign[3], zero[2] = _forearm_zero(pts, d, F, sign[2])
+    pts, d = joint_axes(chain, zero, data)
+    sign[4] = chain.sign[4]       # theta5 turns the way the controller's axis 5 turns
+    d5 = F.T @ d[4]               # axis 5 along +y: theta4 = 0
+    zero[3] = _wrap(-sign[3] * _angle_in_plane(-sign[4] * d5[0], sign[4] * d5[1]))
+    pts, d = joint_axes(chain, zero, data)
+    sign[5], zero[4] = _wrist_bend_zero(chain, data, pts, d, F, sign[4])
+    return _at_opw_zero(chain, data, F, origin, sign, zero, defects)
+
+
+def _side(axis: np.ndarray, ref: np.ndarray) -> float:
+    """+1 if the joint axis points along the OPW axis ``ref``, else -1."""
+    return 1.0 if axis @ ref >= 0 else -1.0
+
+
+def _base_frame(chain: KinematicChain, pts: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """OPW base axes (3, 3) (z along axis 1 towards joint 2's side, x towards axis 2) and origin (3,)
+    (the base origin's foot on axis 1), at joint zero."""
+    if np.linalg.norm(np.cross(d[0], d[1])) < 1e-6:
         raise _structure_error(chain, "axes 1 and 2 are parallel: no arm plane, no shoulder/elbow/wrist branches")
     P2 = _foot_on(pts[1], d[1], pts[0], d[0])
-    foot0 = pts[0] + ((0.0 - pts[0]) @ d[0]) * d[0]
-    s1 = -1.0 if (P2 - foot0) @ d[0] < -1e-12 else 1.0
-    z = s1 * d[0]
+    origin = pts[0] - (pts[0] @ d[0]) * d[0]
+    z = -d[0] if (P2 - origin) @ d[0] < -1e-12 else d[0]
     r = P2 - pts[0]
     r = r - (r @ z) * z
-    x = r / np.linalg.norm(r) if np.linalg.norm(r) > 1e-12 else np.cross(d[1], z) / np.linalg.norm(np.cross(d[1], z))
-    y = np.cross(z, x)
-    F = np.column_stack([x, y, z])
-    sign = np.ones(6)
-    zero = np.zeros(6)
-    sign[0] = s1
-    sign[1] = 1.0 if d[1] @ y >= 0 else -1.0
-    # joint 2: joint 3 straight above joint 2
-    u = F.T @ (pts[2] - P2)
+    x = r if np.linalg.norm(r) > 1e-12 else np.cross(d[1], z)
+    x = x / np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z]), origin
+
+
+def _upper_arm_zero(chain: KinematicChain, pts, d, F, s2: float) -> float:
+    """Joint 2's position (rad) that puts joint 3 straight above joint 2 (along OPW z)."""
+    u = F.T @ (pts[2] - _foot_on(pts[1], d[1], pts[0], d[0]))
     if math.hypot(u[0], u[2]) < 1e-9:
         raise _structure_error(chain, "joint 3 lies on axis 2: no upper arm")
-    zero[1] = -sign[1] * _angle_in_plane(u[0], u[2])
-    # joint 3: axis 4 along +-z with the wrist centre above joint 3
-    q[1] = zero[1]
-    pts, d = joint_axes(chain, q, data)
-    sign[2] = 1.0 if d[2] @ y >= 0 else -1.0
-    C = wrist_point(pts, d)
-    d4 = F.T @ d[3]
-    v = F.T @ (C - pts[2])
+    return -s2 * _angle_in_plane(u[0], u[2])
+
+
+def _forearm_zero(pts, d, F, s3: float) -> tuple[float, float]:
+    """(sign of joint 4, joint 3's position in rad) that put axis 4 along +z with the wrist centre
+    above joint 3 (``c3 > 0``; the smaller turn when ``c3 = 0``)."""
+    d4, v = F.T @ d[3], F.T @ (wrist_point(pts, d) - pts[2])
     best = None
     for s4 in (1.0, -1.0):
         gam = _angle_in_plane(s4 * d4[0], s4 * d4[2])
@@ -207,43 +225,36 @@ def _detect(chain: KinematicChain) -> OPWGeometry:
         if best is None or key < best[0]:
             best = (key, s4, gam)
     assert best is not None
-    _, sign[3], gam = best
-    zero[2] = -sign[2] * gam
-    # joint 4: axis 5 along +-y, the sign that turns theta5 the way the controller's axis 5 turns
-    q[2] = zero[2]
-    pts, d = joint_axes(chain, q, data)
-    d5 = F.T @ d[4]
-    sign[4] = chain.sign[4]
-    zero[3] = _wrap(-sign[3] * _angle_in_plane(-sign[4] * d5[0], sign[4] * d5[1]))
-    # joint 5: axis 6 along +-z with the TCP beyond the wrist centre
-    q[3] = zero[3]
-    pts, d = joint_axes(chain, q, data)
+    return best[1], -s3 * best[2]
+
+
+def _wrist_bend_zero(chain: KinematicChain, data, pts, d, F, s5: float) -> tuple[float, float]:
+    """(sign of joint 6, joint 5's position in rad) that put axis 6 along +z with the TCP beyond the
+    wrist centre (``c4 > 0``; the smaller turn when ``c4 = 0``)."""
     pin.updateFramePlacements(chain.model, data)
-    p_tcp = data.oMf[chain.tcp_frame_id].translation.copy()
-    C = wrist_point(pts, d)
+    along = float((data.oMf[chain.tcp_frame_id].translation - wrist_point(pts, d)) @ d[5])
     d6 = F.T @ d[5]
-    along = float((p_tcp - C) @ d[5])
     cands = [(s6, _angle_in_plane(s6 * d6[0], s6 * d6[2])) for s6 in (1.0, -1.0)]
     if abs(along) > 1e-12:
-        s6 = 1.0 if along > 0 else -1.0
-        cand = next(c for c in cands if c[0] == s6)
+        s6, gam = next(c for c in cands if c[0] == (1.0 if along > 0 else -1.0))
     else:
-        cand = min(cands, key=lambda c: abs(_wrap(-sign[4] * c[1])))
-    sign[5], gam5 = cand
-    zero[4] = _wrap(-sign[4] * gam5)
-    # the OPW zero pose: lengths, wrist centre in TCP axes, TCP orientation
+        s6, gam = min(cands, key=lambda c: abs(_wrap(-s5 * c[1])))
+    return s6, _wrap(-s5 * gam)
+
+
+def _at_opw_zero(chain: KinematicChain, data, F, origin, sign, zero, defects) -> OPWGeometry:
+    """The OPW lengths, the wrist centre in TCP axes and the TCP orientation, read at the OPW zero."""
     pts, d = joint_axes(chain, zero, data)
     pin.updateFramePlacements(chain.model, data)
     M = data.oMf[chain.tcp_frame_id]
     C = wrist_point(pts, d)
     P2 = _foot_on(pts[1], d[1], pts[0], d[0])
-    o = foot0
-    j2, j3, c = F.T @ (P2 - o), F.T @ (pts[2] - P2), F.T @ (C - pts[2])
+    j2, j3, c = F.T @ (P2 - origin), F.T @ (pts[2] - P2), F.T @ (C - pts[2])
     for a in (sign, zero):
         a.setflags(write=False)
     return OPWGeometry(
-        a1=float(j2[0]), a2=float(c[0]), b=float(F[:, 1] @ (C - o)), c1=float(j2[2]), c2=float(j3[2]),
-        c3=float(c[2]), c4=float(abs(along)), origin=o, axes=F, sign=sign, zero=zero,
+        a1=float(j2[0]), a2=float(c[0]), b=float(F[:, 1] @ (C - origin)), c1=float(j2[2]), c2=float(j3[2]),
+        c3=float(c[2]), c4=float(abs((M.translation - C) @ d[5])), origin=origin, axes=F, sign=sign, zero=zero,
         wrist_in_tcp=M.rotation.T @ (C - M.translation), tcp_zero=F.T @ M.rotation, defects=defects)
 
 
