@@ -39,8 +39,8 @@ import numpy as np
 import pinocchio as pin
 
 from .chain import KinematicChain, joint_axes
-from .kinematics import (_ELBOW, _NEAR_AXIS, _OK, _SHOULDER, _TOO_CLOSE, _TOO_FAR, _WRIST, REACH_EPS_M,
-                         RobotStructureError)
+from .ik_errors import (_ELBOW, _NEAR_AXIS, _OK, _SHOULDER, _TOO_CLOSE, _TOO_FAR, _WRIST, REACH_EPS_M,
+                        RobotStructureError)
 
 __all__ = ["OPW_TOL", "OPWGeometry", "opw_geometry", "require_opw", "opw_solve", "branch_indicators",
            "wrist_point"]

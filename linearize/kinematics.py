@@ -78,7 +78,11 @@ import numpy as np
 from typing import TYPE_CHECKING, Sequence, TypeGuard, Union
 
 from robolobes.cases.spec import RobotSpec
-from robolobes.core.errors import BadInput
+
+from .ik_errors import (_ELBOW, _NEAR_AXIS, _OK, _SHOULDER, _TOO_CLOSE, _TOO_FAR, _WRIST, REACH_EPS_M,
+                        ElbowSingularityError, JointLimitError, JointLimitWarning, KinematicsError,
+                        RobotStructureError, ShoulderSingularityError, SingularityError, TargetError,
+                        UnreachableError, WristSingularityError)
 
 if TYPE_CHECKING:
     from .chain import KinematicChain
@@ -133,63 +137,11 @@ ELBOW_TOL = 1e-3
 WRIST_TOL = 1e-3
 ORTHONORMAL_TOL = 1e-6
 STRUCTURE_TOL_M = 1e-9
-#: A wrist centre at most this far beyond the stretched / folded reach counts as on the boundary
-#: (an elbow singularity), not as unreachable: the round-off of an exactly stretched pose.
-REACH_EPS_M = 1e-9
 
 #: Branch names by index ``4 * shoulder + 2 * elbow + wrist``.
 BRANCHES: tuple[str, ...] = tuple(
     f"{s}-{e}-{w}" for s in ("front", "back") for e in ("up", "down") for w in ("noflip", "flip")
 )
-
-
-# --------------------------------------------------------------------------------------- errors
-class KinematicsError(BadInput):
-    """Base class of every kinematics error (a :class:`robolobes.core.errors.BadInput`, so a ``ValueError``)."""
-
-
-class RobotStructureError(KinematicsError):
-    """The robot spec does not have the structure the closed-form IK needs."""
-
-
-class TargetError(KinematicsError):
-    """A malformed target: wrong shape, NaN, non-orthonormal rotation, unknown branch."""
-
-
-class UnreachableError(KinematicsError):
-    """The wrist centre is out of reach (too far, or closer than the arm can fold)."""
-
-
-class SingularityError(KinematicsError):
-    """The target is at (or within tolerance of) a singularity; ``kind`` names which."""
-
-    kind = "singularity"
-
-
-class ShoulderSingularityError(SingularityError):
-    """Wrist centre on the axis of joint 1: q1 undetermined."""
-
-    kind = "shoulder"
-
-
-class ElbowSingularityError(SingularityError):
-    """Arm stretched or folded: ``sin`` of the elbow angle ~ 0."""
-
-    kind = "elbow"
-
-
-class WristSingularityError(SingularityError):
-    """``q5 ~ 0``: axes 4 and 6 aligned, only ``q4 + q6`` determined."""
-
-    kind = "wrist"
-
-
-class JointLimitError(KinematicsError):
-    """A joint angle out of its range by more than the tolerance."""
-
-
-class JointLimitWarning(UserWarning):
-    """A joint angle out of its range, but within the tolerance (accepted)."""
 
 
 # ------------------------------------------------------------------------------------- rotations
@@ -542,9 +494,6 @@ def _check_target(p, R) -> tuple[np.ndarray, np.ndarray]:
     return p, R
 
 
-# ------------------------------------------------------------------------------------ failure codes
-#: Failure codes of the closed form (:func:`linearize.ik_opw.opw_solve`) and the numerical inverse.
-_OK, _NEAR_AXIS, _TOO_FAR, _TOO_CLOSE, _SHOULDER, _ELBOW, _WRIST = range(7)
 
 
 def _ik_error(g: ArmGeometry | OPWGeometry, code: int, info: dict, k, where: str = "", tols=None) -> KinematicsError:

@@ -3,8 +3,9 @@
 A :class:`Pass` is built from a :class:`cases.MillingCase` (:meth:`Pass.from_case`). The TCP
 starts at the pose of ``case.path.start_q_rad`` and moves along ``case.cut.feed_direction`` (base
 frame) over ``case.path.travel_m(tool)`` = approach + D + part length + overrun, keeping the
-start orientation. The motor angles ``theta`` along the pass come from the closed-form IK of
-:mod:`linearize.kinematics`, on the branch of the start pose, continued in 2 pi from the start
+start orientation. The motor angles ``theta`` along the pass come from the IK of
+:mod:`linearize.kinematics` (closed form, or the numerical inverse for an arm that is not OPW), on
+the branch of the start pose, continued in 2 pi from the start
 pose *as given* (``theta(0) == start_q_rad``: the paper's A3 = -212.14 deg stays -212.14 deg).
 
 Feed profile (S-curve, piecewise-constant jerk, no constant-acceleration phase)::
@@ -393,7 +394,7 @@ class Pass:
         return self.start_position + float(s) * self.direction, self.rotation.copy()
 
     def theta_at_s(self, s):
-        """Motor angles at path coordinate s (m): exact closed-form IK, continued from the start pose.
+        """Motor angles at path coordinate s (m): exact IK (to round-off, or 1e-11 numerical), continued from the start pose.
 
         Parameters
         ----------
