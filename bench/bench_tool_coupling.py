@@ -34,10 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from robolobes.cases import load_case  # noqa: E402
 from robolobes.linearize import build_model, linearize  # noqa: E402
-from robolobes.linearize.tool import with_tool  # noqa: E402
 from robolobes.lobes import (LobeProblem, ModalStructure, Mode, PhysicalStructure, SemiDiscretization,  # noqa: E402
                              in_series, solve)
-from robolobes.lobes.tooltip import tool_from_modes  # noqa: E402
+from robolobes.lobes.tooltip import tool_from_modes, with_tool  # noqa: E402
 
 TOOLS = {
     "1 g, 600 Hz (feed)": (Mode(600.0, 0.03, 0.001 * (2 * math.pi * 600.0) ** 2, (1.0, 0.0)),),

@@ -48,7 +48,7 @@ from robolobes.core.validate import finite
 from .base_elements import diagonal_force, diagonal_tangent
 from .element import Element, ModelBuilder
 
-__all__ = ["TcpOscillator", "oscillator_receptance", "chain_matrices", "chain_receptance", "with_tool", "mount_at_tcp"]
+__all__ = ["TcpOscillator", "oscillator_receptance", "chain_matrices", "chain_receptance", "mount_at_tcp"]
 
 
 def _number(name: str, v, *, positive=True, inf_ok=False) -> None:
@@ -201,17 +201,3 @@ def chain_receptance(oscillators, omega) -> np.ndarray:
     X = np.linalg.solve(Z, np.broadcast_to(D.T.astype(complex), (w.size,) + D.T.shape))
     return np.einsum("in,fnj->ijf", D, X)
 
-
-def with_tool(robot, oscillators):
-    """A new :class:`~robolobes.linearize.model.FlexibleRobot`: ``robot``'s elements, then ``oscillators``
-    (a chain of :class:`TcpOscillator`, TCP-frame angles) at its TCP. ``robot`` itself is unchanged."""
-    from .model import assemble
-
-    oscillators = tuple(oscillators)
-    if not oscillators:
-        return robot
-    bad = [type(o).__name__ for o in oscillators if not isinstance(o, TcpOscillator)]
-    if bad:
-        raise BadInput(f"a tool is a chain of TcpOscillator, got {', '.join(bad)}")
-    variant = robot.variant if robot.variant.endswith("+") else robot.variant + "+"
-    return assemble(robot.spec, tuple(robot.elements) + oscillators, variant=variant)

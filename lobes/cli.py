@@ -200,9 +200,7 @@ def _robot_problem(args) -> tuple[LobeProblem, str]:
     from robolobes import linearize
     from robolobes.linearize.cli import resolve_pose
 
-    from robolobes.linearize.tool import with_tool
-
-    from .tooltip import tool_from_files
+    from .tooltip import tool_from_files, with_tool
 
     tool_set = tool_from_files(args.tool_modes, args.tool_frf, args.tool_frf_axes)
     case, robot, theta, label = resolve_pose(args)

@@ -42,7 +42,7 @@ from robolobes.linearize.tool import TcpOscillator, chain_receptance
 from ._errors import LobeError
 from .structure import ComplexMode, ModalStructure, Mode
 
-__all__ = ["ToolSet", "tool_from_files", "tool_from_modes", "oscillators_from_modes", "real_modes", "conversion_loss", "MAX_LOSS",
+__all__ = ["ToolSet", "with_tool", "tool_from_files", "tool_from_modes", "oscillators_from_modes", "real_modes", "conversion_loss", "MAX_LOSS",
            "ASSUMPTION"]
 
 #: largest conversion loss accepted (max |H_converted - H_given| / max |H_given| on the modes' band):
@@ -199,3 +199,19 @@ def tool_from_files(tool_modes: str | None = None, tool_frf: str | None = None, 
     if not fit.credible:
         raise LobeError(f"{tool_frf}: the modal fit of the tool FRF is not credible ({'; '.join(fit.problems)})")
     return tool_from_modes(fit.modes, str(tool_frf), "fitted modes")
+
+
+def with_tool(robot, oscillators):
+    """A new :class:`~robolobes.linearize.model.FlexibleRobot`: ``robot``'s elements, then ``oscillators``
+    (a chain of :class:`TcpOscillator`, TCP-frame angles) at its TCP. ``robot`` itself is unchanged."""
+    from robolobes.core.errors import BadInput
+    from robolobes.linearize.model import assemble
+
+    oscillators = tuple(oscillators)
+    if not oscillators:
+        return robot
+    bad = [type(o).__name__ for o in oscillators if not isinstance(o, TcpOscillator)]
+    if bad:
+        raise BadInput(f"a tool is a chain of TcpOscillator, got {', '.join(bad)}")
+    variant = robot.variant if robot.variant.endswith("+") else robot.variant + "+"
+    return assemble(robot.spec, tuple(robot.elements) + oscillators, variant=variant)

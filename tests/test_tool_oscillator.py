@@ -26,7 +26,8 @@ from numpy.testing import assert_allclose
 from robolobes.cases import load_case
 from robolobes.core.errors import BadInput
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.tool import TcpOscillator, chain_receptance, oscillator_receptance, with_tool
+from robolobes.linearize.tool import TcpOscillator, chain_receptance, oscillator_receptance
+from robolobes.lobes.tooltip import with_tool
 
 CASE = load_case("tx200-aluminium")
 F_HZ = np.linspace(2.0, 300.0, 300)

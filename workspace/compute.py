@@ -38,7 +38,7 @@ def build_robot(problem: MapProblem):
     robot = _ROBOTS.get(key)
     if robot is None:
         from robolobes.linearize import build_model
-        from robolobes.linearize.tool import with_tool
+        from robolobes.lobes.tooltip import with_tool
 
         robot = _ROBOTS[key] = with_tool(build_model(problem.case.robot, problem.variant), tool)
     return robot
