@@ -257,10 +257,13 @@ def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
     assert [e["name"] for e in res["effects"]] == ["tcp_mode", "joint_correction_a3"]
     steps = res["steps"]
     with capsys.disabled():
-        print("\ntwo effects:", [(s["kept"], round(s["statistic"], 1), round(s["threshold"], 2), round(s["error_before"], 4),
+        print("\ntwo effects:", [(s["kept"], s["statistic"], round(s["threshold"], 2), round(s["error_before"], 4),
                                   round(s["error_after"], 4)) for s in steps], "generating", round(truth_errors(t)[0], 4))
     assert [s["kept"] for s in steps] == ["tcp_mode", "joint_correction_a3", None]
-    assert all(s["statistic"] > s["threshold"] for s in steps[:2]) and steps[2]["statistic"] <= steps[2]["threshold"]
+    assert all(s["statistic"] > s["threshold"] for s in steps[:2])
+    # the third step keeps nothing: its best candidate fails the test, or (statistic null) every
+    # candidate was screened out before the held-out test
+    assert steps[2]["statistic"] is None or steps[2]["statistic"] <= steps[2]["threshold"]
     e_gen, _ = truth_errors(t)
     assert res["error_after"] <= 1.2 * e_gen
     assert_allclose(res["effects"][1]["params"]["stiffness_scale"], 0.75, atol=5 * res["effects"][1]["uncertainty"]
