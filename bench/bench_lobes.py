@@ -172,7 +172,7 @@ def bench_targets(quick: bool) -> None:
               f"levels m = {r.stats['m_levels']}, unconverged {nu} / {len(speeds)}; default vs previous limits: "
               f"largest difference {100 * _largest_diff(r, rp):.3f} %, m = 40 off the default by up to "
               f"{100 * _largest_diff(r, r40):.1f} %", flush=True)
-        if hasattr(p.structure, "truncated"):
+        if isinstance(p.structure, PhysicalStructure):
             from dataclasses import replace
 
             red = p.structure.truncated(max_freq_hz=300.0, band_hz=(0.0, 1000.0))

@@ -36,7 +36,7 @@ def _cpu_per_s(case, t_end: float, entry_exit: str) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--alu-s", type=float, default=0.4)
     ap.add_argument("--steel-s", type=float, default=1.5)
     ap.add_argument("--repeat", type=int, default=3)

@@ -83,7 +83,7 @@ def _aligned(gen: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
     def shifted(s):
         return np.fft.irfft(G * np.exp(2j * np.pi * k * s / len(gen)), n=len(gen), axis=0)
-    s = minimize_scalar(lambda s: float(np.sum((shifted(s) - ref)[:, :2] ** 2)), bounds=(-3, 3), method="bounded").x
+    s = minimize_scalar(lambda s: float(np.sum((shifted(s) - ref)[:, :2] ** 2)), bounds=(-3, 3), method="bounded").x  # pyright: ignore[reportAttributeAccessIssue]  # OptimizeResult carries x
     return shifted(s)
 
 
