@@ -210,6 +210,7 @@ def test_null_set_from_the_generator_is_clean(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z"])
 def test_draws_right_in_at_least_4_of_5(tmp_path, case):
     # the two tool-mode cases (about 80 s of CPU per draw) run only in bench/bench_identify_answers.py
@@ -220,6 +221,7 @@ def test_draws_right_in_at_least_4_of_5(tmp_path, case):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_nulls_clean_in_at_least_19_of_20(tmp_path):
     got = [run_case("null", seed, tmp_path) for seed in range(1, 21)]
     assert sum(r["right"] for r in got) >= 19, [(r["seed"], r["why"]) for r in got if not r["right"]]

@@ -196,6 +196,7 @@ def test_backlash_one_draw(base, tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_backlash_five_draws(base, tmp_path, capsys):
     results = _draws(range(5), base, tmp_path, capsys)
     assert sum(ok for ok, _, _ in results) >= 4, results

@@ -168,6 +168,7 @@ def test_dynamometer_one_draw(base, tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_no_effect_twenty_seeds(base, tmp_path, capsys):
     case, t, f = base
     found = []
@@ -181,6 +182,7 @@ def test_no_effect_twenty_seeds(base, tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("name", ["dynamometer", "lowpass", "edge_coefficients", "runout"])
 def test_effect_five_draws(base, tmp_path, capsys, name):
     results = _run_draws(name, range(5), base, tmp_path, capsys)

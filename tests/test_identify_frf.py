@@ -156,6 +156,7 @@ def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("kind", ["tcp_mode", "joint_correction", "payload_mass"])
 def test_each_effect_found_in_at_least_4_of_5_draws(tmp_path, capsys, kind):
     seeds = [11, 12, 13, 14, 15]
@@ -166,6 +167,7 @@ def test_each_effect_found_in_at_least_4_of_5_draws(tmp_path, capsys, kind):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_orthogonal_correction_found_in_at_least_4_of_5_draws(tmp_path, capsys):
     seeds = [21, 22, 23, 24, 25]
     good = [_correct(*_identify_draw(tmp_path, capsys, "orthogonal_correction", s, variant="orthogonal"))
@@ -176,6 +178,7 @@ def test_orthogonal_correction_found_in_at_least_4_of_5_draws(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_no_effect_in_at_least_19_of_20_seeds(tmp_path, capsys):
     seeds = list(range(100, 120))
     good = [_correct(*_identify_draw(tmp_path, capsys, None, s)) for s in seeds]

@@ -327,18 +327,21 @@ def test_process_damping_one_draw(setup, tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_process_damping_draws(setup, tmp_path, capsys):
     res = _run(setup, tmp_path, capsys, "process_damping", [12, 13, 14, 15, 16])
     assert sum(r[1] for r in res) >= 4, res
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_joint_damping_draws_pick_joint_damping(setup, tmp_path, capsys):
     res = _run(setup, tmp_path, capsys, "joint_damping", [21, 22, 23, 24, 25])
     assert sum(r[1] for r in res) >= 4, res
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_no_effect_in_at_least_19_of_20_seeds(setup, tmp_path, capsys):
     """The issue's null check for stability observations: data from the time domain of the model
     itself (no effect), depths 0.7 and 1.3 times the model's limit (+-5 % jitter) at the four speeds,

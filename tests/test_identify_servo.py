@@ -197,6 +197,7 @@ def test_servo_found_by_default(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_servo_found_in_at_least_4_of_5_draws(tmp_path, capsys):
     got = [_identify_servo_draw(tmp_path, capsys, s)[:2] for s in (11, 12, 13, 14, 15)]
     with capsys.disabled():

@@ -204,6 +204,7 @@ def test_aluminium_helical_tool_at_0p8_rate_equals_the_floquet_exponent():
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_aluminium_helical_rate_does_not_depend_on_the_disc_count():
     # The eroded part's rate moved by 0.13 1/s between 4, 16 and 54 discs; the delay model's moves by
     # less than 0.005 1/s (observed -0.2754, -0.2756, -0.2757 +- 0.0041, whole pass).
@@ -213,6 +214,7 @@ def test_aluminium_helical_rate_does_not_depend_on_the_disc_count():
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("helix", [True, False])
 @pytest.mark.parametrize("factor", FACTORS)
 def test_aluminium_grid_rate_equals_the_floquet_exponent(helix, factor):
@@ -256,6 +258,7 @@ STEEL_LIMIT_M = 0.6427e-3  # SDM limit at 3100 rpm (basic model)
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("factor, runout", [(0.5, True), (0.8, True), (1.25, False), (2.0, False)])
 def test_steel_rate_equals_the_floquet_exponent(factor, runout):
     # Below the limit with the tool's runout (observed 0.5x -4.68 +- 1.16, SDM -3.44; 0.8x -4.50 +-

@@ -147,12 +147,14 @@ def test_aluminium_basic_never_unstable_and_stable_over_the_pass():
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("variant", ["gravity", "orthogonal", "backlash"])
 def test_aluminium_other_variants_never_unstable_and_stable_over_the_pass(variant):
     _check_variant(variant)
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_aluminium_backlash_full_model_never_unstable():
     # The full nonlinear path (backlash exact, gravity-compensated axes floating in their dead
     # zones) at 0.5 s and over the whole pass: not unstable; stable over the whole pass.
@@ -217,6 +219,7 @@ def _alu_near_limit(factor, helix=True, deg_per_step=2.0, n_discs=None):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("factor, expect", [(0.8, "stable"), (1.25, "unstable")])
 def test_aluminium_near_its_limit_agrees_with_the_lobes(factor, expect):
     # The real (helical) tool: verdicts agree. The rates: see the tests below.
@@ -226,6 +229,7 @@ def test_aluminium_near_its_limit_agrees_with_the_lobes(factor, expect):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("factor", [0.3, 1.1])
 def test_straight_tool_growth_rate_equals_the_floquet_rate(factor):
     # Numbers, not only verdicts: the measured growth rate of the non-synchronous motion against
@@ -243,6 +247,7 @@ def test_straight_tool_growth_rate_equals_the_floquet_rate(factor):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_time_step_convergence_above_the_limit():
     # At 1.25x the limit the time domain's rate depends on the step (straight tool): +1.067 at
     # 2 deg of spindle rotation per step, +0.589 at 1 deg, +0.396 at 0.5 deg (SE 0.014), converging

@@ -223,6 +223,7 @@ def test_one_seeded_identify_draw_finds_the_planar_mode(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_planar_mode_draws_right_in_at_least_4_of_5(tmp_path):
     # Draws 0-4; right: the oscillator alone identified, every parameter within 2 sigma.
     right = 0
