@@ -168,6 +168,8 @@ def main(argv: list[str] | None = None) -> int:
 
         argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
         args = build_parser(argv).parse_args(argv)
+        if _early_signal:                      # taken, but a library's bare ``except:`` swallowed it
+            raise KeyboardInterrupt(128 + _early_signal[0])
         return _run(args, interrupt)           # replaces the early handler while it runs
     except KeyboardInterrupt as e:             # raised by _early_interrupt, before the work
         print("\nrobolobes: interrupted", file=sys.stderr)

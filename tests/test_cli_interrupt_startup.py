@@ -43,7 +43,8 @@ def test_signal_during_start_up_is_one_line(tmp_path, sig, n, rc):
 # there about one time in eight. CPython then marks the KeyboardInterrupt as unhandled even though main()
 # catches it, and under ``-m`` (not a script or the console entry point) kills itself with SIGINT at exit
 # (status -2, for a SIGTERM too) after the one line was printed. The second case is a library that reports the interruption
-# of its import as its own ImportError, as numpy's C import does ("PyCapsule_Import could not import module").
+# of its import as its own ImportError, as numpy's C import does ("PyCapsule_Import could not import module");
+# the third a bare ``except:`` that swallows the KeyboardInterrupt and goes on (the run went on to exit 0).
 RUN_AS_MODULE = textwrap.dedent("""
     import importlib, os, runpy, signal, sys, time
     real = importlib.import_module
@@ -57,6 +58,11 @@ RUN_AS_MODULE = textwrap.dedent("""
             return import_module(name, *a, **k)
         except KeyboardInterrupt:
             raise ImportError("PyCapsule_Import could not import module") from None
+    def import_module_swallowing(name, *a, **k):
+        try:
+            return import_module(name, *a, **k)
+        except BaseException:          # a library's bare except: the import goes on
+            return real(name, *a, **k)
     importlib.import_module = {hook}
     sys.argv = ["robolobes", "map", "--over", "pass", "--n", "2", "--out", "m"]
     runpy.run_module("robolobes", run_name="__main__", alter_sys=True)
@@ -64,7 +70,7 @@ RUN_AS_MODULE = textwrap.dedent("""
 
 
 @pytest.mark.parametrize("sig,n,rc", [("SIGINT", 1, 130), ("SIGINT", 2, 130), ("SIGTERM", 1, 143)])
-@pytest.mark.parametrize("hook", ["import_module", "import_module_as_numpy"])
+@pytest.mark.parametrize("hook", ["import_module", "import_module_as_numpy", "import_module_swallowing"])
 def test_signal_inside_exec_of_a_string_under_python_m(tmp_path, sig, n, rc, hook):
     (tmp_path / "child").mkdir()
     (tmp_path / "child" / "sigchild.py").write_text(RUN_AS_MODULE.format(sig=sig, n=n, hook=hook))
