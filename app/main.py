@@ -109,13 +109,32 @@ def _error(command: str, message) -> None:
     print(f"robolobes {command}: error: {message}", file=sys.stderr)
 
 
+#: the signal that :func:`_early_interrupt` took during this call of :func:`main` (empty: none)
+_early_signal: list[int] = []
+
+
 def _early_interrupt(signum, frame) -> None:
     """SIGINT / SIGTERM during start-up (numpy and the subcommand's modules are being imported,
     before :func:`robolobes.core.interrupt.handling` is installed): the first one interrupts,
     later ones are ignored, so start-up ends in the same one line as the work would."""
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, signal.SIG_IGN)
+    _early_signal.append(signum)
     raise KeyboardInterrupt(128 + signum)
+
+
+def _forget_caught_interrupt() -> None:
+    """Clear CPython's "unhandled KeyboardInterrupt" mark after :func:`main` has caught it.
+
+    CPython (3.8 to at least 3.13) sets that process-wide mark whenever a KeyboardInterrupt leaves code
+    run by ``exec`` / ``eval`` of a string, even if a caller then catches it; dataclasses, namedtuple
+    and enum create their methods that way while numpy, scipy and robolobes are imported, so a
+    Ctrl-C during the imports lands there about one time in eight. Under ``python -m robolobes``
+    (not a script or the console entry point) the interpreter then kills itself with SIGINT at exit
+    (status -2 instead of 130) after the one line was printed. Every ``exec`` of a string resets the
+    mark first, so an empty one clears it; an interruption that is really left unhandled sets it
+    again on its way out."""
+    exec("")  # resets the mark: the documented entry of string code, nothing is run
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -139,6 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     >>> code, json.loads(out.getvalue())["rpm"]
     (0, [2000.0, 7750.0, 13500.0, 19250.0, 25000.0])
     """
+    _early_signal.clear()
     in_main_thread = threading.current_thread() is threading.main_thread()
     old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)} if in_main_thread else {}
     for s in old:
@@ -148,14 +168,24 @@ def main(argv: list[str] | None = None) -> int:
 
         argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
         args = build_parser(argv).parse_args(argv)
+        if _early_signal:                      # taken, but a library's bare ``except:`` swallowed it
+            raise KeyboardInterrupt(128 + _early_signal[0])
         return _run(args, interrupt)           # replaces the early handler while it runs
     except KeyboardInterrupt as e:             # raised by _early_interrupt, before the work
         print("\nrobolobes: interrupted", file=sys.stderr)
         return e.args[0] if e.args and isinstance(e.args[0], int) else 130
+    except Exception:
+        if not _early_signal:                  # an error of its own: internal, keeps its traceback
+            raise
+        # a library that reports the interruption of its import as its own error (numpy's C import
+        # raises ImportError "PyCapsule_Import could not import module"): the signal ends it all the same
+        print("\nrobolobes: interrupted", file=sys.stderr)
+        return 128 + _early_signal[0]
     finally:
         for s, h in old.items():
             if signal.getsignal(s) is _early_interrupt:
                 signal.signal(s, h)
+        _forget_caught_interrupt()             # see there: else ``python -m`` may die by SIGINT at exit
 
 
 def _run(args, interrupt) -> int:
