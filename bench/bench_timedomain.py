@@ -156,7 +156,7 @@ def main(alu_s: float = 0.3, steel_s: float = 1.5, repeat: int = 3, full_pass: b
 
 
 if __name__ == "__main__":
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     p.add_argument("--alu-s", type=float, default=0.3, help="aluminium slice, simulated s (default 0.3)")
     p.add_argument("--steel-s", type=float, default=1.5, help="steel slice, simulated s (default 1.5)")
     p.add_argument("--repeat", type=int, default=3, help="linearized runs per case (median used)")

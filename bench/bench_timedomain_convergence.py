@@ -31,6 +31,7 @@ import sys
 import time
 import warnings
 from dataclasses import replace
+from typing import Any, Callable
 
 import numpy as np
 import robolobes.linearize as L
@@ -58,7 +59,7 @@ FACTORS = (0.5, 0.8, 1.25, 2.0)
 STEPS_DEG = (2.0, 1.0, 0.5)
 
 
-def _benchmark(two_dof: bool):
+def _benchmark(two_dof: bool) -> dict[str, Any]:
     fn, zeta, mass = 922.0, 0.011, 0.03993
     k = mass * (2 * math.pi * fn) ** 2
     dirs = ((1.0, 0.0), (0.0, 1.0)) if two_dof else ((1.0, 0.0),)
@@ -69,7 +70,7 @@ def _benchmark(two_dof: bool):
                 t_end_s=0.2, slices=None, m=80)
 
 
-def _robot_case(name: str):
+def _robot_case(name: str) -> dict[str, Any]:
     warnings.filterwarnings("ignore", category=L.JointLimitWarning)
     if name.startswith("steel"):
         case = cases.load_case("tx200-steel")
@@ -104,7 +105,7 @@ def _limit(c) -> float:
     return float(solve(p, meth, [c["cut"].spindle_rpm]).depth_limit_m[0])
 
 
-def _kick(c, factor, sigma):
+def _kick(c, factor, sigma) -> dict[str, Any]:
     """Initial kick: 20 um (benchmarks) or the default 5 um below the limit; above it 1 nm where the
     motion would grow by more than e^9 over the run (else the default), so that the gated window
     (10 x 2 nm to 5 % chip loss) is crossed during the run."""
@@ -168,7 +169,7 @@ def run_case(name: str, factors, eroded: bool) -> None:
         sdm = _sdm(c, cut)
         print(f"{name} {f:g}x: SDM sigma {sdm.value_per_s:+.4f} 1/s (m={sdm.m}: {sdm.coarse_per_s:+.4f}, "
               f"2m: {sdm.fine_per_s:+.4f}, error {sdm.error_per_s:.4f})", flush=True)
-        methods = [("delay", lambda d, n, f=f, cut=cut, sg=sdm.value_per_s: _delay(c, cut, f, d, n, sg))]
+        methods: list[tuple[str, Callable[..., Any]]] = [("delay", lambda d, n, f=f, cut=cut, sg=sdm.value_per_s: _delay(c, cut, f, d, n, sg))]
         if eroded and c["robot"] is not None:
             methods.append(("eroded", lambda d, n, cut=cut: _eroded(c, cut, d, n)))
         for label, fn in methods:
@@ -193,7 +194,7 @@ def run_case(name: str, factors, eroded: bool) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--case", default=",".join(CASES), help=f"comma-separated, from {', '.join(CASES)}")
     ap.add_argument("--factor", default=",".join(f"{f:g}" for f in FACTORS), help="comma-separated depth factors")
     ap.add_argument("--no-eroded", action="store_true", help="only the delay-based method")

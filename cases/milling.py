@@ -44,6 +44,7 @@ from functools import partial
 from typing import Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from robolobes.core.validate import shown
 from robolobes.core.errors import BadInput
@@ -363,7 +364,7 @@ def directional_matrix(phi_rad: np.ndarray, law: CuttingLaw) -> np.ndarray:
     return fvec[..., :, None] * n[..., None, :]
 
 
-def cut_frame(feed_direction: np.ndarray, tool_axis: np.ndarray) -> np.ndarray:
+def cut_frame(feed_direction: ArrayLike, tool_axis: ArrayLike) -> np.ndarray:
     """Rotation whose rows are the cut frame axes ``x_c, y_c, z_c`` in base coordinates.
 
     Parameters

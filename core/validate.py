@@ -40,7 +40,7 @@ def _plain(v):
     return v
 
 
-def readonly(a, dtype: Any = float, shape: tuple | None = None, name: str = "array", error=BadInput) -> np.ndarray:
+def readonly(a, dtype: Any = float, shape: tuple | None = None, name: str = "array", error: type[Exception] = BadInput) -> np.ndarray:
     """A read-only copy of ``a`` as ``dtype`` (``None`` keeps the dtype); ``shape`` is checked if given."""
     arr = np.array(a, dtype=dtype, copy=True)
     if shape is not None and arr.shape != tuple(shape):
@@ -49,7 +49,7 @@ def readonly(a, dtype: Any = float, shape: tuple | None = None, name: str = "arr
     return arr
 
 
-def finite(name: str, value, *, positive: bool = False, nonneg: bool = False, error=BadInput) -> float:
+def finite(name: str, value, *, positive: bool = False, nonneg: bool = False, error: type[Exception] = BadInput) -> float:
     """``value`` as a finite float; ``positive``: > 0, ``nonneg``: >= 0."""
     try:
         v = float(value)
@@ -64,7 +64,7 @@ def finite(name: str, value, *, positive: bool = False, nonneg: bool = False, er
     return v
 
 
-def finite_array(name: str, x, shape: tuple | None = None, *, ndim: int | None = None, error=BadInput,
+def finite_array(name: str, x, shape: tuple | None = None, *, ndim: int | None = None, error: type[Exception] = BadInput,
                  contiguous: bool = False) -> np.ndarray:
     """``x`` as a float64 array (a copy) whose entries are all finite; ``shape`` / ``ndim`` checked if given.
 
@@ -86,7 +86,7 @@ def finite_array(name: str, x, shape: tuple | None = None, *, ndim: int | None =
     return a
 
 
-def integer(name: str, value, *, minimum: int | None = None, maximum: int | None = None, error=BadInput) -> int:
+def integer(name: str, value, *, minimum: int | None = None, maximum: int | None = None, error: type[Exception] = BadInput) -> int:
     """``value`` as an int in ``[minimum, maximum]`` (bounds that are None are open)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise error(f"{name} must be an integer, got {value!r}")

@@ -129,7 +129,7 @@ def register(subparsers) -> argparse.ArgumentParser:
 def _user_problem(args, structure, label: str) -> tuple[LobeProblem, str]:
     """The problem of a user's structure (modal file or measured FRF) with the tool and material
     from the command line."""
-    pitch = None
+    pitch: tuple[float, ...] = ()  # () equal pitch
     if args.pitch_deg is not None:
         try:
             pitch = tuple(math.radians(float(x)) for x in args.pitch_deg.split(","))
@@ -372,6 +372,7 @@ def run(args: argparse.Namespace) -> int:
         with user_path_errors(out_path):
             plot_lobes(result, out_path, op, title=label, provenance=prov)
     if args.json:
+        assert result.status is not None and result.m_final is not None  # set in LobeResult.__post_init__
         out = {
             "structure": label,
             "method": method.name,

@@ -143,7 +143,7 @@ def _basis(s: np.ndarray, poles: np.ndarray) -> np.ndarray:
 
 
 def _ri(M: np.ndarray) -> np.ndarray:
-    return np.concatenate([M.real, M.imag], axis=0)
+    return np.concatenate([np.real(M), np.imag(M)], axis=0)
 
 
 def _relocate(s: np.ndarray, F: np.ndarray, poles: np.ndarray) -> np.ndarray:
@@ -171,8 +171,8 @@ def _relocate(s: np.ndarray, F: np.ndarray, poles: np.ndarray) -> np.ndarray:
         b[2 * n] = 2.0
     z = np.linalg.eigvals(Am - np.outer(b, ct))
     z = np.where(z.real > 0, -z.real + 1j * z.imag, z)  # reflect unstable zeros
-    up = sorted(z[z.imag > 1e-9 * np.abs(z)], key=lambda a: a.imag)
-    real = sorted(np.abs(z[np.abs(z.imag) <= 1e-9 * np.abs(z)].real))
+    up = sorted(z[np.imag(z) > 1e-9 * np.abs(z)], key=lambda a: np.imag(a))
+    real = sorted(np.abs(np.real(z[np.abs(np.imag(z)) <= 1e-9 * np.abs(z)])))
     for r in real[1::2]:  # two real poles -> one lightly damped pair at the same magnitude
         up.append(complex(-0.01 * r, r))
     return np.array(sorted(up, key=lambda a: a.imag)[:N] if len(up) >= N else

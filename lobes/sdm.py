@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -187,7 +187,7 @@ class SDMEngine:
         self.S2 = np.ascontiguousarray(ss.S[:2])
         self.depth_max_m = float(depth_max_m)
         self._build_structure(self.plan.candidate_steps(self.depth_max_m))
-        self._free_cache: dict[tuple[float, int], np.ndarray] = {}
+        self._free_cache: dict[tuple[float, int | str], tuple[np.ndarray, ...]] = {}  # (dt, key) -> propagators
 
     # ----- structure of the reduced recurrence --------------------------------------------------
     def _build_structure(self, cand: np.ndarray) -> None:
@@ -230,7 +230,7 @@ class SDMEngine:
         """Principal period times the spindle speed in rpm (T = this / rpm), s rpm."""
         return self.plan.period_rad / (2 * math.pi) * 60.0
 
-    def period_s(self, rpm: np.ndarray) -> np.ndarray:
+    def period_s(self, rpm: float | np.ndarray) -> np.ndarray:
         return self.period_s_per_rpm / np.asarray(rpm, dtype=float)
 
     # ----- matrix exponentials --------------------------------------------------------------------
@@ -247,7 +247,7 @@ class SDMEngine:
 
     def _cached(self, dt: np.ndarray, key, compute):
         """Per-speed cache of depth-independent propagators: compute(dt_missing) -> tuple of arrays."""
-        vals = [self._free_cache.get((float(d), key)) for d in dt]
+        vals: list[Any] = [self._free_cache.get((float(d), key)) for d in dt]
         miss = [j for j, v in enumerate(vals) if v is None]
         if miss:
             res = compute(dt[miss])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable, Union
+from typing import Callable, Union, cast
 
 import numpy as np
 
@@ -780,7 +780,7 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
         margin_error=err / depth if math.isfinite(err) else math.inf,
         radius_margin=1 - last["spectral_radius"], depth_limit_m=b_ext,
         depth_limit_error_m=err, chatter_freq_hz=last["chatter_freq_hz"],
-        bifurcation=str(classify_multiplier(last["critical_multiplier"], method.angle_tol_rad)),
+        bifurcation=cast(Bifurcation, str(classify_multiplier(last["critical_multiplier"], method.angle_tol_rad))),
         limit_bifurcation=last["limit_bifurcation"], limit_chatter_freq_hz=last["limit_chatter_freq_hz"],
         method=method, history=tuple(levels), limit_status="converged" if ok[0] else "unconverged")
 

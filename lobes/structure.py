@@ -12,9 +12,9 @@ whole force, including the axial one (``Kac``), acts through ``B``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
-from typing import Union
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
@@ -73,6 +73,10 @@ class StateSpace:
     A: np.ndarray
     B: np.ndarray
     S: np.ndarray
+    if TYPE_CHECKING:  # set in __post_init__, not dataclass fields: declared for the type checker only
+        _lam: np.ndarray = field(init=False)
+        _V: np.ndarray = field(init=False)
+        block2: bool = field(init=False)
 
     def __post_init__(self) -> None:
         for k in ("A", "B", "S"):
@@ -142,7 +146,7 @@ class StateSpace:
 
     def check_stable(self) -> None:
         """Raise :class:`LobeError` if the structure alone is not asymptotically stable."""
-        worst = float(np.max(self._lam.real))
+        worst = float(np.max(np.real(self._lam)))
         if worst >= 0:
             raise LobeError(
                 f"the structure is not asymptotically stable without cutting (largest real part of its "
@@ -182,7 +186,7 @@ class StateSpace:
         """
         c = np.linalg.solve(self._V, np.asarray(y).T).T
         vis = np.linalg.norm(self.S[:2] @ self._V, axis=0)
-        return np.abs(self._lam.imag), np.abs(c) * vis
+        return np.abs(np.imag(self._lam)), np.abs(c) * vis
 
 
 def _real_modal_form(A: np.ndarray, B: np.ndarray, S: np.ndarray) -> StateSpace | None:
@@ -195,33 +199,33 @@ def _real_modal_form(A: np.ndarray, B: np.ndarray, S: np.ndarray) -> StateSpace 
     cols, rows, blocks = [], [], []
     used = np.zeros(n, bool)
     reals = []
-    for k in np.argsort(np.abs(lam.imag), kind="stable"):
+    for k in np.argsort(np.abs(np.imag(lam)), kind="stable"):
         if used[k]:
             continue
-        if lam[k].imag == 0.0:
+        if np.imag(lam[k]) == 0.0:
             reals.append(k)
             used[k] = True
             continue
-        if lam[k].imag < 0:
+        if np.imag(lam[k]) < 0:
             continue
         j = int(np.argmin(np.where(used, np.inf, np.abs(lam - lam[k].conjugate()))))
         used[k] = used[j] = True
-        cols += [V[:, k].real, V[:, k].imag]
+        cols += [np.real(V[:, k]), np.imag(V[:, k])]
         rows += [2 * Vinv[k].real, -2 * Vinv[k].imag]
-        blocks.append(np.array([[lam[k].real, lam[k].imag], [-lam[k].imag, lam[k].real]]))
+        blocks.append(np.array([[np.real(lam[k]), np.imag(lam[k])], [-np.imag(lam[k]), np.real(lam[k])]]))
     if not used.all() or len(reals) % 2:
         return None
     for a, b in zip(reals[::2], reals[1::2]):
-        cols += [V[:, a].real, V[:, b].real]
+        cols += [np.real(V[:, a]), np.real(V[:, b])]
         rows += [Vinv[a].real, Vinv[b].real]
-        blocks.append(np.diag([lam[a].real, lam[b].real]))
+        blocks.append(np.diag([np.real(lam[a]), np.real(lam[b])]))
     T = np.array(cols).T
     L = np.array(rows)
     if np.linalg.norm(L @ T - np.eye(n)) > 1e-8:
         return None
     from scipy.linalg import block_diag
 
-    return StateSpace(block_diag(*blocks), L @ B, S @ T)
+    return StateSpace(np.asarray(block_diag(*blocks)), L @ B, S @ T)
 
 
 def in_series(a: StateSpace, b: StateSpace) -> StateSpace:
@@ -230,7 +234,7 @@ def in_series(a: StateSpace, b: StateSpace) -> StateSpace:
     side-by-side ``S``. E.g. the robot at the TCP and a tool-holder measured on a rigid base."""
     from scipy.linalg import block_diag
 
-    return StateSpace(block_diag(a.A, b.A), np.vstack([a.B, b.B]), np.hstack([a.S, b.S]))
+    return StateSpace(np.asarray(block_diag(a.A, b.A)), np.vstack([a.B, b.B]), np.hstack([a.S, b.S]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -539,7 +543,7 @@ class ModalStructure:
             Ss.append(S)
         from scipy.linalg import block_diag
 
-        return StateSpace(block_diag(*As), np.vstack(Bs), np.hstack(Ss))
+        return StateSpace(np.asarray(block_diag(*As)), np.vstack(Bs), np.hstack(Ss))
 
     def frf(self, omega_rad_s: np.ndarray) -> FRF:
         """Tool-tip receptance in the cut frame (FRF, H (3, 3, F) m/N) at ``omega_rad_s`` (F,) rad/s."""
@@ -591,7 +595,7 @@ def _truncate(ss: StateSpace, *, max_freq_hz, n_modes, band_hz) -> ReducedStruct
     lam, V = ss._lam, ss._V
     f = np.abs(lam) / (2 * np.pi)  # undamped natural frequency; corner frequency of a real pole
     # one representative per physical mode: Im >= 0 (real poles are their own mode)
-    rep = np.flatnonzero(lam.imag >= 0)
+    rep = np.flatnonzero(np.imag(lam) >= 0)
     order = rep[np.argsort(f[rep], kind="stable")]
     if max_freq_hz is not None:
         if not (isinstance(max_freq_hz, (int, float)) and math.isfinite(max_freq_hz) and max_freq_hz > 0):
@@ -607,25 +611,25 @@ def _truncate(ss: StateSpace, *, max_freq_hz, n_modes, band_hz) -> ReducedStruct
     cols, rowsL, blocks = [], [], []
     used = np.zeros(len(lam), bool)
     for k in keep_rep:
-        if abs(lam[k].imag) > 0:
+        if abs(np.imag(lam[k])) > 0:
             # real basis of the pair: V [a b], A [a b] = [a b] [[s, w], [-w, s]]
-            a, b = V[:, k].real, V[:, k].imag
+            a, b = np.real(V[:, k]), np.imag(V[:, k])
             la, lb = 2 * Vinv[k].real, -2 * Vinv[k].imag
             cols += [a, b]
             rowsL += [la, lb]
-            blocks.append(np.array([[lam[k].real, lam[k].imag], [-lam[k].imag, lam[k].real]]))
+            blocks.append(np.array([[np.real(lam[k]), np.imag(lam[k])], [-np.imag(lam[k]), np.real(lam[k])]]))
             used[k] = True
             used[np.argmin(np.abs(lam - lam[k].conjugate()))] = True
         else:
-            cols.append(V[:, k].real)
+            cols.append(np.real(V[:, k]))
             rowsL.append(Vinv[k].real)
-            blocks.append(np.array([[lam[k].real]]))
+            blocks.append(np.array([[np.real(lam[k])]]))
             used[k] = True
     T = np.array(cols).T
     L = np.array(rowsL)
     from scipy.linalg import block_diag
 
-    Ar = block_diag(*blocks)
+    Ar = np.asarray(block_diag(*blocks))
     Br = L @ ss.B
     Sr = ss.S @ T
     red = StateSpace(Ar, Br, Sr)

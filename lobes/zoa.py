@@ -92,8 +92,8 @@ class ZOAEngine:
             self._receptance = ss.receptance
             self.measured = None
             lam = ss.poles
-            self.pole_f = np.abs(lam.imag) / (2 * np.pi)
-            self.pole_zeta = np.where(np.abs(lam) > 0, -lam.real / np.maximum(np.abs(lam), 1e-300), 1.0)
+            self.pole_f = np.abs(np.imag(lam)) / (2 * np.pi)
+            self.pole_zeta = np.where(np.abs(lam) > 0, -np.real(lam) / np.maximum(np.abs(lam), 1e-300), 1.0)
         k = 3 if problem.law.kac_pa != 0.0 else 2
         self.a0 = average_directional_matrix(problem.tool, problem.cut, problem.law)[:k]  # (k, 2)
         self.k = k
@@ -211,7 +211,7 @@ class ZOAEngine:
     def _branch_roots(self, f: np.ndarray, lam: np.ndarray, E: np.ndarray, r: np.ndarray):
         """Real positive roots b (m), their frequencies (Hz) and speed indices on one branch ``lam`` (F,)."""
         z = lam[None, :] * E  # (S, F)
-        im, re = z.imag, z.real
+        im, re = np.imag(z), np.real(z)
         cross = (np.sign(im[:, :-1]) != np.sign(im[:, 1:])) & (im[:, 1:] != 0)
         si, fi = np.nonzero(cross)
         # the real part where Im z crosses 0, interpolated: a root only if it is > 0 (b = 1 / Re z)
@@ -236,7 +236,7 @@ class ZOAEngine:
             pick = np.abs(cand[:, 1] - ref) < np.abs(cand[:, 0] - ref)
             lm = np.where(pick, cand[:, 1], cand[:, 0])
             zm = lm * self._E_at(fm, rs)
-            gm = zm.imag
+            gm = np.imag(zm)
             left = np.sign(gm) == np.sign(ga)  # root in [fm, fb]
             ga = np.where(left, gm, np.where(side == -1, ga / 2, ga))
             gb = np.where(left, np.where(side == 1, gb / 2, gb), gm)
@@ -247,5 +247,5 @@ class ZOAEngine:
             side = np.where(left, 1, -1)
             if np.all(np.abs(fb - fa) <= 1e-13 * np.abs(fm)):
                 break
-        valid = (zm.real > 0) & (np.abs(zm.imag) <= 1e-6 * np.abs(zm.real))
-        return 1.0 / zm.real[valid], fm[valid], si[valid]
+        valid = (np.real(zm) > 0) & (np.abs(np.imag(zm)) <= 1e-6 * np.abs(np.real(zm)))
+        return 1.0 / np.real(zm)[valid], fm[valid], si[valid]

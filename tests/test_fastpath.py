@@ -213,7 +213,8 @@ def test_bad_input_is_named(kw, match):
     with pytest.raises(FastPathError, match=match):
         run_linear_milling(d, S.milling, **args)
     with pytest.raises(FastPathError, match="MillingForce"):
-        run_linear_milling(d, object(), h_s=S.h, n_steps=1, omega_rad_s=S.omega)
+        run_linear_milling(d, object(),  # pyright: ignore[reportArgumentType]  # deliberately invalid input
+                           h_s=S.h, n_steps=1, omega_rad_s=S.omega)
 
 
 @pytest.mark.parametrize("mode, runout_um", [("down", (0.0, 0.0)), ("down", (6.9, 0.0)), ("up", (0.0, 3.0))])

@@ -34,7 +34,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.linalg import expm
 
-from robolobes.cases.milling import Cut, CuttingLaw, Tool, directional_matrix, engagement_rad
+from robolobes.cases.milling import Cut, CuttingLaw, MillingMode, Tool, directional_matrix, engagement_rad
 from robolobes.core.frf import FRF
 from robolobes.core.numerics import richardson
 from robolobes.lobes import (LobeProblem, Mode, ModalStructure, PhysicalStructure, SemiDiscretization,
@@ -325,7 +325,8 @@ def test_axial_force_acts_through_tcp_transpose():
     al = math.radians(35)
     c, s = math.cos(al), math.sin(al)
     law = CuttingLaw(6e8, 2e8, kac_pa=1.5e8)
-    st = PhysicalStructure([[MT]], [[2 * ZETA * MT * WN]], [[K]], [[c], [0.0], [s]])
+    st = PhysicalStructure(np.array([[MT]]), np.array([[2 * ZETA * MT * WN]]), np.array([[K]]),
+                           np.array([[c], [0.0], [s]]))
     p = LobeProblem(st, TOOL, Cut(ae_m=0.4 * DIAM, ap_m=1e-3, spindle_rpm=12000), law)
 
     def coef(phi):
@@ -357,7 +358,7 @@ def test_fast_path_equals_straightforward_monodromy(scheme):
                              np.array([[2e6, -3e5, 0], [-2.5e5, 3e6, 1e5], [0, 1e5, 8e6]]),
                              np.array([[1.0, 0.3, 0.1], [0.2, 1.0, -0.3], [0.0, 0.1, 0.5]]))
     law = CuttingLaw(6.6e8, 2.5e8, kac_pa=1e8)
-    cases = [
+    cases: list[tuple[Tool, float, MillingMode, float]] = [
         (TOOL, 0.05, "down", 0.0),
         (Tool(diameter_m=DIAM, teeth=2, pitch_rad=(math.radians(170), math.radians(190))), 0.4, "down", 0.0),
         (Tool(diameter_m=DIAM, teeth=3, helix_rad=math.radians(30),
@@ -393,7 +394,7 @@ def test_physical_and_modal_structures():
     # truncation of a diagonal structure along x: the static compliance error is exactly the
     # dropped mode's share 1/k_3 / sum(1/k_i); keeping all modes is exact
     st = PhysicalStructure(np.diag([1.0, 2.0, 3.0]), np.diag([20.0, 30.0, 80.0]), np.diag([1e6, 4e6, 3e7]),
-                           [[1, 1, 1], [0, 0, 0]])
+                           np.array([[1, 1, 1], [0, 0, 0]]))
     rep = st.truncated(n_modes=2).report
     kinv = 1 / np.array([1e6, 4e6, 3e7])
     assert_allclose(rep.static_compliance_rel_error, kinv[2] / kinv.sum(), rtol=1e-9)
@@ -464,7 +465,7 @@ def test_progress_and_result_arrays():
     [
         (lambda: SemiDiscretization(m=1), "m .* >= 2"),
         (lambda: SemiDiscretization(quadrature=0), "quadrature"),
-        (lambda: SemiDiscretization(scheme="rk4"), "scheme"),
+        (lambda: SemiDiscretization(scheme="rk4"), "scheme"),  # pyright: ignore[reportArgumentType]  # deliberately invalid input
         (lambda: Mode(922, 0.0, 1e6, (1, 0)), "damping_ratio"),
         (lambda: Mode(922, 1.2, 1e6, (1, 0)), "damping_ratio"),
         (lambda: Mode(922, 0.01, 1e6, (1, 1)), "unit vector"),
@@ -473,20 +474,20 @@ def test_progress_and_result_arrays():
         (lambda: PhysicalStructure(np.eye(2), np.eye(3), np.eye(2), np.ones((2, 2))), "C is 3 x 3"),
         (lambda: PhysicalStructure(np.ones((2, 3)), np.eye(2), np.eye(2), np.ones((2, 2))), "square"),
         (lambda: PhysicalStructure(np.eye(2), np.eye(2), np.eye(2), np.ones((4, 2))), "2 x n or 3 x n"),
-        (lambda: PhysicalStructure(np.eye(2), np.eye(2), [[1, np.nan], [0, 1]], np.ones((2, 2))), "finite"),
+        (lambda: PhysicalStructure(np.eye(2), np.eye(2), np.array([[1, np.nan], [0, 1]]), np.ones((2, 2))), "finite"),
         (lambda: PhysicalStructure(np.zeros((2, 2)), np.eye(2), np.eye(2), np.ones((2, 2))), "singular"),
         (lambda: ModalStructure(()), "at least one"),
-        (lambda: ModalStructure((Mode(922, 0.01, 1e6, (1, 0)),)).frf([-1.0]), "omega_rad_s must be >= 0"),
+        (lambda: ModalStructure((Mode(922, 0.01, 1e6, (1, 0)),)).frf(np.array([-1.0])), "omega_rad_s must be >= 0"),
         (lambda: FRF(np.ones(3), np.ones((3, 3, 4)), "cut"), r"FRF needs omega \(F,\)"),
         (lambda: FRF(np.ones(4), np.ones((3, 3, 4)), ""), "frame"),
         (lambda: solve(problem(0.05), SemiDiscretization(), []), "empty"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [1000.0, -5.0]), "> 0 rpm"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [float("nan")]), "finite"),
         (lambda: solve(problem(0.05), SemiDiscretization(), [1e4], depth_max_m=0), "depth_max_m"),
-        (lambda: solve(problem(0.05), "sdm", [1e4]), "method must be"),
-        (lambda: LobeProblem("not a structure", TOOL, problem(0.05).cut, LAW), "structure must be"),
+        (lambda: solve(problem(0.05), "sdm", [1e4]), "method must be"),  # pyright: ignore[reportArgumentType]  # deliberately invalid input
+        (lambda: LobeProblem("not a structure", TOOL, problem(0.05).cut, LAW), "structure must be"),  # pyright: ignore[reportArgumentType]  # deliberately invalid input
         (lambda: problem(1.5), "exceeds the tool diameter"),
-        (lambda: solve(LobeProblem(PhysicalStructure(np.eye(1), -np.eye(1), np.eye(1) * 1e6, [[1], [0]]), TOOL,
+        (lambda: solve(LobeProblem(PhysicalStructure(np.eye(1), -np.eye(1), np.eye(1) * 1e6, np.array([[1], [0]])), TOOL,
                                    problem(0.05).cut, LAW), SemiDiscretization(), [1e4]), "not asymptotically stable"),
         (lambda: SDMEngine(problem(0.05, tool=Tool(diameter_m=DIAM, teeth=2, pitch_rad=(2.0, 2 * math.pi - 2.0))),
                            SemiDiscretization(m=2), 0.01), "too coarse"),
@@ -523,6 +524,7 @@ def test_richardson_option_of_solve():
     assert_allclose(r.depth_error_m[0], abs(b80 - b40) / 3, rtol=1e-5)
     assert_allclose(r.depth_limit_m[0], 0.3163574e-3, rtol=1e-4)
     assert abs(r.depth_limit_m[0] - 0.3163574e-3) < r.depth_error_m[0]
+    assert r.status is not None and r.m_final is not None
     assert r.stats["m_richardson"] == 80 and r.status[0] == "converged" and r.m_final[0] == 80
 
 

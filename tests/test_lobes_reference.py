@@ -39,13 +39,13 @@ def lobe_min(p, m, lo, hi):
     j = int(np.argmin(r.depth_limit_m))
     a, b = sp[max(j - 1, 0)], sp[min(j + 1, len(sp) - 1)]
     res = minimize_scalar(lambda s: limit(p, meth, s), bounds=(a, b), method="bounded", options={"xatol": 0.01})
-    return [float(res.x), float(res.fun)]
+    return [float(res.x), float(res.fun)]  # pyright: ignore[reportAttributeAccessIssue]  # scipy's stub: object
 
 
 def finest_richardson(table: dict) -> float:
     """Richardson value (core.numerics) of the two finest levels of a {m: value} table."""
     ms = sorted(table, key=int)
-    return richardson(table[ms[-2]], table[ms[-1]]).value
+    return float(richardson(table[ms[-2]], table[ms[-1]]).value)
 
 
 def compute(max_m: int = 640) -> dict:

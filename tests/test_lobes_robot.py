@@ -118,6 +118,7 @@ def test_modal_truncation_of_the_18dof_model_reports_its_error():
     from dataclasses import replace
 
     p = robot_problem("orthogonal", "tx200-steel")
+    assert isinstance(p.structure, PhysicalStructure)  # robot_problem builds one
     red = p.structure.truncated(max_freq_hz=600.0, band_hz=(0.0, 300.0))
     rep = red.report
     assert len(rep.kept_freq_hz) == 15 and len(rep.dropped_freq_hz) == 6 and max(rep.kept_freq_hz) <= 600

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+from typing import Any
 
 import numpy as np
 import pytest
@@ -50,7 +51,8 @@ def _exact_oscillator(t):
 
 
 def _oscillator_system():
-    return LinearSystem(M=[[M1]], C=[[C1]], K=[[K1]], force=lambda t: np.array([F0 * math.cos(W_F * t)]))
+    return LinearSystem(M=np.array([[M1]]), C=np.array([[C1]]), K=np.array([[K1]]),
+                        force=lambda t: np.array([F0 * math.cos(W_F * t)]))
 
 
 def test_damped_oscillator_second_order_convergence():
@@ -288,7 +290,8 @@ def test_linear_fast_path_matches_general_path():
     k = np.array([[5e4, -2e4], [-2e4, 3e4]])
     sys = LinearSystem(M=m, C=c, K=k, force=lambda t: np.array([math.sin(40 * t), 2 * math.cos(25 * t)]))
     runs = []
-    for kw in (dict(tangent=sys.tangent), dict(constant_tangent=sys.matrices, linear=True)):
+    variants: tuple[dict[str, Any], ...] = (dict(tangent=sys.tangent), dict(constant_tangent=sys.matrices, linear=True))
+    for kw in variants:
         rec, hook = _recorder()
         out = integrate(sys.residual, [1e-3, 0.0], [0.0, 0.05], t0_s=0.0, h_s=1e-3, n_steps=1000, on_step=hook,
                         options=NewmarkOptions(atol=1e-16, rtol=1e-14), **kw)
@@ -362,7 +365,7 @@ def test_sigint_during_hook_is_deferred_until_the_hook_returns():
 )
 def test_bad_input_is_named(kw, match):
     sys = _oscillator_system()
-    args = dict(q0=[Q0], v0=[V0], t0_s=0.0, h_s=1e-3, n_steps=10, tangent=sys.tangent)
+    args: dict[str, Any] = dict(q0=[Q0], v0=[V0], t0_s=0.0, h_s=1e-3, n_steps=10, tangent=sys.tangent)
     args.update(kw)
     q0, v0 = args.pop("q0"), args.pop("v0")
     with pytest.raises(NewmarkError, match=match.replace("(", r"\(").replace(")", r"\)")):

@@ -74,7 +74,7 @@ def test_a_tiny_step_is_refused_before_any_work_with_the_memory_it_would_take():
     h, n = step_count(SimulationProblem(BASIC, ALU), LinearizedNewmark(deg_per_step=0.01))
     assert (n + 1) * RECORD_BYTES_PER_STEP < MAX_RECORD_BYTES  # a fine but sane step still runs
     with pytest.raises(SimulationError, match="LinearizedNewmark"):
-        simulate(SimulationProblem(BASIC, ALU, t_end_s=0.01), "linearized")  # pyright: ignore[reportArgumentType]  # deliberately invalid input
+        simulate(SimulationProblem(BASIC, ALU, t_end_s=0.01), "linearized")  # pyright: ignore[reportArgumentType, reportCallIssue]  # deliberately invalid input
 
 
 def _check_ranges(s: dict):

@@ -18,6 +18,7 @@ see the linear regime at the end of the 0.2 s run), and the rate is fitted while
 import math
 import warnings
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -157,6 +158,7 @@ def test_gated_fit_stops_at_chip_loss():
     xy = np.stack([x, x], axis=-1)
     loss = np.where(np.arange(100) >= 40, 0.2, 0.0)
     g = gated_growth_rate(t, xy, tp, t_start_s=0.0, t_end_s=t[-1], loss=loss)
+    assert g.window_s is not None
     assert g.window_s[1] <= 40 * tp + 1e-12
     assert abs(g.rate_per_s - 30.0) <= 0.02 * 30 + 2 * g.se_per_s
     none = gated_growth_rate(t, xy, tp, t_start_s=0.0, t_end_s=t[-1], loss=np.where(np.arange(100) >= 4, 0.2, 0.0))
@@ -238,7 +240,7 @@ def test_bad_method_is_refused(kw, what):
 
 def test_bad_problems_are_refused_before_any_work():
     with pytest.raises(SimulationError, match="structure must be"):
-        StructureProblem("not a structure", TOOL, CUT, LAW)
+        StructureProblem("not a structure", TOOL, CUT, LAW)  # pyright: ignore[reportArgumentType]  # deliberately invalid input
     with pytest.raises(SimulationError, match="feed per tooth"):
         StructureProblem(_structure(1), TOOL, replace(CUT, feed_per_tooth_m=0.0), LAW)
     with pytest.raises(SimulationError, match="t_end_s"):
@@ -271,7 +273,7 @@ def test_steel_rate_equals_the_floquet_exponent(factor, runout):
     robot = L.build_model(STEEL.robot, "basic")
     st = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
     sdm = floquet_exponent(LobeProblem(st, case.tool, case.cut, case.law), SemiDiscretization(m=40, axial_slices=32))
-    kick = {} if factor < 1 else {"kick_m": 1e-9}
+    kick: dict[str, Any] = {} if factor < 1 else {"kick_m": 1e-9}
     r = simulate(SimulationProblem(robot, case, t_end_s=4.5), DelayNewmark(**kick))
     assert r.rate.estimate is not None, r.rate.reason
     assert _within(r.rate.rate_per_s, r.rate.se_per_s, sdm.value_per_s), (r.rate.rate_per_s, sdm.value_per_s)

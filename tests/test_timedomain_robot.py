@@ -89,15 +89,15 @@ def test_small_amplitude_response_reproduces_frf_at_peaks(variant):
         res, tan, kin, _ = robot_equations(robot, lambda t: TAB7, force)
         T = 2 * math.pi / w
         h = T / 200
-        ts, xs = [], []
+        t_rec, x_rec = [], []
 
         def rec(st):
-            ts.append(st.t_s)
-            xs.append(kin(st.q)[1][axis])
+            t_rec.append(st.t_s)
+            x_rec.append(kin(st.q)[1][axis])
 
         integrate(res, q_eq + X.real, (1j * w * X).real, t0_s=0.0, h_s=h, n_steps=8 * 200, tangent=tan,
                   options=NewmarkOptions(atol=1e-14, rtol=1e-10), on_step=rec)
-        ts, xs = np.array(ts), np.array(xs)
+        ts, xs = np.array(t_rec), np.array(x_rec)
         sel = ts > 3 * T
         A = np.column_stack([np.cos(w * ts[sel]), -np.sin(w * ts[sel]), np.ones(sel.sum())])
         c, *_ = np.linalg.lstsq(A, xs[sel], rcond=None)
@@ -128,17 +128,17 @@ def test_backlash_dead_zone_seen_in_simulation():
     model, data = robot.model, pin.Data(robot.model)
     i1 = robot.motion_dofs[0]
     d1 = SPEC.joint_damping[0]
-    d, tau = [], []
+    d_rec, tau_rec = [], []
 
     def rec(st):
         J = pin.computeFrameJacobian(model, data, st.q, robot.tcp_frame, pin.LOCAL_WORLD_ALIGNED)[:3]
         F, _ = force(st.t_s, None)
-        d.append(st.q[i1] - TAB7[0])
-        tau.append(pin.rnea(model, data, st.q, st.v, st.a)[i1] - (J.T @ F)[i1] + d1 * st.v[i1])
+        d_rec.append(st.q[i1] - TAB7[0])
+        tau_rec.append(pin.rnea(model, data, st.q, st.v, st.a)[i1] - (J.T @ F)[i1] + d1 * st.v[i1])
 
     out = integrate(res, q_eq, np.zeros(robot.nv), t0_s=0.0, h_s=1e-3, n_steps=2000, tangent=tan,
                     options=NewmarkOptions(atol=1e-13, rtol=1e-9), on_step=rec)
-    d, tau = np.array(d), np.array(tau)
+    d, tau = np.array(d_rec), np.array(tau_rec)
     s, k = SPEC.backlash_half_width_rad, SPEC.joint_stiffness[0]
     inside = np.abs(d) < s
     assert inside.sum() > 20  # the axis does cross its dead zone
@@ -195,14 +195,14 @@ def test_robot_with_an_extra_element_rings_at_its_linearized_mode(mode):
     q_eq = np.asarray(lin.q)
     res, tan, kin, _ = robot_equations(robot, lambda t: TAB7)
     p_eq = kin(q_eq)[1][ax]
-    h = 1.0 / (200 * f_ref)
+    h = 1.0 / (200 * float(f_ref))
     t, x = [], []
 
     def rec(st):
         t.append(st.t_s)
         x.append(kin(np.array(st.q))[1][ax] - p_eq)
 
-    integrate(res, q_eq + eps * phi.real, eps * (lam * phi).real, t0_s=0.0, h_s=h, n_steps=int(1.5 / h),
+    integrate(res, q_eq + eps * np.real(phi), eps * np.real(lam * phi), t0_s=0.0, h_s=h, n_steps=int(1.5 / h),
               tangent=tan, options=NewmarkOptions(atol=1e-14, rtol=1e-10), on_step=rec)
     f_sim, n_cross = _zero_crossing_freq_hz(np.array(t), np.array(x))
     assert n_cross > 30

@@ -96,8 +96,10 @@ def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(rpm):
     for factor, expect in ((0.8, "stable"), (1.25, "unstable")):
         case = replace(STEEL, tool=tool, cut=replace(cut, ap_m=factor * op.depth_limit_m))
         s = _run(case).summary
+        assert s is not None
         assert s.verdict.status == expect, (rpm, factor, s.verdict.reason)
         if expect == "unstable":
+            assert s.chatter_freq_hz is not None
             assert_allclose(s.chatter_freq_hz, op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
 
 
@@ -130,6 +132,7 @@ def test_truncation_equals_a_shorter_run():
     # same verdict and rate as the first 0.6 s of the whole pass (causality: same steps, same
     # part), to round-off.
     short = _run(ALU, t_end_s=0.6).summary
+    assert short is not None
     assert short.verdict.status != "unstable", short.verdict.reason
     cut = _truncated(_alu_run("basic"), 0.6)
     assert short.verdict.status == cut["verdict"]
@@ -232,6 +235,7 @@ def test_aluminium_near_its_limit_agrees_with_the_lobes(factor, expect):
     # The real (helical) tool: verdicts agree. The rates: see the tests below.
     op, run, g, ref = _alu_near_limit(factor)
     assert op.verdict.status == expect
+    assert run.summary is not None
     assert run.summary.verdict.status == expect, run.summary.verdict.reason
 
 

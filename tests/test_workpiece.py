@@ -4,13 +4,14 @@ wall profile, trial/commit separation, bad input."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
-from robolobes.cases.milling import Cut, Tool
+from robolobes.cases.milling import Cut, MillingMode, Tool
 from robolobes.timedomain.workpiece_force import MillingForce, run_prescribed, straight_path
 from robolobes.timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError, default_disc_count
 from robolobes.cases.milling import CuttingLaw
@@ -25,7 +26,7 @@ def make_tool(pitch_deg=(180, 180), runout_um=None, helix_deg=0.0):
                 pitch_rad=tuple(math.radians(p) for p in pitch_deg), runout_m=tuple(r * 1e-6 for r in runout_um))
 
 
-def make_cut(mode="down", ae=4e-3, fz=99e-6, rpm=18700.0, ap=1.6e-3):
+def make_cut(mode: MillingMode = "down", ae=4e-3, fz=99e-6, rpm=18700.0, ap=1.6e-3):
     return Cut(ae_m=ae, ap_m=ap, spindle_rpm=rpm, feed_per_tooth_m=fz, mode=mode)
 
 
@@ -81,7 +82,7 @@ def exact_chip(tool, cut, t, j, z, x_start, y_edge, dx=1e-6):
             return (px - cx) * c - py * s
 
         dt = 0.3 / om
-        tp = brentq(cross, t0 - dt, t0 + dt, xtol=1e-16, rtol=1e-15)
+        tp = brentq(cross, t0 - dt, t0 + dt, xtol=1e-16, rtol=np.float64(1e-15))  # scipy's stub types rtol as float64
         px, py = path(tp)
         a = om * tp + th[i] - psi
         slope = -rad[i] * om * math.sin(a) / (v + rad[i] * om * math.cos(a))
@@ -283,7 +284,8 @@ def test_default_disc_count_from_the_helix_lag():
 
 def test_geometry_of_the_block():
     tool = make_tool()
-    for mode, sign in (("down", -1), ("up", 1)):
+    sides: tuple[tuple[MillingMode, int], ...] = (("down", -1), ("up", 1))
+    for mode, sign in sides:
         wp = Workpiece(tool, make_cut(mode), x_entry_m=1e-3, part_length_m=5e-3, discs=2)
         assert_allclose(wp.edge_y_m, sign * (R - 4e-3), rtol=1e-12)
         assert_allclose(wp.nominal_wall_y_m, sign * R, rtol=1e-12)
@@ -304,7 +306,7 @@ def test_geometry_of_the_block():
     ],
 )
 def test_bad_workpiece_input_is_named(kw, match):
-    args = dict(x_entry_m=0.0, part_length_m=10e-3)
+    args: dict[str, Any] = dict(x_entry_m=0.0, part_length_m=10e-3)
     args.update(kw)
     with pytest.raises(WorkpieceError, match=match):
         Workpiece(make_tool(), make_cut(), **args)

@@ -159,7 +159,7 @@ class NewmarkOptions:
     gamma: float = 0.5
     beta: float = 0.25
     rtol: float = 1e-8
-    atol: float | Sequence[float] = 1e-12
+    atol: float | Sequence[float] | np.ndarray = 1e-12
     residual_atol: float | Sequence[float] | None = None
     max_iter: int = 12
     max_halvings: int = 12

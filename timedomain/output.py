@@ -25,7 +25,7 @@ from __future__ import annotations
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -40,10 +40,11 @@ OUTPUT_FILES = ("series.npz", "series.csv", "wall.csv", "summary.json", "forces.
 
 def summary_dict(result: SimulationResult) -> dict:
     """JSON-ready summary: case, model, derived numbers, run statistics."""
-    out = {"case": result.problem.case.name,
+    out: dict[str, Any] = {"case": result.problem.case.name,
            "force_frame": "workpiece (dynamometer) = cut frame: x feed, y normal, z up; force on the workpiece",
            "paper_axes_note": "force_stats_paper_axes: (Fx, Fy) as the paper's Tab. 10, Fx = -F_workpiece.x, "
                               "Fy = +F_workpiece.y (timedomain.workpiece_force)"}
+    assert result.summary is not None  # simulate() always sets the summary
     out.update(result.summary.to_json())
     out["run"] = dict(result.stats)
     return to_jsonable(out)
@@ -72,6 +73,7 @@ def plot_forces(result: SimulationResult, path) -> None:
     ax.set_xlabel("time (s)")
     ax.set_ylabel("cutting force (N)")
     p, s = result.problem, result.summary
+    assert s is not None  # simulate() always sets the summary
     st = s.stable
     damping = f", x{s.damping_scale:g} damping" if s.damping_scale not in (None, 1.0) else ""
     ax.set_title(f"{p.case.name} [{s.variant}{damping}]"
@@ -119,6 +121,7 @@ def plot_wall(result: SimulationResult, path) -> None:
     ax.plot(x[done] * 1e3, (y[k][done] - nominal) * 1e6, lw=0.6)
     ax.set_xlabel("x along the feed (mm)")
     ax.set_ylabel("wall - nominal (um)")
+    assert result.summary is not None  # simulate() always sets the summary
     r = result.summary.roughness_um
     ax.set_title("machined lateral wall" + (f": Ra {r['Ra']:.2f} um, Rq {r['Rq']:.2f} um, Rt {r['Rt']:.2f} um"
                                             if r else ""))
@@ -139,7 +142,7 @@ def save_result(result: SimulationResult, out_dir, series: Literal["npz", "csv"]
         t = np.asarray(result.t_s)
         f = np.asarray(result.force_workpiece_n)
         d = np.asarray(result.tcp_deviation_m)
-        cols = {"t_s": t, "fx_n": f[:, 0], "fy_n": f[:, 1], "fz_n": f[:, 2], "dev_x_m": d[:, 0],
+        cols: dict[str, Any] = {"t_s": t, "fx_n": f[:, 0], "fy_n": f[:, 1], "fz_n": f[:, 2], "dev_x_m": d[:, 0],
                 "dev_y_m": d[:, 1], "dev_z_m": d[:, 2], "spindle_angle_rad": np.asarray(result.spindle_angle_rad)}
         if series == "npz":
             np.savez_compressed(tmp / "series.npz", **cols)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, overload
 
 import numpy as np
 
@@ -29,6 +29,9 @@ from .problem import DelayNewmark, LinearizedNewmark, NonlinearNewmark, Simulati
 from .result import SimulationResult
 from .runout import needs_companion, with_companion_verdict
 from .summary import summarize
+
+if TYPE_CHECKING:
+    from .delay import DelayResult
 
 __all__ = ["simulate"]
 
@@ -59,9 +62,20 @@ def _result(problem, method, S: PassSetup, rec: Records, stats: dict) -> Simulat
                             stats=stats)
 
 
+@overload
+def simulate(problem, method: DelayNewmark, progress: Callable[[float], None] | None = None, *,
+             verdict_companion: bool = True) -> DelayResult: ...
+
+
+@overload
+def simulate(problem, method: LinearizedNewmark | NonlinearNewmark | None = None,
+             progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True) -> SimulationResult: ...
+
+
 @blas_single_threaded
 def simulate(problem, method: LinearizedNewmark | NonlinearNewmark | DelayNewmark | None = None,
-             progress: Callable[[float], None] | None = None, *, verdict_companion: bool = True):
+             progress: Callable[[float], None] | None = None, *,
+             verdict_companion: bool = True) -> SimulationResult | DelayResult:
     """Simulate the pass of ``problem`` with ``method`` (:mod:`timedomain.equations` for the equations).
 
     BLAS runs on one thread inside (:mod:`core.threads`: the matrices are 6-18 DOF), unless the user

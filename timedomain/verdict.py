@@ -88,6 +88,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -453,8 +454,8 @@ def beat_period_s(poles_rad_s) -> float:
     rise while both decay, and the fit's residuals cannot show it (module docstring).
     """
     p = np.asarray(poles_rad_s, dtype=complex).ravel()
-    p = p[p.imag > 0]
-    zeta = -p.real / np.abs(p)
+    p = p[np.imag(p) > 0]
+    zeta = -np.real(p) / np.abs(p)
     f = np.sort(np.abs(p[zeta <= 1 / (6 * math.pi)]) / (2 * math.pi))
     # a repeated pole (e.g. a symmetric tool in x and y) is one mode whose directions combine: no beat
     df = np.diff(f)
@@ -485,7 +486,7 @@ def verdict_summary(t_s, deviation_m, tool, cut, window_s: tuple[float, float], 
     tp, name = principal_period(tool, cut)
     t = np.asarray(t_s, dtype=float)
     t0, t1 = float(window_s[0]), min(float(window_s[1]), float(t[-1]))
-    out = {"verdict_section": f"once per {name} period ({tp * 1e3:.3f} ms)"}
+    out: dict[str, Any] = {"verdict_section": f"once per {name} period ({tp * 1e3:.3f} ms)"}
     if t1 <= t0:
         v = TimeDomainVerdict(Verdict("undetermined", f"the run ends at {t[-1]:.3f} s, before full engagement at "
                                                       f"{t0:.3f} s: simulate longer"), None, math.nan, math.nan,

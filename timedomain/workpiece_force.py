@@ -150,7 +150,7 @@ class MillingForce:
         # The last force() result, reused when residual and tangent ask for the same state (Newton
         # evaluates both at each iterate); keyed with the workpiece's revision (bumped by removal).
         self._memo_key: tuple | None = None
-        self._memo_val: tuple | None = None
+        self._memo_val: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def tooth_radius_m(self) -> np.ndarray:
@@ -221,7 +221,7 @@ class MillingForce:
         """
         a, c = self._state(spindle_angle_rad, center_m)
         key = (a, float(c[0]), float(c[1]), self.workpiece.revision)
-        if key == self._memo_key:
+        if key == self._memo_key and self._memo_val is not None:  # the key and value are set together
             return self._memo_val
         f, d, _, _ = self._evaluate(a, c, self.tangent)
         f.setflags(write=False)
