@@ -736,6 +736,8 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     coarse_points : int
         Depths of the coarse bracketing scan.
 
+    Examples
+    --------
     The symmetric 2-DOF benchmark of :func:`solve` (limit about 0.85 mm at 18 700 rpm): 0.5 mm is
     stable, 1.2 mm is not.
 

@@ -200,6 +200,8 @@ def solve_map(problem: MapProblem, method: MapMethod | None = None, *, path: str
     on_chunk : callable(n_chunks_written), optional
         Called after each chunk is stored (a test hook: raising there interrupts the map).
 
+    Examples
+    --------
     One pose (the steel case's own placement) at the case's speed, in this process:
 
     >>> from robolobes.cases import load_case
