@@ -71,10 +71,11 @@ def _alu_run(variant, linearized=True):
 # Four speeds along the steel diagram of the 6-DOF model, chosen before looking at the results
 # (the operating speed and both sides of it): a Hopf lobe at 2000 rpm, flip lobes above.
 SPEEDS = (2000.0, 3100.0, 4000.0, 5000.0)
-# At 5000 rpm (a flip lobe, 83.33 Hz) the saturated chatter frequency at 1.25x is ill-conditioned:
-# a 1e-13 relative change of the pass's joint angles (the OPW inverse against the earlier Paul
-# decomposition) moves it from 83.3 Hz to 81.9 Hz (1.7 %), while the verdicts stay right. Known,
-# cause not analysed: not strict, so that either outcome is reported, never hidden.
+# At 5000 rpm (a flip lobe, 83.33 Hz) the saturated chatter frequency at 1.25x looks ill-conditioned:
+# one build of the code gave 83.3 Hz and another 81.9 Hz (1.7 %), with identical lobes; the only input
+# difference found was the last digit of the pass's joint angles (1e-13, the OPW inverse against the
+# earlier Paul decomposition). The verdicts were right in both. Cause not analysed: not strict, so
+# that either outcome is reported, never hidden.
 _SPEED_PARAMS = [pytest.param(r, marks=pytest.mark.xfail(strict=False, reason=(
     "saturated chatter frequency at 1.25x the 5000 rpm flip lobe moves by 1.7 % under a 1e-13 change of the "
     "pass"))) if r == 5000.0 else r for r in SPEEDS]
