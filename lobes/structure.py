@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import partial
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 
@@ -576,10 +576,14 @@ class TruncationReport:
 
 @dataclass(frozen=True, eq=False)
 class ReducedStructure:
-    """A modally truncated structure (real block-diagonal modal state space) and its error report."""
+    """A modally truncated structure (real block-diagonal modal state space) and its error report.
+
+    ``basis``: how it was reduced when made by :func:`lobes.basis.reduced_basis` (a
+    :class:`lobes.basis.BasisInfo`), else None."""
 
     ss: StateSpace
     report: TruncationReport
+    basis: Any = None
 
     def state_space(self) -> StateSpace:
         return self.ss

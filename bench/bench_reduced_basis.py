@@ -1,0 +1,111 @@
+"""Reduced modal basis (lobes.basis) against the full model, same process (issue 18).
+
+Run: .venv/bin/python bench/bench_reduced_basis.py [--quick] [--cases steel-orthogonal,...]
+
+For the TX200 at the Tab. 7 pose, tx200-steel and tx200-aluminium, variants ``orthogonal`` (18
+DOF) and ``basic``, 200 speeds 2000-25000 rpm, depths to 10 mm:
+
+* reference: this code's full-model SDM (``PhysicalStructure`` of the linearized robot, all modes);
+* reduced: :func:`lobes.basis.reduced_basis` with the rule's band ``2 x`` the highest
+  tooth-passing frequency and its tolerance ``BASIS_REL_TOL``.
+
+Both are solved twice: one SDM level m = 40 (the basis's own effect, the discretization being
+identical) and the default ``RefinedSDM`` (error estimate <= 1 %, what ``robolobes lobes`` does).
+Printed: states, CPU seconds of this process (one BLAS thread), the ratio full / reduced, and the
+largest relative difference of the limits over the speeds (capped at the searched 10 mm, as
+``bench_lobes.py``), with the speeds limited in one diagram only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_v] = "1"
+
+import numpy as np  # noqa: E402  (after the BLAS thread count is set)
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from robolobes.lobes import LobeProblem, PhysicalStructure, RefinedSDM, SemiDiscretization, solve  # noqa: E402
+from robolobes.lobes.basis import basis_for  # noqa: E402
+
+DEPTH_MAX_M = 10e-3
+CASES = ("steel-orthogonal", "aluminium-orthogonal", "steel-basic", "aluminium-basic")
+
+
+def problem(material: str, variant: str) -> LobeProblem:
+    from robolobes import linearize
+    from robolobes.cases import load_case
+
+    case = load_case(f"tx200-{material}")
+    rob = linearize.build_model(case.robot, variant)
+    lin = linearize.linearize(rob, case.robot.poses_rad["tab7"])
+    return LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
+
+
+def cpu(f, *a, **k):
+    t = time.process_time()
+    r = f(*a, **k)
+    return time.process_time() - t, r
+
+
+def compare(full, red) -> tuple[float, int, int]:
+    """Largest relative difference of the limits capped at DEPTH_MAX_M, the speed where it is, and
+    the number of speeds limited in one only."""
+    x, y = np.minimum(full.depth_limit_m, DEPTH_MAX_M), np.minimum(red.depth_limit_m, DEPTH_MAX_M)
+    d = np.abs(y / x - 1)
+    one = int((np.isfinite(full.depth_limit_m) != np.isfinite(red.depth_limit_m)).sum())
+    return float(np.max(d)), int(np.argmax(d)), one
+
+
+def bench_case(name: str, n: int) -> dict:
+    material, variant = name.split("-")
+    p = problem(material, variant)
+    speeds = np.linspace(2000.0, 25000.0, n)
+    tb, red = cpu(basis_for, p, speeds, DEPTH_MAX_M)
+    pr = replace(p, structure=red)
+    info = red.basis
+    print(f"{name}: full {p.structure.state_space().n_states} states, reduced {info.n_states} states "
+          f"({info.n_kept} of {info.n_modes} modes kept + {info.n_residual} residual blocks at "
+          f"{info.residual_freq_hz:.1f} Hz), band 0-{info.band_hz:.0f} Hz, largest loop "
+          f"perturbation {info.max_loop_error:.2e} (tol {info.tol:g}, k_loop {info.loop_stiffness_n_per_m:.3g} N/m), static error {red.report.static_compliance_rel_error:.1e}, "
+          f"basis built in {tb:.3f} s; kept modes {[round(f, 1) for f in red.report.kept_freq_hz]} Hz", flush=True)
+    out = {}
+    for label, meth in (("m = 40", SemiDiscretization(m=40)), ("refined", RefinedSDM())):
+        tf, rf = cpu(solve, p, meth, speeds, depth_max_m=DEPTH_MAX_M)
+        tr, rr = cpu(solve, pr, meth, speeds, depth_max_m=DEPTH_MAX_M)
+        dmax, j, one = compare(rf, rr)
+        fin = int(np.isfinite(rf.depth_limit_m).sum())
+        print(f"   {label}: full {tf:.2f} s, reduced {tr:.2f} s, ratio {tf / tr:.2f}; largest limit difference "
+              f"{100 * dmax:.3f} % (at {speeds[j]:.0f} rpm, full {1e3 * rf.depth_limit_m[j]:.4g} mm), "
+              f"{fin} of {n} speeds limited in the full model, {one} limited in one only", flush=True)
+        out[label] = (tf, tr, dmax, one)
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="40 speeds instead of 200 (smoke run)")
+    ap.add_argument("--cases", default=",".join(CASES), help=f"comma-separated subset of {','.join(CASES)}")
+    args = ap.parse_args(argv)
+    n = 40 if args.quick else 200
+    names = [c for c in args.cases.split(",") if c]
+    bad = [c for c in names if c not in CASES]
+    if bad:
+        print(f"unknown case {bad[0]!r}; valid: {', '.join(CASES)}", file=sys.stderr)
+        return 2
+    print(f"reduced basis vs the full model (reference: this code's full-model SDM), {n} speeds 2000-25000 rpm, "
+          f"CPU s of this process, load {os.getloadavg()[0]:.1f}", flush=True)
+    for c in names:
+        bench_case(c, n)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
