@@ -152,3 +152,22 @@ def test_reduced_basis_lobes_match_the_full_model_on_a_robot_pose():
     # the rule's loop perturbation <= 1e-3 moves a limit by about 0.1 % (times an eigenvector
     # condition number); asserted at the 0.5 % target
     np.testing.assert_allclose(reduced.depth_limit_m[fin], full.depth_limit_m[fin], rtol=5e-3)
+
+
+@pytest.mark.parametrize("flag", [[], ["--reduced-basis"]])
+def test_lobes_json_records_the_basis(flag, capsys, monkeypatch, tmp_path):
+    import json
+
+    from robolobes.main import main
+
+    monkeypatch.chdir(tmp_path)
+    rc = main(["lobes", "--case", "tx200-aluminium", "--variant", "orthogonal", "--n-rpm", "4", "--rpm-max", "8000",
+               "--depth-max-mm", "3", "--at-rpm", "6000", "--at-depth-mm", "0.5", "--no-refine", "--json", "--quiet",
+               *flag])
+    assert rc == 0
+    basis = json.loads(capsys.readouterr().out)["basis"]
+    if flag:  # band 2 x 2 teeth x 8000 rpm = 533 Hz, loop at 3 mm: the rule drops modes (as in the test above)
+        assert basis["kind"] == "reduced" and basis["n_states"] < basis["n_states_full"] == 36
+        assert basis["band_hz"] == pytest.approx(2 * 2 * 8000 / 60) and basis["max_loop_error"] <= BASIS_REL_TOL
+    else:
+        assert basis["kind"] == "full"
