@@ -8,7 +8,8 @@ Problem / method / solve, in the spirit of SciML::
 
 ``structure`` is a :class:`PhysicalStructure` (M, C, K, tcp rows in the cut frame; from a robot
 with :meth:`PhysicalStructure.from_linear`), a :class:`ModalStructure` (hammer-test modes) or a
-:class:`ReducedStructure` (modal truncation with its error report). Methods:
+:class:`ReducedStructure` (modal truncation with its error report; :func:`reduced_basis` and
+:func:`basis_for` make one by a loop-perturbation rule with a static residual mode). Methods:
 :class:`RefinedSDM` (the default: SDM levels refined per speed until the error estimate is below
 1 %, :mod:`lobes.refine`), :class:`SemiDiscretization` (one level of the first-order SDM, or the
 exact-free-decay scheme) and :class:`ZeroOrder` (Altintas-Budak). Conventions: :mod:`cases.milling`.
@@ -28,11 +29,12 @@ from .modal_fit import ModalFit, fit_modal
 from .structure import (ComplexMode, Mode, ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure,
                         TruncationReport, in_series)
 from .zoa import ZeroOrder
+from .basis import BasisInfo, basis_for, reduced_basis
 
 __all__ = [
     "LobeError", "LobeProblem", "Mode", "ModalStructure", "PhysicalStructure", "ReducedStructure",
     "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "RefinedSDM", "ZeroOrder", "Method",
     "solve", "stability", "LobeResult", "StabilityPoint", "Verdict", "Bifurcation", "classify_multiplier",
     "DirectionalPlan", "average_directional_matrix", "depth_verdict", "ComplexMode", "MeasuredStructure", "ModalFit",
-    "fit_modal", "in_series",
+    "fit_modal", "in_series", "BasisInfo", "basis_for", "reduced_basis",
 ]

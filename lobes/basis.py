@@ -1,12 +1,13 @@
-"""Reduced modal basis of a tool-tip structure for the lobes (issue 18, speed).
+"""Reduced modal basis of a tool-tip structure for the lobes (speed).
 
 The SDM's cost grows with the number of states (about ``ns^3`` per step exponential and per
-monodromy product), and most of a robot's modes either lie far above the frequencies the cut
-excites or barely move the tool tip. :func:`reduced_basis` keeps only the modes that matter and
-replaces the others by their static compliance.
+monodromy product). Modes far above the frequencies the cut excites, or that barely move the tool
+tip, need not be carried: :func:`reduced_basis` keeps only the modes the cut can feel and replaces
+the others by their static compliance. (On the TX200 at the default 10 mm search depth the rule
+keeps every mode: ``docs/guide/lobes-accuracy.md``.)
 
 **The rule.** In the real block-diagonal modal form ``H(w) = sum_j H_j(w)`` (one 2 x 2 block
-``j`` per complex pole pair). A dropped set ``D`` is replaced by a *residual mode*: its static
+``j`` per complex pole pair or pair of real poles; its natural frequency is the largest ``|lambda|``). A dropped set ``D`` is replaced by a *residual mode*: its static
 compliance ``G_D = sum_{j in D} H_j(0)`` (3 x 3, m/N) behind a second-order filter
 ``g_r(w) = w_r^2 / (w_r^2 - w^2 + 2 i zeta_r w_r w)`` at the lowest natural frequency ``w_r`` of the
 dropped modes above the band (damping ``zeta_r`` of that mode), realized with ``D = 0`` (a
@@ -53,7 +54,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import block_diag
 
 from ._errors import LobeError
 from .structure import ReducedStructure, StateSpace, TruncationReport, _real_modal_form
@@ -137,6 +137,18 @@ def basis_for(problem, speeds_rpm, depth_max_m: float, tol: float = BASIS_REL_TO
                          loop_stiffness(problem.tool, problem.cut, problem.law, depth_max_m), tol)
 
 
+def _block_diag(*mats: np.ndarray) -> np.ndarray:
+    """Block-diagonal matrix of square blocks (scipy is not imported at start-up)."""
+    n = sum(m.shape[0] for m in mats)
+    out = np.zeros((n, n))
+    i = 0
+    for m in mats:
+        k = m.shape[0]
+        out[i:i + k, i:i + k] = m
+        i += k
+    return out
+
+
 def _blocks(ss: StateSpace):
     """The modal 2 x 2 blocks ``(A_j, B_j, S_j)`` of ``ss`` (its real block-diagonal modal form)."""
     if not ss.block2:
@@ -188,7 +200,7 @@ def residual_mode(G: np.ndarray, omega_rad_s: float, zeta: float) -> StateSpace 
         S[:2, 0] = U[:, i]
         Bs.append(B)
         Ss.append(S)
-    return StateSpace(np.asarray(block_diag(*As)), np.vstack(Bs), np.hstack(Ss))
+    return StateSpace(np.asarray(_block_diag(*As)), np.vstack(Bs), np.hstack(Ss))
 
 
 def _grid(f_band_hz: float, freqs: list[tuple[float, float, float]]) -> np.ndarray:
@@ -297,7 +309,7 @@ def _assemble(ss, blocks, freqs, dropped, G0, rule, err) -> ReducedStructure:
             parts.append(res)
     if not parts:
         raise LobeError("the reduced basis kept no mode")
-    A = np.asarray(block_diag(*[p.A for p in parts]))
+    A = np.asarray(_block_diag(*[p.A for p in parts]))
     red = StateSpace(A, np.vstack([p.B for p in parts]), np.hstack([p.S for p in parts]))
     n_res = (red.n_states - 2 * len(kept)) // 2
     G_full, G_red = ss.static_compliance()[:2], red.static_compliance()[:2]  # cut plane (residual_mode)
