@@ -247,7 +247,10 @@ def _basis(args, problem: LobeProblem, speeds: np.ndarray, has_op: bool) -> tupl
     if has_op:
         depth = max(depth, 4 * problem.cut.ap_m)  # the operating point's search depth (run below)
         rpm = np.append(speeds, problem.cut.spindle_rpm)
-    red = basis_for(problem, rpm, depth)
+    try:
+        red = basis_for(problem, rpm, depth)
+    except LobeError as e:  # no well-conditioned modal form: the full model, said so
+        return problem, {"kind": "full", "reason": str(e)}
     info = red.basis.to_json()
     if red.basis.kind == "full":
         return problem, {**info, "reason": "the rule keeps every mode the reduction could save"}
@@ -448,7 +451,7 @@ def run(args: argparse.Namespace) -> int:
                   f"({basis['n_kept']} of {basis['n_modes']} modes + {basis['n_residual']} residual block(s)), "
                   f"loop perturbation {basis['max_loop_error']:.1e} in 0-{basis['band_hz']:.0f} Hz")
         elif args.reduced_basis:
-            print("reduced modal basis: the rule keeps the full model")
+            print(f"reduced modal basis: not used, the full model ({basis['reason']})")
         if isinstance(method, RefinedSDM):
             nu = int((result.status == "unconverged").sum())
             print(f"error estimate <= {100 * method.tol:g} % at {len(speeds) - nu} / {len(speeds)} speeds "
