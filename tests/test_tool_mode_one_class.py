@@ -16,7 +16,8 @@ Tolerances asserted:
 * a chain with an axis along the tool: its own M, C, K (chain_matrices) against the robot's clamped
   tool coordinates: 1e-9 relative (round-off only);
 * the ``tcp_mode`` and ``tcp_oscillator`` tables, identify's two tool effects and ``--tool-modes``
-  all give the same class, and equal tables give equal elements (exact).
+  all give the same class, and equal tables give equal elements (exact);
+* a cut-frame direction turned into the TCP frame: 1e-12 (round-off).
 """
 
 import dataclasses
@@ -245,3 +246,24 @@ def test_model_writer_writes_a_one_axis_oscillator_table():
     assert element_from_spec(ElementSpec(t.pop("type"), t)) == osc
     with pytest.raises(ValueError, match="nan"):
         dumps({"x": math.nan})
+
+
+def test_cut_frame_direction_turns_into_the_tcp_frame():
+    # a set read in the cut frame (x_c the feed, z_c = -TCP z: cases.milling.cut_frame) turned to the
+    # TCP frame at a pose: z_c is -z, x_c the feed seen from the TCP, and an in-plane direction turns
+    # like the planar oscillator's angle (exact up to round-off: 1e-12)
+    from robolobes.lobes.tooltip import ToolSet
+
+    lin = linearize(build_model(CASE.robot, "basic"), Q)
+    R = np.asarray(lin.R_tcp)
+    feed = np.cross(R[:, 2], [0.2, 0.9, 0.1])
+    feed /= np.linalg.norm(feed)                                   # normal to the tool axis
+    a = 0.7
+    osc = (TcpOscillator.one_axis(900.0, 0.03, 2e6, (0.0, 0.0, 1.0)),
+           TcpOscillator.one_axis(900.0, 0.03, 2e6, (1.0, 0.0, 0.0)),
+           TcpOscillator.one_axis(900.0, 0.03, 2e6, (math.cos(a), math.sin(a), 0.0)),
+           TcpOscillator(0.0025, 2e6, math.inf, a, 0.03))
+    z, x, p, q = ToolSet(osc, "cut").in_tcp_frame(R, feed)
+    assert_allclose(z.axes_tcp, [[0.0, 0.0, -1.0]], rtol=0, atol=1e-12)
+    assert_allclose(x.axes_tcp, [R.T @ feed], rtol=0, atol=1e-12)
+    assert_allclose(p.axes_tcp, q.axes_tcp, rtol=0, atol=1e-12)
