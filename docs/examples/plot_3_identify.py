@@ -20,8 +20,8 @@ import numpy as np
 from robolobes import cases
 from robolobes.identify.api import identify, model_state, read_measurement
 from robolobes.identify.synthetic import synthetic_frf_set
-from robolobes.linearize.tool import TcpOscillator
 from robolobes.linearize.kinematics import JointLimitWarning
+from robolobes.linearize.tool import TcpOscillator
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", JointLimitWarning)  # Tab. 7's A3 is 2.86 deg past its range: known
