@@ -24,12 +24,12 @@ from robolobes.cases import load_case
 from robolobes.identify.api import identify, model_state, read_measurement
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, rigid_q
-from robolobes.linearize.extra_elements import TcpMode
+from robolobes.linearize.tool import TcpOscillator
 
 
 def main(n_poses: int = 6, n_lines: int = 1200):
     case = load_case("tx200-aluminium")
-    el = TcpMode(230.0, 0.025, 0.3 * (2 * math.pi * 230.0) ** 2, (0.6, 0.0, 0.8))
+    el = TcpOscillator.one_axis(230.0, 0.025, 0.3 * (2 * math.pi * 230.0) ** 2, (0.6, 0.0, 0.8))
     with tempfile.TemporaryDirectory() as tmp:
         d = os.path.join(tmp, "set")
         synthetic_frf_set(d, case, elements=(el,), n_poses=n_poses, f_hz=np.linspace(2, 300, n_lines),
@@ -56,7 +56,7 @@ def main(n_poses: int = 6, n_lines: int = 1200):
               f" (noise floor {res.noise_floor:.4f})")
         if e:
             print("  " + ", ".join(f"{k} = {v:.5g} +- {e.uncertainty[k]:.2g}" for k, v in e.params.items()))
-        print(f"  truth: freq_hz 230, damping_ratio 0.025, stiffness_n_per_m {el.stiffness_n_per_m:.5g}")
+        print(f"  truth: freq_hz 230, damping_ratio 0.025, stiffness_n_per_m {el.k1_n_per_m:.5g}")
         from robolobes.identify.frf import prepare, predict
         poses = prepare(m, state)
         t0 = time.perf_counter()

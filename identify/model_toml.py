@@ -5,7 +5,8 @@ appended (structural effects), cutting-law keys replaced (``ModelState.overrides
 suffixed ``-identified`` and a relative ``robot`` path made absolute. Measurement-chain stages
 (sensor dynamics, filters) are properties of the measurement, not of the machine: they are not
 written. The writer emits only what TOML case files use (strings, numbers, booleans, arrays,
-tables, arrays of tables).
+tables, arrays of tables); an infinite number is TOML's ``inf`` (a one-axis oscillator's
+``k2_n_per_m``), a NaN is refused.
 """
 
 from __future__ import annotations
@@ -34,9 +35,9 @@ def _value(v) -> str:
     if isinstance(v, int):
         return str(v)
     if isinstance(v, float):
-        if not math.isfinite(v):
+        if math.isnan(v):
             raise ValueError(f"cannot write {v} to TOML")
-        return repr(v)
+        return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf")   # TOML's own infinities
     if isinstance(v, str):
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, (list, tuple)):
@@ -72,7 +73,7 @@ def dumps(d: dict) -> str:
 
 def model_toml(state: ModelState) -> str:
     """The case TOML of ``state`` (see the module doc)."""
-    from robolobes.linearize.extra_elements import element_from_spec, element_table
+    from robolobes.linearize.extra_elements import spec_table
 
     src = _case_file(state.case_ref or state.case.name)
     with open(src, "rb") as fh:
@@ -85,7 +86,7 @@ def model_toml(state: ModelState) -> str:
         data.setdefault(table, {})[key] = value
     elements = list(data.get("elements", []))
     for spec in state.elements:
-        elements.append(element_table(element_from_spec(spec)))
+        elements.append(spec_table(spec))
     if elements:
         data["elements"] = elements
     head = (f"# {data['name']}: case {state.case_ref or state.case.name} updated by robolobes identify "

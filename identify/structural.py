@@ -5,9 +5,9 @@ Every effect here is added to the model as an element of :mod:`robolobes.lineari
 fitting, each also perturbs the linearized matrices of a pose directly (:meth:`perturb`), which
 costs a few microseconds instead of rebuilding and re-linearizing the pinocchio model:
 
-* ``tcp_mode``: one coordinate ``u`` more, the mass ``m = k / w0^2`` at the TCP moving ``J dq + d u``
-  (``d`` the mode direction in base axes), taken from the payload at the TCP (moving ``J dq``):
-  ``M' = [[M, m J^T d], [m d^T J, m]]``,
+* ``tcp_mode`` (the element :meth:`linearize.tool.TcpOscillator.one_axis`): one coordinate ``u``
+  more, the mass ``m = k / w0^2`` at the TCP moving ``J dq + d u`` (``d`` the mode direction in
+  base axes), taken from the payload at the TCP (moving ``J dq``): ``M' = [[M, m J^T d], [m d^T J, m]]``,
   ``K' = diag(K, k)``, ``C' = diag(C, c)``, TCP output ``[J, d]`` (exact to first order: the
   element's pinocchio model gives the same M, C, K up to the gravity load of the small mass);
 * ``joint_correction_aN``: ``K[i, i] += (s_k - 1) k_N``, ``C[i, i] += (s_d - 1) d_N`` (exact);
@@ -148,6 +148,7 @@ class TcpModeEffect(StructuralEffect):
     signatures = ("extra_peak", "static_offset")
 
     def table(self, params):
+        """The ``tcp_mode`` table: built by :meth:`linearize.tool.TcpOscillator.one_axis`."""
         d = _direction(params["polar_rad"], params["azimuth_rad"])
         return {"type": "tcp_mode", "freq_hz": float(params["freq_hz"]), "damping_ratio": float(params["damping_ratio"]),
                 "stiffness_n_per_m": float(params["stiffness_n_per_m"]), "direction": [float(x) for x in d]}

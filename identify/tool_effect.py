@@ -25,7 +25,8 @@ Bounds and their reasons:
   (Schmitz and Smith), as ``tcp_mode``.
 
 It is not a default candidate (``candidate = False``): name it with ``robolobes identify --effects
-tcp_mode_xy``. The one-axis ``tcp_mode`` stays the default tool-mode candidate.
+tcp_mode_xy``. The one-axis ``tcp_mode`` stays the default tool-mode candidate; it adds the same
+class, :meth:`TcpOscillator.one_axis` (one axis along any TCP direction).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
 ``type`` naming the element and the other keys its parameters (units in the keys)::
 
     [[elements]]
-    type = "tcp_oscillator"        # a planar tool / holder / spindle mode at the TCP (linearize.tool)
+    type = "tcp_oscillator"        # a tool / holder / spindle mode at the TCP (linearize.tool)
     mass_kg = 0.25
     k1_n_per_m = 4.0e5
     k2_n_per_m = 4.3e5             # inf: one axis only
@@ -14,7 +14,7 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     zeta2 = 0.03
 
     [[elements]]
-    type = "tcp_mode"              # a tool-holder / spindle mode at the TCP along one direction
+    type = "tcp_mode"              # the same class, one axis along any direction (TcpOscillator.one_axis)
     freq_hz = 900.0
     damping_ratio = 0.03
     stiffness_n_per_m = 2.0e7
@@ -46,14 +46,19 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     type = "backlash"              # dead zone (eq. 12) on every motion axis, any variant
     half_width_rad = 7.3e-5
 
-:data:`ELEMENT_TYPES` maps each ``type`` to its class; :func:`element_from_spec` checks the keys
+:data:`ELEMENT_TYPES` maps each ``type`` to its class, or to the constructor that builds it
+(``tcp_mode``: :meth:`TcpOscillator.one_axis`: a tool mode is always a
+:class:`~robolobes.linearize.tool.TcpOscillator`); :func:`element_from_spec` checks the keys
 strictly (unknown or missing keys, values out of range: :class:`BadInput` naming them).
 """
 
 from __future__ import annotations
 
+import inspect
 import math
-from dataclasses import MISSING, dataclass, fields
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -66,10 +71,10 @@ from robolobes.core.validate import finite
 
 from .base_elements import VirtualJoints, diagonal_force, diagonal_tangent, virtual_dofs
 from .element import Element, ModelBuilder
-from .tool import TcpOscillator, mount_at_tcp
+from .tool import TcpOscillator
 
-__all__ = ["TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
-           "ELEMENT_TYPES", "element_from_spec", "element_table"]
+__all__ = ["TcpOscillator", "TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
+           "ELEMENT_TYPES", "element_from_spec", "element_table", "spec_table"]
 
 
 def _unit(v, what: str) -> np.ndarray:
@@ -97,68 +102,17 @@ class _Diagonal:
     dd: Any
 
 
-@dataclass(frozen=True)
-class TcpMode(Element):
-    """A tool-holder / spindle mode at the TCP: a mass on a spring and damper along ``direction``.
+def TcpMode(freq_hz: float, damping_ratio: float, stiffness_n_per_m: float,
+            direction=(1.0, 0.0, 0.0), name: str = "tcp oscillator") -> TcpOscillator:
+    """Deprecated: :meth:`TcpOscillator.one_axis` (same arguments), which it returns.
 
-    The one-axis case of the tool's realization (:func:`linearize.tool.mount_at_tcp`, shared with
-    :class:`linearize.tool.TcpOscillator`), along any direction, the tool axis included.
-
-    A body of mass ``m = k / (2 pi f)^2`` rides on a prismatic joint at the TCP along ``direction``
-    (unit vector, TCP frame: z is the tool axis), held by a spring ``k`` and a damper
-    ``c = 2 zeta sqrt(k m)``; the TCP frame moves onto that body. The mode's mass is part of the
-    declared payload (the spindle and tool were weighed whole), so ``m`` is taken from the payload
-    at the TCP: a point mass ``-m`` at the TCP on the carrying body. The robot's total mass and its
-    low-frequency modes are unchanged; the mode needs ``m`` below the robot's apparent mass at the
-    TCP along ``direction`` (else the mass matrix is not positive definite).
-
-    On a base much stiffer and heavier than the mode (a robot at the mode's frequency) the TCP
-    receptance along ``direction`` adds ``1 / (k - w^2 m + i w c)``: the closed form of a
-    single-DOF oscillator with natural frequency ``freq_hz`` and damping ratio ``damping_ratio``.
-    Several modes chain in series.
-
-    Parameters
-    ----------
-    freq_hz : float > 0          natural frequency of the mode on a fixed base, Hz
-    damping_ratio : float >= 0
-    stiffness_n_per_m : float > 0
-    direction : (3,)             TCP frame, normalized here
+    There is one tool-mode class, :class:`~robolobes.linearize.tool.TcpOscillator`; this was the
+    one-axis mode's own class (a mass ``m = k / (2 pi f)^2`` on a spring and damper along
+    ``direction`` at the TCP, taken from the payload) and builds the same model, bit for bit.
     """
-
-    freq_hz: float
-    damping_ratio: float
-    stiffness_n_per_m: float
-    direction: tuple = (1.0, 0.0, 0.0)
-    name: str = "tcp mode"
-
-    def __post_init__(self):
-        _positive("tcp_mode freq_hz", self.freq_hz)
-        _positive("tcp_mode damping_ratio", self.damping_ratio, zero_ok=True)
-        _positive("tcp_mode stiffness_n_per_m", self.stiffness_n_per_m)
-        object.__setattr__(self, "direction", tuple(_unit(self.direction, "tcp_mode direction")))
-
-    @property
-    def mass_kg(self) -> float:
-        return self.stiffness_n_per_m / (2 * math.pi * self.freq_hz) ** 2
-
-    @property
-    def damping_n_s_per_m(self) -> float:
-        return 2 * self.damping_ratio * math.sqrt(self.stiffness_n_per_m * self.mass_kg)
-
-    def finish(self, b: ModelBuilder) -> str:
-        name = f"tcp_mode_{b.model.njoints}"
-        mount_at_tcp(b, self.mass_kg, [self.direction], [name])
-        return name
-
-    def bind(self, robot, built=None):
-        """Index in v of the mode's prismatic joint (``built``: its name)."""
-        return robot.model.joints[robot.model.getJointId(built)].idx_v
-
-    def force(self, robot, ix, data, q, v, theta):
-        return _diagonal_force(robot.nv, ix, self.stiffness_n_per_m, self.damping_n_s_per_m, q, v)
-
-    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
-        return diagonal_tangent(robot.nv, ix, self.stiffness_n_per_m, self.damping_n_s_per_m)
+    warnings.warn("TcpMode is deprecated: use robolobes.linearize.tool.TcpOscillator.one_axis (same arguments), "
+                  "which it returns", DeprecationWarning, stacklevel=2)
+    return TcpOscillator.one_axis(freq_hz, damping_ratio, stiffness_n_per_m, direction, name)
 
 
 @dataclass(frozen=True)
@@ -356,13 +310,20 @@ class GearBacklash(Element):
         return float(self.half_width_rad)
 
 
-ELEMENT_TYPES = {"tcp_mode": TcpMode, "joint_correction": JointCorrection,
+ELEMENT_TYPES: dict[str, Callable[..., Element]] = {
+                 "tcp_mode": TcpOscillator.one_axis, "joint_correction": JointCorrection,
                  "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
                  "servo_drive": ServoDrive, "backlash": GearBacklash, "tcp_oscillator": TcpOscillator}
 
 
 def _keys(cls) -> list[str]:
     return [f.name for f in fields(cls) if f.name != "name"]
+
+
+def _parameters(builder) -> tuple[list[str], list[str]]:
+    """The keys of a builder's table (its parameters but ``name``) and the required ones."""
+    params = [p for p in inspect.signature(builder).parameters.values() if p.name != "name"]
+    return [p.name for p in params], [p.name for p in params if p.default is inspect.Parameter.empty]
 
 
 def element_from_spec(spec: ElementSpec, where: str = "elements") -> Element:
@@ -373,14 +334,13 @@ def element_from_spec(spec: ElementSpec, where: str = "elements") -> Element:
     BadInput
         Unknown ``type``, unknown or missing keys, values of the wrong type or out of range.
     """
-    cls = ELEMENT_TYPES.get(spec.type)
-    if cls is None:
+    builder = ELEMENT_TYPES.get(spec.type)
+    if builder is None:
         raise BadInput(f"{where}: type = {spec.type!r} is not an element; valid: {', '.join(ELEMENT_TYPES)}")
-    valid = _keys(cls)
+    valid, required = _parameters(builder)
     unknown = sorted(set(spec.params) - set(valid))
     if unknown:
         raise BadInput(f"{where} (type {spec.type}): unknown key(s) {unknown}; valid: {valid}")
-    required = [f.name for f in fields(cls) if f.name != "name" and f.default is MISSING]
     missing = [k for k in required if k not in spec.params]
     if missing:
         raise BadInput(f"{where} (type {spec.type}): missing key(s) {missing}")
@@ -388,7 +348,7 @@ def element_from_spec(spec: ElementSpec, where: str = "elements") -> Element:
     if "direction" in params:
         params["direction"] = tuple(params["direction"]) if isinstance(params["direction"], list) else params["direction"]
     try:
-        return cls(**params)
+        return builder(**params)
     except BadInput as e:
         raise BadInput(f"{where}: {e}") from None
     except (TypeError, ValueError) as e:
@@ -396,15 +356,33 @@ def element_from_spec(spec: ElementSpec, where: str = "elements") -> Element:
 
 
 def element_table(element: Element) -> dict:
-    """The ``[[elements]]`` table of an extra element (inverse of :func:`element_from_spec`)."""
+    """The ``[[elements]]`` table of an extra element (inverse of :func:`element_from_spec`).
+
+    A tool mode is written as its ``tcp_oscillator`` table (``k2_n_per_m = inf`` for one axis;
+    ``direction`` only when it has one): reading it back gives an equal element, bit for bit."""
     for t, cls in ELEMENT_TYPES.items():
-        if type(element) is cls:
+        if isinstance(cls, type) and type(element) is cls:
             out: dict[str, Any] = {"type": t}
             for k in _keys(cls):
                 v = getattr(element, k)
-                out[k] = [float(x) for x in v] if isinstance(v, tuple) else v
+                if v is not None:
+                    out[k] = [float(x) for x in v] if isinstance(v, tuple) else v
             return out
     raise ValueError(f"{element!r} is not one of the extra elements ({', '.join(ELEMENT_TYPES)})")
+
+
+def spec_table(spec: ElementSpec, where: str = "elements") -> dict:
+    """The ``[[elements]]`` table of ``spec``, checked (:func:`element_from_spec`) and written in its own
+    type: a ``tcp_mode`` table stays one (its frequency, damping ratio and stiffness as given, the
+    direction normalized), any other is :func:`element_table` of its element."""
+    element = element_from_spec(spec, where)
+    if spec.type != "tcp_mode":
+        return element_table(element)
+    assert isinstance(element, TcpOscillator) and element.direction is not None   # one_axis always sets it
+    out: dict[str, Any] = {"type": "tcp_mode"}
+    out.update({k: spec.params[k] for k in ("freq_hz", "damping_ratio", "stiffness_n_per_m")})
+    out["direction"] = [float(x) for x in element.direction]
+    return out
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,13 @@
-"""The tool tip on the robot: tool, holder and spindle modes as planar TCP oscillators.
+"""The tool tip on the robot: tool, holder and spindle modes as TCP oscillators.
 
 One representation serves every source of tool-tip dynamics: a chain of
 :class:`robolobes.linearize.tool.TcpOscillator` (a mass on two orthogonal springs in the plane
-normal to the tool), added to the robot as elements, so the robot's M, C, K carry the tool and
-the tool's mass loads the robot. The sources (:func:`tool_from_files`):
+normal to the tool, or on one spring along any direction), added to the robot as elements, so the
+robot's M, C, K carry the tool and the tool's mass loads the robot. It is the same class as
+identify's ``tcp_mode`` and ``tcp_mode_xy`` effects add. The sources (:func:`tool_from_files`):
 
 * ``--tool-modes FILE.toml`` with ``[[oscillators]]`` tables: the oscillators themselves (keys of
-  the ``tcp_oscillator`` element; angles in the TCP frame);
+  the ``tcp_oscillator`` element; angles and directions in the TCP frame);
 * ``--tool-modes FILE.toml`` with ``[[modes]]`` tables (the file of ``lobes --modal``; directions in
   the cut frame): each real mode becomes a one-axis oscillator of its modal mass ``k / w_n^2``,
   chained in file order;
@@ -85,6 +86,9 @@ class ToolSet:
         Rc = cut_frame(np.asarray(feed_direction, dtype=float), R[:, 2])
         out = []
         for o in self.oscillators:
+            if o.direction is not None:     # (x_c, y_c, z_c) components to TCP ones
+                out.append(replace(o, direction=tuple(R.T @ (Rc.T @ np.asarray(o.direction)))))
+                continue
             u = R.T @ (math.cos(o.angle_rad) * Rc[0] + math.sin(o.angle_rad) * Rc[1])
             out.append(replace(o, angle_rad=math.atan2(u[1], u[0])))
         return tuple(out)
@@ -158,7 +162,7 @@ def _read_toml(path: str) -> ToolSet:
     tabs = data["oscillators"]
     if not isinstance(tabs, list) or not tabs or not all(isinstance(t, dict) for t in tabs):
         raise LobeError(f"{path}: [[oscillators]] must be tables with mass_kg, k1_n_per_m, k2_n_per_m, angle_rad, "
-                        "zeta1, zeta2")
+                        "zeta1, zeta2 (or, with k2_n_per_m = inf, a direction in the TCP frame)")
     from robolobes.cases.spec import ElementSpec
     from robolobes.core.errors import BadInput
     from robolobes.linearize.extra_elements import element_from_spec

@@ -20,7 +20,8 @@ from robolobes.cases.milling import Cut, Tool
 from robolobes.timedomain import fastpath
 from robolobes.timedomain.fastpath import FastPathConvergenceError, FastPathError, run_linear_milling
 from robolobes.timedomain.newmark import NewmarkConvergenceError, NewmarkInterrupted
-from robolobes.linearize.extra_elements import JointCorrection, TcpMode
+from robolobes.linearize.extra_elements import JointCorrection
+from robolobes.linearize.tool import TcpOscillator
 from robolobes.linearize.model import build_model
 from robolobes.timedomain.drivers import run_full, run_linearized, run_linearized_python
 from robolobes.timedomain.equations import PassSetup, linear_system_data
@@ -43,7 +44,7 @@ def _setup(case, variant, t_end, linearized=True, extra=()):
 # the feed ramp): the runs below cover the approach, the entry and 2-8 revolutions of cutting.
 # The last run adds identification's elements (a 900 Hz mode at the TCP: one more DOF; a softer,
 # more damped axis 2): the compiled loop takes any built robot.
-EXTRA = (TcpMode(freq_hz=900.0, damping_ratio=0.03, stiffness_n_per_m=2e7, direction=(1.0, 0.0, 0.0)),
+EXTRA = (TcpOscillator.one_axis(freq_hz=900.0, damping_ratio=0.03, stiffness_n_per_m=2e7, direction=(1.0, 0.0, 0.0)),
          JointCorrection(joint=2, stiffness_scale=0.8, damping_scale=1.5))
 REFERENCE_RUNS = [(ALU, "basic", 0.1, ()), (ALU, "backlash", 0.1, ()), (STEEL, "backlash", 0.4, ()),
                   (ALU, "basic", 0.1, EXTRA)]

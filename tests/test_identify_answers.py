@@ -39,14 +39,14 @@ def test_generator_matches_robolobes_model():
         JointCorrection,
         PayloadMass,
         ServoDrive,
-        TcpMode,
     )
+    from robolobes.linearize.tool import TcpOscillator
 
     case = load_case("tx200-aluminium")
     f = np.linspace(2.0, 300.0, 300)
     w = 2 * math.pi * f
     pairs = [(Effects(), ()),
-             (Effects(tool_modes=((220.0, 0.03, 3.8e5, (0.6, 0.8, 0.0)),)), (TcpMode(220.0, 0.03, 3.8e5, (0.6, 0.8, 0.0)),)),
+             (Effects(tool_modes=((220.0, 0.03, 3.8e5, (0.6, 0.8, 0.0)),)), (TcpOscillator.one_axis(220.0, 0.03, 3.8e5, (0.6, 0.8, 0.0)),)),
              (Effects(joint_scale={3: (0.75, 0.6)}), (JointCorrection(3, 0.75, 0.6),)),
              (Effects(servo=(2, 50.0, 4e6, 2e3)), (ServoDrive(2, 50.0, 4e6, 2e3),)),
              (Effects(payload_factor=1.2), (PayloadMass(0.2 * 44.4),))]

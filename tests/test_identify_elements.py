@@ -11,7 +11,8 @@ from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
 from robolobes.linearize import build_model, linearize
 from robolobes.linearize.extra_elements import (JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive,
-                                                TcpMode, element_from_spec, element_table)
+                                                element_from_spec, element_table)
+from robolobes.linearize.tool import TcpOscillator
 
 CASE = load_case("tx200-aluminium")
 TAB7 = CASE.path.start_q_rad
@@ -46,7 +47,7 @@ def _substructured(H_r, d, f_hz, zeta, k, w):
 def test_tcp_mode_frf_equals_substructured_robot_plus_oscillator(direction):
     f0, zeta, k = 900.0, 0.03, 2.0e7
     base = linearize(build_model(CASE.robot, "basic"), TAB7)
-    mode = TcpMode(f0, zeta, k, direction)
+    mode = TcpOscillator.one_axis(f0, zeta, k, direction)
     lin = linearize(build_model(CASE.robot, "basic", extra_elements=(mode,)), TAB7)
     w = 2 * math.pi * np.concatenate([np.linspace(5, 60, 56), np.linspace(700, 1100, 41)])
     d = lin.R_tcp @ np.asarray(mode.direction)           # the mode direction in base axes
@@ -60,7 +61,7 @@ def test_light_tcp_mode_alone_where_robot_is_rigid():
     # (a 0.63 kg mode shifts by 1.1 %, see the substructuring test): the robot is rigid by comparison
     # and the receptance along d is the single-DOF closed form.
     f0, zeta, k = 900.0, 0.02, 2.0e5
-    mode = TcpMode(f0, zeta, k, (0.0, 0.0, 1.0))
+    mode = TcpOscillator.one_axis(f0, zeta, k, (0.0, 0.0, 1.0))
     lin = linearize(build_model(CASE.robot, "basic", extra_elements=(mode,)), TAB7)
     w = 2 * math.pi * np.linspace(800, 1000, 81)
     d = lin.R_tcp @ np.asarray(mode.direction)
@@ -115,7 +116,7 @@ def test_payload_mass_equals_heavier_payload():
 
 
 def test_element_tables_round_trip_and_strict_keys():
-    for el in (TcpMode(800.0, 0.02, 1e7, (0, 1, 0)), JointCorrection(3, 1.2, 0.5), OrthogonalCorrection(0.8, 1.0),
+    for el in (TcpOscillator.one_axis(800.0, 0.02, 1e7, (0, 1, 0)), JointCorrection(3, 1.2, 0.5), OrthogonalCorrection(0.8, 1.0),
                PayloadMass(-3.0), ServoDrive(2, 5.0, 2e7, 1e3)):
         t = element_table(el)
         assert element_from_spec(ElementSpec(t.pop("type"), t)) == el
@@ -144,7 +145,7 @@ def test_model_toml_loads_and_builds_the_identified_robot(tmp_path):
     case = load_case(str(p))
     assert case.name == "tx200-aluminium-identified"
     assert [e.type for e in case.robot.elements] == ["tcp_mode", "joint_correction"]
-    ref = build_model(CASE.robot, "basic", extra_elements=(TcpMode(900.0, 0.03, 2e7, (1, 0, 0)),
+    ref = build_model(CASE.robot, "basic", extra_elements=(TcpOscillator.one_axis(900.0, 0.03, 2e7, (1, 0, 0)),
                                                             JointCorrection(2, 0.8, 1.0)))
     a, b = linearize(build_model(case.robot, "basic"), TAB7), linearize(ref, TAB7)
     assert_allclose(a.K, b.K, rtol=1e-12)

@@ -17,7 +17,8 @@ from robolobes.identify.effects import REGISTRY
 from robolobes.identify.selection import significance, z_threshold
 from robolobes.identify.synthetic import synthetic_frf_set, truth_errors
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive, TcpMode
+from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive
+from robolobes.linearize.tool import TcpOscillator
 from robolobes.main import main
 
 CASE = load_case("tx200-aluminium")
@@ -46,7 +47,7 @@ def _fast_vs_element(variant, effect_name, params, element):
 @pytest.mark.parametrize("variant,name,params,element", [
     ("basic", "tcp_mode", {"freq_hz": 180.0, "damping_ratio": 0.03, "stiffness_n_per_m": 8e6,
                            "polar_rad": 1.0, "azimuth_rad": 0.4},
-     TcpMode(180.0, 0.03, 8e6, (math.sin(1.0) * math.cos(0.4), math.sin(1.0) * math.sin(0.4), math.cos(1.0)))),
+     TcpOscillator.one_axis(180.0, 0.03, 8e6, (math.sin(1.0) * math.cos(0.4), math.sin(1.0) * math.sin(0.4), math.cos(1.0)))),
     ("basic", "joint_correction_a2", {"stiffness_scale": 0.7, "damping_scale": 2.0}, JointCorrection(2, 0.7, 2.0)),
     ("basic", "payload_mass", {"mass_scale": 1.2}, PayloadMass(0.2 * CASE.robot.payload.mass_kg)),
     ("orthogonal", "orthogonal_correction", {"stiffness_scale": 0.5, "damping_scale": 1.5},
@@ -97,7 +98,8 @@ def _draw(kind, rng):
         # k = m (2 pi f)^2; its peak 1 / (2 zeta k) >= 6.7e-6 m/N is >= 30x the robot's receptance there
         d = rng.standard_normal(3)
         f, m = rng.uniform(120, 280), 10 ** rng.uniform(math.log10(0.05), math.log10(0.5))
-        return "tcp_mode", TcpMode(f, rng.uniform(0.01, 0.05), m * (2 * math.pi * f) ** 2, tuple(d / np.linalg.norm(d)))
+        return "tcp_mode", TcpOscillator.one_axis(f, rng.uniform(0.01, 0.05), m * (2 * math.pi * f) ** 2,
+                                                  tuple(d / np.linalg.norm(d)))
     if kind == "joint_correction":
         j = int(rng.integers(1, 4))          # the main axes 1-3, which move the TCP at every pose
         s = rng.uniform(1.15, 1.6) if rng.random() < 0.5 else rng.uniform(0.6, 0.87)
@@ -143,8 +145,8 @@ def test_cli_finds_the_undeclared_effect(tmp_path, capsys, kind, seed):
         # the Gauss-Newton standard deviations cover the truth: |fit - true| < 5 sigma (generous: the
         # noise estimate is conservative and sigma is inflated by the reduced chi-square)
         e, el = res["effects"][0], t["element"]
-        for k, true in (("freq_hz", el.freq_hz), ("damping_ratio", el.damping_ratio),
-                        ("stiffness_n_per_m", el.stiffness_n_per_m)):
+        for k, true in (("freq_hz", float(el.freq_hz[0])), ("damping_ratio", el.zeta1),
+                        ("stiffness_n_per_m", el.k1_n_per_m)):
             assert abs(e["params"][k] - true) < 5 * e["uncertainty"][k], (k, e["params"][k], true, e["uncertainty"][k])
     assert res["metric"].startswith("held-out")
     assert "provenance" in res and len(res["provenance"]["inputs_sha256"]) == 64
@@ -188,7 +190,7 @@ def test_no_effect_in_at_least_19_of_20_seeds(tmp_path, capsys):
 
 
 def _mode_set(tmp_path):
-    el = TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
+    el = TcpOscillator.one_axis(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
     d = tmp_path / "set"
     synthetic_frf_set(d, CASE, elements=(el,), n_poses=2, f_hz=np.linspace(2, 300, 300), rel_noise=0.01,
                       add_noise=0.01, seed=5)
@@ -251,7 +253,7 @@ def test_two_effects_added_greedily_each_step_reported(tmp_path, capsys):
     # (within 1.2x). The axis's damping is lowered too (x0.6): a softer axis with its damping
     # unchanged is also a stiff, light servo (J, kd -> 0 gives the series stiffness k kp / (k + kp)),
     # and either may then be reported (README, "Servo dynamics"); no servo lowers the damping.
-    els = (TcpMode(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 0.6))
+    els = (TcpOscillator.one_axis(220.0, 0.03, 0.2 * (2 * math.pi * 220) ** 2, (0.6, 0.8, 0.0)), JointCorrection(3, 0.75, 0.6))
     d = tmp_path / "set"
     t = synthetic_frf_set(d, CASE, elements=els, n_poses=4, f_hz=np.linspace(2, 300, 400), seed=31)
     rc, out, err = _run_cli(["identify", "--measured", str(d), "--json", "--quiet", "--no-poles"], capsys)
@@ -285,7 +287,7 @@ def test_cut_frame_accelerance_set_with_cross_pairs(tmp_path, capsys):
     case_file.write_text(text.replace("feed_direction = [1, 0, 0]", "feed_direction = [0, 1, 0]"))
     case = load_case(str(case_file))
     d = tmp_path / "set"
-    el = TcpMode(180.0, 0.03, 0.2 * (2 * math.pi * 180) ** 2, (0.0, 1.0, 0.0))
+    el = TcpOscillator.one_axis(180.0, 0.03, 0.2 * (2 * math.pi * 180) ** 2, (0.0, 1.0, 0.0))
     t = synthetic_frf_set(d, case, elements=(el,), n_poses=3, pairs=((0, 0), (1, 1), (0, 1), (2, 0)),
                           f_hz=np.linspace(2, 300, 400), frame="cut", ordinate=12, seed=41,
                           offsets_deg=[[0] * 6, [20, 0, 0, 0, 0, 0], [-25, 0, 0, 0, 0, 0]])  # tool stays vertical

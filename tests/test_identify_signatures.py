@@ -166,10 +166,11 @@ def _generating(name):
     import math
 
     from robolobes.cases import load_case
-    from robolobes.linearize.extra_elements import JointCorrection, PayloadMass, TcpMode
+    from robolobes.linearize.extra_elements import JointCorrection, PayloadMass
+    from robolobes.linearize.tool import TcpOscillator
 
     payload = load_case("tx200-aluminium").robot.payload.mass_kg
-    return {"tcp_mode": (TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (0.6, 0.0, 0.8)), 11),
+    return {"tcp_mode": (TcpOscillator.one_axis(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (0.6, 0.0, 0.8)), 11),
             "payload_mass": (PayloadMass(0.25 * payload), 13),
             "joint_correction_a2": (JointCorrection(2, 1.4, 1.0), 12)}[name]
 

@@ -20,7 +20,8 @@ import pytest
 
 from robolobes.cases import load_robot
 from robolobes.linearize import build_model, element_forces, element_tangents, linearize, rigid_q
-from robolobes.linearize.extra_elements import ServoDrive, TcpMode
+from robolobes.linearize.extra_elements import ServoDrive
+from robolobes.linearize.tool import TcpOscillator
 
 SPEC = load_robot("tx200")
 REPS = 25  # rounds over the poses per thread
@@ -34,7 +35,7 @@ def _state(robot, seed):
     return q, 1e-2 * rng.standard_normal(robot.nv)
 
 
-@pytest.mark.parametrize("element", [ServoDrive(2, 5.0, 2e7, 2e3), TcpMode(900.0, 0.03, 2e7, (1.0, 0.0, 0.0))],
+@pytest.mark.parametrize("element", [ServoDrive(2, 5.0, 2e7, 2e3), TcpOscillator.one_axis(900.0, 0.03, 2e7, (1.0, 0.0, 0.0))],
                          ids=["servo_drive", "tcp_mode"])
 def test_one_element_instance_in_two_robots(element):
     before = dict(vars(element))
@@ -59,7 +60,7 @@ def _lin_numbers(robot, theta):
 
 
 def test_two_threads_share_one_robot():
-    robot = build_model(SPEC, "gravity", extra_elements=(TcpMode(900.0, 0.03, 2e7, (1.0, 0.0, 0.0)),))
+    robot = build_model(SPEC, "gravity", extra_elements=(TcpOscillator.one_axis(900.0, 0.03, 2e7, (1.0, 0.0, 0.0)),))
     single = [_lin_numbers(robot, th) for th in POSES]
     out = {0: [], 1: []}
     start = threading.Barrier(2)

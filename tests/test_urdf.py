@@ -272,10 +272,10 @@ def test_extra_elements_work_on_the_hand_written_urdf(tmp_path):
     """Elements added on top of a variant (as identification adds them) give the same modes and
     FRFs on the URDF robot as on the TOML robot: a tool mode at the TCP, a servo drive, a payload
     correction, a joint correction and the orthogonal correction."""
-    from robolobes.linearize.extra_elements import (JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive,
-                                                    TcpMode)
+    from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive
+    from robolobes.linearize.tool import TcpOscillator
 
-    extra = (TcpMode(freq_hz=900.0, damping_ratio=0.03, stiffness_n_per_m=2e7, direction=(1.0, 1.0, 0.0)),
+    extra = (TcpOscillator.one_axis(freq_hz=900.0, damping_ratio=0.03, stiffness_n_per_m=2e7, direction=(1.0, 1.0, 0.0)),
              ServoDrive(joint=3, rotor_inertia_kg_m2=20.0, kp_n_m_per_rad=4e6, kd_n_m_s_per_rad=2e3),
              PayloadMass(delta_mass_kg=-3.0), JointCorrection(joint=5, stiffness_scale=0.7, damping_scale=2.0),
              OrthogonalCorrection(stiffness_scale=0.5))

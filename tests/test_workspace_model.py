@@ -17,7 +17,7 @@ import xarray as xr
 from robolobes.cases import load_case
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, fk, linearize
-from robolobes.linearize.extra_elements import TcpMode
+from robolobes.linearize.tool import TcpOscillator
 from robolobes.lobes import LobeProblem, PhysicalStructure, RefinedSDM, solve
 from robolobes.main import main
 
@@ -54,7 +54,7 @@ def identified(tmp_path_factory):
     """identify's ``model`` TOML of a synthetic FRF set with a tool-holder mode at the TCP (200 Hz,
     zeta 0.03, modal mass 0.2 kg along TCP x), 2 poses, 1 % noise, seed 5."""
     d = tmp_path_factory.mktemp("ident")
-    mode = TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
+    mode = TcpOscillator.one_axis(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
     synthetic_frf_set(d / "set", CASE, elements=(mode,), n_poses=2, f_hz=np.linspace(2, 300, 300), rel_noise=0.01,
                       add_noise=0.01, seed=5)
     res = _main_json(["identify", "--measured", str(d / "set"), "--json", "--quiet", "--no-poles"])
@@ -69,7 +69,7 @@ def test_map_with_an_identified_model_equals_solve_on_its_elements(identified, t
     # the robot built here from the TOML's [[elements]] numbers, not through the case loader
     el = tomllib.loads(identified.read_text())["elements"]
     assert len(el) == 1 and el[0]["type"] == "tcp_mode"
-    mode = TcpMode(el[0]["freq_hz"], el[0]["damping_ratio"], el[0]["stiffness_n_per_m"], tuple(el[0]["direction"]))
+    mode = TcpOscillator.one_axis(el[0]["freq_hz"], el[0]["damping_ratio"], el[0]["stiffness_n_per_m"], tuple(el[0]["direction"]))
     want = _solve_with(mode)
     assert np.all(np.isfinite(want)) and np.all(want < 0.01)
     np.testing.assert_allclose(got, want, rtol=0.01)
@@ -81,7 +81,7 @@ def test_map_with_an_identified_model_equals_solve_on_its_elements(identified, t
 def test_map_with_tool_modes_file_equals_solve_with_the_mode_in_the_robot(tmp_path):
     # A tool-tip mode of the [[modes]] file (cut frame x_c = the feed, base +x here), 600 Hz,
     # zeta 0.03, modal mass 1 g. Second method: the same mode as a mass on a spring at the TCP inside
-    # the multibody robot (TcpMode, TCP frame). The two differ by the mode's mass loading the robot,
+    # the multibody robot (TcpOscillator.one_axis, TCP frame). The two differ by the mode's mass loading the robot,
     # first order in m: the robot's apparent mass at the TCP along the feed at 600 Hz is only about
     # 2.1 kg (-1 / (w^2 Re H), H = -3.4e-8 m/N). Observed: 25 % apart at 0.1 kg, 1.7 % at 5 g,
     # 0.34 % at 1 g; so 1 g, where the loading is below the 1 % asserted.
@@ -91,6 +91,6 @@ def test_map_with_tool_modes_file_equals_solve_with_the_mode_in_the_robot(tmp_pa
     got = _map_limits(["--case", "tx200-aluminium", "--tool-modes", str(f)], tmp_path / "m")
     _, R = fk(CASE.robot, CASE.path.start_q_rad)
     d_tcp = np.asarray(R).T @ np.asarray(CASE.cut.feed_direction)   # the feed in the TCP frame
-    want = _solve_with(TcpMode(600.0, 0.03, k, tuple(d_tcp)))
+    want = _solve_with(TcpOscillator.one_axis(600.0, 0.03, k, tuple(d_tcp)))
     assert np.all(np.isfinite(want)) and np.all(want < 0.01)
     np.testing.assert_allclose(got, want, rtol=0.01)

@@ -54,15 +54,14 @@ def _series(robot_ss: StateSpace, tool_modes: tuple) -> StateSpace:
 
 def _cutoff_hz(robot, max_freq_hz: float) -> float:
     """The truncation frequency: ``max_freq_hz``, raised to twice the highest rigid-base frequency
-    of a tool element in ``robot`` (TCP oscillators, TCP modes: their modes must stay; on the robot
+    of a tool element in ``robot`` (TCP oscillators, one-axis or planar: their modes must stay; on the robot
     they rise by ``sqrt(1 + m / M_apparent)``, far less than a factor 2 for a tool lighter than
     the robot's apparent mass at the TCP)."""
-    from robolobes.linearize.extra_elements import TcpMode
     from robolobes.linearize.tool import TcpOscillator
 
     cutoff = float(max_freq_hz)
     for e in robot.elements:
-        if isinstance(e, (TcpOscillator, TcpMode)):
+        if isinstance(e, TcpOscillator):
             cutoff = max(cutoff, 2.0 * float(np.max(e.freq_hz)))
     return cutoff
 

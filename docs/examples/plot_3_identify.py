@@ -20,13 +20,13 @@ import numpy as np
 from robolobes import cases
 from robolobes.identify.api import identify, model_state, read_measurement
 from robolobes.identify.synthetic import synthetic_frf_set
-from robolobes.linearize.extra_elements import TcpMode
 from robolobes.linearize.kinematics import JointLimitWarning
+from robolobes.linearize.tool import TcpOscillator
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", JointLimitWarning)  # Tab. 7's A3 is 2.86 deg past its range: known
     case = cases.load_case("tx200-aluminium")
-truth = TcpMode(freq_hz=230.0, damping_ratio=0.025, stiffness_n_per_m=6.3e5, direction=(1.0, 0.0, 0.0))
+truth = TcpOscillator.one_axis(freq_hz=230.0, damping_ratio=0.025, stiffness_n_per_m=6.3e5, direction=(1.0, 0.0, 0.0))
 
 with tempfile.TemporaryDirectory(prefix="robolobes-gallery-") as tmp:
     hammer = Path(tmp) / "hammer"  # poses.csv and one p<k>.uff per pose
