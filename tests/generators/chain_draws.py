@@ -4,8 +4,8 @@
 Cases (``CASES``), 6 poses x 4 pairs (xx, yy, zz, xy), 400 lines 2-300 Hz, noise drawn in 1-3 %
 (as :mod:`generators.draws`):
 
-* ``channel_scale_5``, ``channel_scale_12``: one response channel (x, y or z, drawn) off by 5 % or
-  12 % (sign drawn): the generator's ``channel_gain``;
+* ``channel_scale_3``, ``channel_scale_5``, ``channel_scale_12``: one response channel (x, y or z,
+  drawn) off by 3 %, 5 % or 12 % (sign drawn): the generator's ``channel_gain``;
 * ``daq_delay``: the response 50 us late (``delay_s``);
 * ``channel_scale_5+joint``, ``daq_delay+joint``: the same with a joint's stiffness off (axis 1-3,
   x0.6-0.85 or x1.2-1.6, as :mod:`generators.draws`);
@@ -33,7 +33,7 @@ from .tx200 import Effects, write_frf_set
 
 __all__ = ["CASES", "draw", "judge", "run_chain_case", "TOOL_MODE"]
 
-CASES = ("channel_scale_5", "channel_scale_12", "daq_delay", "channel_scale_5+joint", "daq_delay+joint",
+CASES = ("channel_scale_3", "channel_scale_5", "channel_scale_12", "daq_delay", "channel_scale_5+joint", "daq_delay+joint",
          "accelerometer", "accelerometer_bare")
 DELAY_S = 50e-6
 ACCEL_KG = 0.020
@@ -49,7 +49,7 @@ def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
     kw: dict = {}
     base = case.split("+")[0]
     if base.startswith("channel_scale"):
-        level = {"channel_scale_5": 0.05, "channel_scale_12": 0.12}[base]
+        level = {"channel_scale_3": 0.03, "channel_scale_5": 0.05, "channel_scale_12": 0.12}[base]
         g = [1.0, 1.0, 1.0]
         g[int(rng.integers(0, 3))] = 1.0 + level * (1 if rng.random() < 0.5 else -1)
         kw["channel_gain"] = tuple(g)
