@@ -50,8 +50,9 @@ frequency to ``sqrt(k / (m + m_a)) / 2 pi`` (tests/test_identify_chain.py). Assu
 accelerometer (a triaxial one, or one moved between directions with the same mass) stays at the TCP for
 every pair. Bounds 0-0.1 kg: hammer-test accelerometers weigh 1-30 g, with a magnet base up to ~50 g.
 It is *observable only where the TCP is light*: ``m_a`` changes the receptance by about ``m_a / m_eff``
-with ``m_eff`` the modal mass at the TCP (tens of kg for a robot's own modes, so 20 g is 0.1 % there),
-and on a light tool mode it is indistinguishable from the mode's own mass (a mass-loaded mode is a
+with ``m_eff`` the modal mass at the TCP (tens of kg for a robot's own modes, so 20 g is ~0.1 % there:
+at the edge of what a set resolves; on the bare TX200 it was named in one of five draws, the one with
+1 % noise), and on a light tool mode it is indistinguishable from the mode's own mass (a mass-loaded mode is a
 mode at a lower frequency). So it is not a default candidate (``candidate = False``): it is meant for a
 model that already holds the tool mode (from an earlier measurement or the tool maker), where it is
 the one effect that moves that mode by ``sqrt(m / (m + m_a))``; name it with ``--effects``.
@@ -140,7 +141,7 @@ class AccelerometerMassEffect(FrfChainEffect):
                             doc="hammer-test accelerometers weigh 1-30 g, with a magnet base up to ~50 g"),)
     observed_by = {"frf": "a light mode at the TCP (a tool mode in the model) shifted down by "
                           "sqrt(m / (m + m_a)) at every pose; on the robot's own modes (modal mass tens of kg) "
-                          "20 g changes the receptance by ~0.1 %, below the noise"}
+                          "20 g changes the receptance by ~0.1 %, at the edge of 1 % line noise"}
     signatures = ("uniform_shift",)
 
     def perturb(self, pm, params):
