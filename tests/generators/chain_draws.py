@@ -12,8 +12,9 @@ Cases (``CASES``), 6 poses x 4 pairs (xx, yy, zz, xy), 400 lines 2-300 Hz, noise
 * ``accelerometer``: a 20 g accelerometer on a 0.2 kg, 200 Hz tool mode along TCP x that the model
   already holds (an ``[[elements]]`` tcp_mode in the case TOML: the mode known from an earlier
   measurement); candidates: the library's defaults and ``accelerometer_mass``;
-* ``accelerometer_bare``: 20 g on the robot without a tool mode: below what the data resolve (modal
-  masses at the TCP of tens of kg), so the right answer is nothing identified and nothing unexplained.
+* ``accelerometer_bare``: 20 g on the robot without a tool mode: taken, when this rule was written, as
+  below what the data resolve (modal masses at the TCP of tens of kg), so the right answer is nothing
+  identified and nothing unexplained (measured since: at 1 % noise, seed 4, it is resolved and named).
 
 What "right" means (:func:`judge`): every generated chain effect is identified (credible, not a
 surrogate) with every one of its parameters within 3 of its reported standard deviations of the truth
