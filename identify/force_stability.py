@@ -1,9 +1,11 @@
 """Stability observations: which effect, with which value, makes the lobes agree with observed cuts.
 
-Candidates (each one parameter ``theta``, more damping = larger ``theta``):
+Candidates: the :class:`identify.cutting_effects.DampingEffect` s of the effect library
+(:data:`identify.effects.REGISTRY`), each one parameter ``theta``, more damping = larger ``theta``:
 
-* ``joint_damping``: a scale on every motion-axis damper, bounds [0.2, 50] (the paper's damping
-  values come from a guess, eq. 8, so they are the first suspect);
+* ``joint_damping`` (:class:`identify.cutting_effects.JointDamping`): a scale on every motion-axis
+  damper, bounds [0.2, 50] (the paper's damping values come from a guess, eq. 8, so they are the
+  first suspect);
 * ``process_damping``: flank indentation, parameter ``Ksp L^2`` in [0, 9e6] N/m
   (:class:`identify.cutting_effects.ProcessDamping`): per observation a tool-tip damper in the cut
   plane ``Cc = Ksp L^2 b / (2 V) * (N / 2 pi) int n n^T dphi``, so it weakens as ``1 / V`` and
@@ -30,7 +32,8 @@ exactly over those breakpoints. The value reported is inside the minimizing inte
 neutral value (the smallest change that explains the data): just past its edge when the interval
 runs to the bound, its geometric centre when observations bound it on both sides (the interval is
 reported as ``consistent_interval``). An effect is reported only if it makes strictly fewer
-observations disagree; candidates are ranked by their error after, then by credibility.
+observations disagree; candidates are ranked by their error after, then by credibility, and at
+most ``max_effects`` are reported (the first is written into the model).
 
 Binary observations hold no noise estimate and no held-out part: the error is the training
 misclassification (``noise_floor`` 0). Ratio before/after for binary data (tests): misclassified
@@ -48,13 +51,15 @@ from robolobes.cases import load_case
 from robolobes.core.errors import BadInput
 from robolobes.core.verdict import Verdict
 
-from .cutting_effects import FLANK_RANGE_M, KSP_RANGE_N_PER_M3, ProcessDamping, process_damping_c
+from .cutting_effects import (FLANK_RANGE_M, JOINT_DAMPING_CREDIBLE, KSP_RANGE_N_PER_M3, DampingEffect,
+                              ProcessDamping, process_damping_c)
+from .effects import REGISTRY, effects_for
 from .force_data import StabilityObservations
-from .result import EffectFit, Identification, SelectionStep
+from .result import EffectFit, Evidence, Identification, SelectionStep
 
 __all__ = ["identify_stability", "verdict_at", "wavelength_m", "KSP_RANGE_N_PER_M3", "FLANK_RANGE_M", "Candidate",
            "CANDIDATES", "ObservationModel", "Threshold", "critical_value", "threshold", "value_verdict",
-           "M_VERDICT", "M_BOUND"]
+           "M_VERDICT", "M_BOUND", "stability_effects"]
 
 #: SDM steps per period of the verdict, and of the coarser level that bounds its error.
 M_VERDICT = 40
@@ -73,10 +78,29 @@ class Candidate:
     upper: float
     neutral: float
 
+    @classmethod
+    def of(cls, effect: DampingEffect) -> "Candidate":
+        """The candidate of a registered damping effect (its one parameter, bounds and neutral value)."""
+        p, = effect.parameters
+        return cls(effect.name, p.name, p.lower, p.upper, float(p.neutral if p.neutral is not None else p.lower))
 
-CANDIDATES = (Candidate("joint_damping", "scale", 0.2, 50.0, 1.0),
-              Candidate("process_damping", "ksp_l2_n_per_m", 0.0, ProcessDamping.parameters[0].upper, 0.0))
-SCALE_CREDIBLE = 3.0
+
+def stability_effects(state=None, names=None) -> list[DampingEffect]:
+    """The library's effects stability observations fit: the registered :class:`DampingEffect` s
+    (registry order), or those named in ``names`` (BadInput for a name that is not one)."""
+    if names is None:
+        return [e for e in effects_for("stability", state) if isinstance(e, DampingEffect)]
+    chosen = effects_for("stability", state, list(names))
+    bad = [e.name for e in chosen if not isinstance(e, DampingEffect)]
+    if bad:
+        raise BadInput(f"--effects {','.join(bad)}: stability observations fit damping effects only (one parameter "
+                       f"entering the damping); valid: {', '.join(e.name for e in stability_effects(state))}")
+    return [e for e in chosen if isinstance(e, DampingEffect)]
+
+
+#: The default candidates, from the registry (joint damping, process damping).
+CANDIDATES = tuple(Candidate.of(e) for e in stability_effects())
+SCALE_CREDIBLE = JOINT_DAMPING_CREDIBLE
 
 
 def wavelength_m(speed_m_per_s: float, freq_hz: float) -> float:
@@ -105,21 +129,17 @@ class ObservationModel:
 
     @classmethod
     def build(cls, state, case, obs) -> "ObservationModel":
-        """Linearize ``state``'s robot (for ``case``) at the observation's pose, at damping scales 1 and 2."""
+        """Linearize ``state``'s robot (for ``case``) at the observation's pose; the damping line of
+        every library damping effect (:meth:`DampingEffect.damping_line`)."""
         from robolobes.linearize import linearize
         from robolobes.lobes import LobeProblem, PhysicalStructure
 
         st = replace(state, case=case)
         theta = _pose(case, obs)
         s1 = PhysicalStructure.from_linear(linearize(st.robot(), theta), case.cut.feed_direction)
-        s2 = PhysicalStructure.from_linear(linearize(st.robot(damping_scale=2.0), theta), case.cut.feed_direction)
-        c_joint = np.asarray(s2.C) - np.asarray(s1.C)
         cut = replace(case.cut, spindle_rpm=obs.rpm, ap_m=obs.depth_m)
-        t2 = np.asarray(s1.tcp)[:2]
-        c_pd = t2.T @ ProcessDamping().matrix_cut(1.0, case.tool, cut) @ t2
-        C1 = np.asarray(s1.C)
-        return cls(obs=obs, case=case, problem=LobeProblem(s1, case.tool, cut, case.law),
-                   lines={"joint_damping": (C1 - c_joint, c_joint), "process_damping": (C1, c_pd)})
+        lines = {e.name: e.damping_line(st, theta, s1, case.tool, cut) for e in stability_effects()}
+        return cls(obs=obs, case=case, problem=LobeProblem(s1, case.tool, cut, case.law), lines=lines)
 
     def structure(self, name: str, value: float):
         from robolobes.lobes import PhysicalStructure
@@ -310,28 +330,40 @@ def _jd_evidence(fit: dict) -> dict:
 
 
 def _model_toml(state, fit: EffectFit) -> str:
-    """The case TOML with the best effect: joint damping as a ``joint_correction`` damping scale on every
-    motion axis; process damping as the ``tip_damper`` of the case's own cut (it depends on depth and
-    speed, so the file holds the damper of that cut only)."""
-    from robolobes.cases.spec import ElementSpec
-
+    """The case TOML with the best effect (its :meth:`Effect.apply`): joint damping as a
+    ``joint_correction`` damping scale on every motion axis; process damping as the ``tip_damper`` of
+    the case's own cut (it depends on depth and speed, so the file holds the damper of that cut only)."""
     from .model_toml import model_toml
 
-    if fit.name == "joint_damping":
-        s = float(fit.params["scale"])
-        for j in range(1, state.case.robot.n_joints + 1):
-            state = state.with_element(ElementSpec(type="joint_correction", params={"joint": j, "damping_scale": s}))
-    else:
-        state = ProcessDamping().apply(state, fit.params)
-    return model_toml(state)
+    return model_toml(REGISTRY[fit.name].apply(state, fit.params))
 
 
-def identify_stability(obs: StabilityObservations, state, *, progress=None) -> Identification:
+def _evidence(c: Candidate, f: dict, models) -> dict:
+    if c.name == "joint_damping":
+        return _jd_evidence(f)
+    if c.name == "process_damping":
+        return _pd_evidence(f, models)
+    from .evidence import credibility
+
+    ok, why = credibility(REGISTRY[c.name], {c.param: f["value"]})
+    return {"credible": bool(ok), "why": "; ".join(why) or f"{c.param} = {f['value']:.5g} inside its physical range"}
+
+
+def identify_stability(obs: StabilityObservations, state, *, effects=None, max_effects: int = 3,
+                       progress=None) -> Identification:
     """Which candidate (joint-damping scale, process damping ``Ksp L^2``) reconciles the observations.
 
     ``state`` is the model (:class:`identify.effects.ModelState`); rows whose case is the model's use
     its case (``--case`` overrides the measurement's, see :func:`identify.api.model_state`), other
-    rows load theirs."""
+    rows load theirs. ``effects``: the candidate damping effects (default :func:`stability_effects`;
+    BadInput for one that is not a :class:`DampingEffect`); ``max_effects``: at most this many
+    effects are reported, best first (0: none)."""
+    chosen = stability_effects(state) if effects is None else list(effects)
+    bad = [getattr(e, "name", repr(e)) for e in chosen if not isinstance(e, DampingEffect)]
+    if bad or not chosen:
+        raise BadInput(f"effects {', '.join(bad) or '(none)'}: stability observations fit damping effects (one "
+                       f"parameter entering the damping); valid: {', '.join(e.name for e in stability_effects())}")
+    cands = [Candidate.of(e) for e in chosen]
     cases_ = _cases(obs, state)
     models = []
     for o in obs.rows:
@@ -339,24 +371,25 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
     chatter = [o.chatter for o in obs.rows]
     n = len(obs.rows)
     thr = {}
-    for c in CANDIDATES:
+    for c in cands:
         thr[c.name] = []
         for i, om in enumerate(models):
             if progress is not None:
                 progress(f"{c.name}: observation {i + 1}/{n}")
             thr[c.name].append(threshold(om, c))
-    before = [value_verdict(CANDIDATES[0].neutral, t) for t in thr["joint_damping"]]
-    wrong0 = _wrong(CANDIDATES[0].neutral, thr["joint_damping"], chatter)
+    ref = cands[0]  # the model before: every candidate at its neutral value is the unchanged model
+    before = [value_verdict(ref.neutral, t) for t in thr[ref.name]]
+    wrong0 = _wrong(ref.neutral, thr[ref.name], chatter)
     err0 = wrong0 / n
     chatter_hz = next((models[i].chatter_hz("joint_damping", 1.0) for i, v in enumerate(before)
                        if v.status != "stable"), None)
     fits, cand_err = [], {}
-    for c in CANDIDATES:
+    for c in cands:
         f = _fit(c, thr[c.name], chatter)
         cand_err[c.name] = f["wrong"] / n
         if f["wrong"] >= wrong0:
             continue
-        ev = _jd_evidence(f) if c.name == "joint_damping" else _pd_evidence(f, models)
+        ev = _evidence(c, f, models)
         lo, hi = f["interval"]
         ev.update(rule="smallest change from neutral inside the interval of values with the fewest disagreeing "
                        "observations (SDM m = 40 verdict, bound |m 40 - m 20|)",
@@ -367,18 +400,19 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
         fits.append(EffectFit(c.name, {c.param: f["value"]}, {c.param: half}, ev))
     fits.sort(key=lambda f: (f.evidence["wrong_after"], not f.evidence["credible"], f.name))
     if len(fits) > 1 and fits[0].evidence["wrong_after"] == fits[1].evidence["wrong_after"]:
-        for f in fits:
-            f.evidence["tied"] = True
+        fits = [replace(f, evidence=Evidence.of(f.evidence, tied=True)) for f in fits]
+    fits = fits[:max_effects]
     err_after = fits[0].evidence["wrong_after"] / n if fits else err0
     steps = (SelectionStep(candidates=cand_err, kept=fits[0].name if fits else None, error_before=err0,
                            error_after=err_after, statistic=float(wrong0 - (fits[0].evidence["wrong_after"] if fits
                                                                             else wrong0)), threshold=1.0),)
     model = _model_toml(state, fits[0]) if fits else ""
+    keys = {e.name: e.verdict_key or f"critical_{e.name}" for e in chosen if isinstance(e, DampingEffect)}
     vb = [{"rpm": obs.rows[i].rpm, "depth_mm": obs.rows[i].depth_m * 1e3,
            "observed": "chatter" if obs.rows[i].chatter else "stable",
            "verdict": v.status, "stable": v.stable, "verdict_reason": v.reason,
-           "critical_joint_damping_scale": thr["joint_damping"][i].value,
-           "critical_ksp_l2_n_per_m": thr["process_damping"][i].value} for i, v in enumerate(before)]
+           **{keys[c.name]: thr[c.name][i].value for c in cands}}
+          for i, v in enumerate(before)]
     return Identification(kind="stability", effects=tuple(fits), error_before=err0, error_after=err_after,
                           metric="fraction of the observations whose lobe verdict (SDM m = 40, bound |m 40 - m 20| on "
                                  "the critical value; undetermined = not stable) disagrees with the observed one "

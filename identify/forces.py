@@ -32,7 +32,7 @@ freedom ``n - k`` are reported.
 
 ``stability`` (observed stable / chatter cuts)
 ----------------------------------------------
-See :func:`identify_stability`: the joint-damping scale (and the process damping it would take)
+See :func:`identify.force_stability.identify_stability`: the joint-damping scale (and the process damping it would take)
 that makes the lobes' verdict agree with every observation.
 """
 
@@ -59,7 +59,7 @@ from .selection import Trial, forward_select
 from .signatures import annotate, force_signatures
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
-           "identify_stability", "ForceContext", "check_window", "aicc"]
+           "ForceContext", "check_window", "aicc"]
 
 read_forces = read_force_set
 
@@ -453,11 +453,3 @@ def identify_force_stats(measurement: ForceStatistics, model: ModelState, *, alp
                           metric="RMS over the 8 statistics (x, y min, max, mean, rms) of model - measured, N "
                                  "(training fit: statistics-only data have no held-out part; chosen by AICc)",
                           noise_floor=float("nan"), steps=(), model_toml=model_toml(final), extra=extra)
-
-
-def identify_stability(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3, progress=None,
-                       **_) -> Identification:
-    """Stability observations: see :mod:`identify.force_stability`."""
-    from .force_stability import identify_stability as run
-
-    return run(measurement, model, progress=progress)
