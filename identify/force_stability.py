@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -54,8 +55,12 @@ from robolobes.core.verdict import Verdict
 from .cutting_effects import (FLANK_RANGE_M, JOINT_DAMPING_CREDIBLE, KSP_RANGE_N_PER_M3, DampingEffect,
                               ProcessDamping, process_damping_c)
 from .effects import REGISTRY, effects_for
-from .force_data import StabilityObservations
+from .force_data import StabilityObservation, StabilityObservations
 from .result import EffectFit, Evidence, Identification, SelectionStep
+
+if TYPE_CHECKING:
+    from robolobes.cases.spec import MillingCase
+    from robolobes.lobes import LobeProblem
 
 __all__ = ["identify_stability", "verdict_at", "wavelength_m", "KSP_RANGE_N_PER_M3", "FLANK_RANGE_M", "Candidate",
            "CANDIDATES", "ObservationModel", "Threshold", "critical_value", "threshold", "value_verdict",
@@ -122,9 +127,9 @@ class ObservationModel:
     """One observation linearized once: the lobe problem at its speed and depth and, per candidate,
     the damping line ``C(theta) = C_a + theta C_b`` (``lines[name] = (C_a, C_b)``, (n, n) SI)."""
 
-    obs: object
-    case: object
-    problem: object  # lobes.LobeProblem at theta = neutral
+    obs: StabilityObservation
+    case: MillingCase
+    problem: LobeProblem  # at theta = neutral
     lines: dict
 
     @classmethod
@@ -141,10 +146,19 @@ class ObservationModel:
         lines = {e.name: e.damping_line(st, theta, s1, case.tool, cut) for e in stability_effects()}
         return cls(obs=obs, case=case, problem=LobeProblem(s1, case.tool, cut, case.law), lines=lines)
 
-    def structure(self, name: str, value: float):
+    @property
+    def physical(self):
+        """The observation's :class:`lobes.PhysicalStructure` (M, C, K, tcp in the cut frame)."""
         from robolobes.lobes import PhysicalStructure
 
         s = self.problem.structure
+        assert isinstance(s, PhysicalStructure), type(s)  # build() makes one
+        return s
+
+    def structure(self, name: str, value: float):
+        from robolobes.lobes import PhysicalStructure
+
+        s = self.physical
         ca, cb = self.lines[name]
         return PhysicalStructure(s.M, ca + value * cb, s.K, s.tcp)
 
@@ -183,7 +197,9 @@ def critical_value(om: ObservationModel, cand: Candidate, m: int = M_VERDICT) ->
         if cand.neutral == 0 and g(lo_v) < 0:  # crossing below 1e-6 of the range: negligible
             return lo_v
         a, b = math.log(lo_v), math.log(cand.upper)
-    return math.exp(brentq(lambda u: g(math.exp(u)), a, b, xtol=XTOL_LOG))
+    root = brentq(lambda u: g(math.exp(u)), a, b, xtol=XTOL_LOG)
+    assert isinstance(root, float)  # a float without full_output (scipy's stub also allows the tuple)
+    return math.exp(root)
 
 
 @dataclass(frozen=True)
@@ -271,7 +287,7 @@ def verdict_at(state, case, obs, *, damping_scale: float = 1.0, ksp_l2_n_per_m: 
     """The m-step SDM verdict of one observation (``|mu| < 1``: stable) with a joint-damping scale and
     a process damping ``Ksp L^2`` (N/m); ``state``: :class:`identify.effects.ModelState`."""
     om = ObservationModel.build(state, case, obs)
-    s = om.problem.structure
+    s = om.physical
     C = np.asarray(s.C) + (damping_scale - 1.0) * om.lines["joint_damping"][1] + ksp_l2_n_per_m * om.lines["process_damping"][1]
     from robolobes.lobes import PhysicalStructure
     from robolobes.lobes.sdm import SDMEngine, SemiDiscretization

@@ -47,9 +47,11 @@ def paper_rows_rms() -> dict:
 def tab10_fact(variant: str = "basic", progress=None) -> dict:
     """Fact (a): identification on the paper's Tab. 10 experimental row (module docstring)."""
     from robolobes.identify.api import model_state, read_measurement
+    from robolobes.identify.force_data import ForceStatistics
     from robolobes.identify.forces import identify_force_stats
 
     m = read_measurement(_tab10_file())
+    assert isinstance(m, ForceStatistics), m  # the shipped file is force_stats.toml
     state, _ = model_state(m, variant=variant)
     res = identify_force_stats(m, state, progress=progress)
     d = res.to_json()
