@@ -36,6 +36,25 @@ def stability_problem(tmp_path_factory):
     return _problem(p)
 
 
+@pytest.fixture(scope="module")
+def low_speed_problem(tmp_path_factory):
+    # steel at 300 rpm, observed stable at 1.3 times the model's limit (SDM m = 40): there both a joint-damping
+    # scale and process damping within its bound stabilize the cut (docs/guide/identify.md, detection threshold)
+    from robolobes.cases import load_case
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.force_data import StabilityObservation
+    from robolobes.identify.force_stability import ObservationModel
+    from robolobes.lobes import SemiDiscretization, solve
+
+    case = load_case("tx200-steel")
+    om = ObservationModel.build(ModelState(case=case), case, StabilityObservation("tx200-steel", 300.0, 1e-3, True,
+                                                                                  path_s_m=0.0))
+    lim = float(solve(om.problem, SemiDiscretization(m=40), [300.0], depth_max_m=0.05).depth_limit_m[0])
+    p = tmp_path_factory.mktemp("stab-low") / "stability.csv"
+    p.write_text(f"case,rpm,depth_mm,observed,path_s_m\ntx200-steel,300,{1.3 * lim * 1e3:.6g},stable,0.0\n")
+    return _problem(p)
+
+
 def test_the_package_exports_the_shape():
     import robolobes.identify as ident
 
@@ -75,22 +94,28 @@ def test_bad_problem_and_wrong_method_are_bad_input(stability_problem):
         identify(stability_problem, StepwiseSelection())
 
 
-def test_stability_honours_max_effects_and_effects(stability_problem):
-    full = identify(stability_problem, StabilitySelection())
-    assert full.problem is stability_problem and isinstance(full.method, StabilitySelection)
-    # both damping effects stabilize the 1.6 mm cut (joint damping x12.6, process damping only beyond its
-    # bound: docs/guide/identify.md, steel fact (b)): one observation of two is wrong before
-    assert full.error_before == 0.5 and [e.name for e in full.effects][:1] == ["joint_damping"]
-    one = identify(stability_problem, StabilitySelection(max_effects=1))
+def test_stability_honours_max_effects_and_effects(low_speed_problem):
+    full = identify(low_speed_problem, StabilitySelection())
+    assert full.problem is low_speed_problem and isinstance(full.method, StabilitySelection)
+    assert full.error_before == 1.0 and sorted(e.name for e in full.effects) == ["joint_damping", "process_damping"]
+    assert all(e.evidence["tied"] for e in full.effects)   # both explain the one observation
+    one = identify(low_speed_problem, StabilitySelection(max_effects=1))
     assert len(one.effects) == 1 and one.effects[0].to_json() == full.effects[0].to_json()
-    none = identify(stability_problem, StabilitySelection(max_effects=0))
+    assert one.model_toml == full.model_toml
+    none = identify(low_speed_problem, StabilitySelection(max_effects=0))
     assert none.effects == () and none.error_after == none.error_before and none.model_toml == ""
-    pd = identify(dataclasses.replace(stability_problem, effects=("process_damping",)))
+    pd = identify(dataclasses.replace(low_speed_problem, effects=("process_damping",)))
     assert list(pd.steps[0].candidates) == ["process_damping"]
-    assert all(e.name == "process_damping" for e in pd.effects)
+    assert [e.name for e in pd.effects] == ["process_damping"] and "critical_joint_damping_scale" not in \
+        pd.to_json()["verdicts_before"][0]
+
+
+def test_stability_steel_critical_scale(stability_problem):
+    res = identify(stability_problem)
+    assert res.error_before == 0.5 and [e.name for e in res.effects] == ["joint_damping"]
     # the critical scale of the 1.6 mm cut, x12.21 at m = 40 (docs/guide/identify.md, from the lobes'
     # Richardson bracket [x12.19, x12.34]); tol 2 %: the m = 40 bound is +-0.30 (2.5 %)
-    crit = full.to_json()["verdicts_before"][1]["critical_joint_damping_scale"]
+    crit = res.to_json()["verdicts_before"][1]["critical_joint_damping_scale"]
     assert crit == pytest.approx(12.21, rel=0.02)
 
 
@@ -107,15 +132,16 @@ def test_evidence_is_frozen(stability_problem):
 def test_frf_set(tmp_path):
     from generators.tx200 import Effects, write_frf_set
 
-    # a 180 Hz tool-holder mode along the TCP's x axis, absent from the model; 3 poses, 200 lines, 2 % noise
-    write_frf_set(tmp_path / "frf", Effects(tool_modes=((180.0, 0.03, 2e7, np.array([1.0, 0.0, 0.0])),)),
+    # the gallery's tool-holder mode (230 Hz, zeta 0.025, 6.3e5 N/m along the TCP's x axis), absent from the
+    # model; 3 poses, 200 lines, 2 % noise
+    write_frf_set(tmp_path / "frf", Effects(tool_modes=((230.0, 0.025, 6.3e5, np.array([1.0, 0.0, 0.0])),)),
                   n_poses=3, f_hz=np.linspace(5.0, 300.0, 200), seed=1)
     problem = _problem(tmp_path / "frf", effects=("tcp_mode", "payload_mass"))
     assert isinstance(problem.measurement, FRFSet)
     res = identify(problem, StepwiseSelection(max_effects=1, poles=False))
     assert res.kind == "frf" and res.identified == ("tcp_mode",)
-    # tol 2 %: a lightly damped (zeta 0.03) peak on 1.5 Hz lines is located to a fraction of a line
-    assert res.effects[0].params["freq_hz"] == pytest.approx(180.0, rel=0.02)
+    # tol 2 %: a lightly damped (zeta 0.025) peak on 1.5 Hz lines is located to a fraction of a line
+    assert res.effects[0].params["freq_hz"] == pytest.approx(230.0, rel=0.02)
     assert res.error_after < res.error_before / 3
 
 
@@ -127,10 +153,13 @@ def test_force_series(tmp_path):
     problem = _problem(tmp_path / "forces", effects=("edge_coefficients",))
     assert isinstance(problem.measurement, ForceSeries)
     res = identify(problem, ForwardSelection(max_effects=1))
-    assert res.kind == "forces" and res.identified == ("edge_coefficients",)
-    # tol 15 %: the generator's rigid cut against the model's linearized pass (tests/test_identify_forces*.py
-    # find edge coefficients to about 10 %)
-    assert res.effects[0].params["kte_n_per_m"] == pytest.approx(2e4, rel=0.15)
+    assert res.kind == "forces" and [e.name for e in res.effects] == ["edge_coefficients"]
+    # observed: Kte 19.30, Kre 9.86 N/mm; the residual stays 1.43x the noise floor (the generator's tool sits on
+    # the independent TX200, not on the model: "unexplained", so the effect is reported as a surrogate).
+    # tol 10 %: the model-structure mismatch, not the 2 N noise, limits the fit
+    assert res.effects[0].params["kte_n_per_m"] == pytest.approx(2e4, rel=0.10)
+    assert res.effects[0].params["kre_n_per_m"] == pytest.approx(1e4, rel=0.10)
+    assert res.error_after < res.error_before / 10
 
 
 def test_force_statistics(tmp_path):
