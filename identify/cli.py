@@ -163,6 +163,7 @@ def run_identify_cli(args) -> int:
     elif report is not None:
         from .report import write_report
         with report:
+            assert report.path is not None  # set on entering the output directory
             write_report(report.path, result, report.provenance, teeth=state.case.tool.teeth)
     if args.json:
         print(json.dumps(to_jsonable(out), indent=2))

@@ -384,12 +384,14 @@ class Backlash(ForceEffect):
 
 
 #: The force-side library, in the order candidates are tried (registered in identify.effects.REGISTRY).
-FORCE_EFFECTS = tuple(register(e) for e in (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash()))
+FORCE_EFFECTS: tuple[ForceEffect, ...] = (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash())
+for _e in FORCE_EFFECTS:
+    register(_e)
 
 
 def chain_transfer(chain: tuple):
     """The product of the transfer functions of a measurement chain ``((name, params), ...)``."""
-    by_name = {e.name: e for e in FORCE_EFFECTS if e.chain}
+    by_name = {e.name: e for e in FORCE_EFFECTS if isinstance(e, ChainEffect)}
     hs = [by_name[n].transfer(tuple(p[k] for k in by_name[n].params)) for n, p in chain]
 
     def h(f):
@@ -562,7 +564,8 @@ class ProcessDamping(DampingEffect):
 
     def flank_m(self, ksp_l2_n_per_m: float) -> tuple[float, float]:
         """Flank contact ``L`` (m) the value needs at ``Ksp`` = the upper and the lower end of its range."""
-        return tuple(math.sqrt(ksp_l2_n_per_m / k) for k in KSP_RANGE_N_PER_M3[::-1])
+        hi, lo = KSP_RANGE_N_PER_M3[1], KSP_RANGE_N_PER_M3[0]
+        return math.sqrt(ksp_l2_n_per_m / hi), math.sqrt(ksp_l2_n_per_m / lo)
 
     def detection_threshold(self, structure, tool, cut, fraction: float = 0.3) -> float:
         """``Ksp L^2`` (N/m) whose damper adds ``fraction`` of the structure's own damping to its

@@ -46,7 +46,7 @@ import numpy as np
 
 from robolobes.core.errors import BadInput
 
-from .cutting_effects import FORCE_EFFECTS, chain_transfer
+from .cutting_effects import FORCE_EFFECTS, ForceEffect, chain_transfer
 from .effects import SIGNATURES, ModelState, effects_for
 from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
 from .force_model import revolution_averages, simulate_forces, with_spindle_hz
@@ -170,6 +170,7 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
                                              np.append(np.ones(len(lo)), shift0 + 0.5)), x_scale="jac")
         if best is None or r.cost < best.cost:
             best = r
+    assert best is not None, effect.name  # starts_for gives at least one start
     x = best.x
     v = lo + x[:-1] * scale
     n, p = best.fun.size, x.size
@@ -379,6 +380,7 @@ def _fit_stats(ctx, combo, state, target):
         r = least_squares(lambda x: model(x) - target, x0, bounds=(0, 1), diff_step=1e-4)
         if best is None or r.cost < best.cost:
             best = r
+    assert best is not None  # at least one start
     v = lo + best.x * scale
     out, k = [], 0
     for n in sizes:
@@ -409,7 +411,8 @@ def identify_force_stats(measurement: ForceStatistics, model: ModelState, *, alp
     the combinations tried."""
     stats, case, state = measurement, model.case, model
     check_window(stats.path, stats.window_s, case)
-    lib = [e for e in (effects if effects is not None else effects_for("force_stats", state)) if hasattr(e, "family")]
+    lib = [e for e in (effects if effects is not None else effects_for("force_stats", state))
+           if isinstance(e, ForceEffect)]
     ctx = _StatsContext(stats, case)
     target = stats.workpiece
     base = _stats_of(ctx.averages(state)[0])

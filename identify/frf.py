@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy.ndimage import median_filter, uniform_filter1d
@@ -237,6 +237,7 @@ def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dic
                             x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
         if best is None or res.cost < best.cost:
             best = res
+    assert best is not None  # at least one start
     chi2 = 2 * best.cost
     Jm = best.jac
     dof = max(1, len(best.fun) - len(best.x))
@@ -615,9 +616,10 @@ def _shared(eff, params: dict, block: np.ndarray, alternatives: list) -> list:
                  == getattr(eff, "joint", -1) and hasattr(REGISTRY[a["name"]], "static_stiffness_scale")]
     if not same_axis:
         return []
+    scaled: dict[str, Any] = {a["name"]: REGISTRY[a["name"]] for a in same_axis}  # each has static_stiffness_scale
     return [{"quantity": f"axis {eff.joint} static stiffness / joint table's", "value": value, "sd": float(sd),
              "indistinguishable_from": [{"name": a["name"],
-                                         "value": REGISTRY[a["name"]].static_stiffness_scale(a["params"])}
+                                         "value": scaled[a["name"]].static_stiffness_scale(a["params"])}
                                         for a in same_axis],
              "meaning": "below the rotor resonance a joint's stiffness and its servo's gain act in series and the "
                         "FRFs cannot tell them apart; only this combination is determined"}]
