@@ -56,7 +56,8 @@ from .model_toml import model_toml
 from .result import EffectFit, Identification
 from .evidence import accept, credibility, determined
 from .selection import Trial, forward_select
-from .signatures import annotate, force_signatures
+from .ranking import annotate
+from .signatures import force_signatures
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
            "ForceContext", "check_window", "aicc"]

@@ -564,7 +564,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
                          metric=METRIC, noise_floor=floor, steps=sel.steps, model_toml=model_toml(state), extra=extra,
                          unexplained=verdict)
     from .modal import _model_modes
-    from .signatures import annotate, frf_pose_residual, frf_signatures
+    from .frf_signatures import frf_pose_residual, frf_signatures
+    from .ranking import annotate
     detected = frf_signatures([frf_pose_residual(pd, predict(pd, []), _model_modes(pd, [])) for pd in poses],
                               alpha=alpha)
     return annotate(res, detected, candidates)
@@ -668,7 +669,7 @@ def _unexplained(poses: list[PoseData], residual: np.ndarray, sigma: np.ndarray,
         v.sort(key=lambda x: -x["ratio_to_noise"])
     if out["unexplained"]:
         from .modal import _model_modes
-        from .signatures import frf_pose_residual, frf_signatures
+        from .frf_signatures import frf_pose_residual, frf_signatures
         det = frf_signatures([frf_pose_residual(pd, predict(pd, final), _model_modes(pd, final)) for pd in poses],
                              alpha=alpha)
         where["signatures"] = [k for k, v in det.items() if v.present]
