@@ -6,16 +6,13 @@ In the shape of :mod:`robolobes.lobes` (problem / method / solve)::
     model, notes = model_state(measurement)                   # the case named in the files
     result = identify(IdentifyProblem(measurement, model), StepwiseSelection(alpha=0.01))
 
-Kinds of measurement sets (recognised from their files, see :func:`measurement_kind`):
+Kinds of measurement sets (recognised from their files, see :func:`measurement_kind`), with their
+type and default method:
 
-=============== ============================================= ============================ =====================
-kind            files                                         type (reader)                default method
-=============== ============================================= ============================ =====================
-``frf``         ``poses.csv`` + ``<pose>.uff|.unv|.csv``      ``FRFSet`` (read_frf_set)    ``StepwiseSelection``
-``forces``      ``forces.csv`` + ``cut.toml``                 ``ForceSeries``              ``ForwardSelection``
-``force_stats`` ``force_stats.toml``                          ``ForceStatistics``          ``AICcSelection``
-``stability``   ``stability.csv``                             ``StabilityObservations``    ``StabilitySelection``
-=============== ============================================= ============================ =====================
+* ``frf``: ``poses.csv`` + ``<pose>.uff|.unv|.csv``; ``FRFSet`` (``read_frf_set``); ``StepwiseSelection``;
+* ``forces``: ``forces.csv`` + ``cut.toml``; ``ForceSeries``; ``ForwardSelection``;
+* ``force_stats``: ``force_stats.toml``; ``ForceStatistics``; ``AICcSelection``;
+* ``stability``: ``stability.csv``; ``StabilityObservations``; ``StabilitySelection``.
 
 :func:`identify` dispatches on the measurement's type (:data:`PIPELINES`); a method of another
 kind is refused (BadInput).

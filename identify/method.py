@@ -1,18 +1,14 @@
 """Methods of identification: the selection rules, one per kind of measurement, as frozen objects.
 
-=========================== ================== ===========================================================
-method                      measurement        rule
-=========================== ================== ===========================================================
-:class:`StepwiseSelection`  FRF set            forward-backward selection, joint refit, leave-one-pose-out
-                                               held-out error, Bonferroni over ``2 max_effects`` x the
-                                               candidates at family-wise ``alpha`` (:mod:`identify.frf`)
-:class:`ForwardSelection`   force series       forward selection on held-out revolutions, same threshold
-                                               rule (:mod:`identify.forces`)
-:class:`AICcSelection`      force statistics   every subset of at most 3 parameters, by AICc (no held-out
-                                               part, so no ``alpha``)
-:class:`StabilitySelection` stability          the damping value that makes the fewest observations
-                                               disagree (no statistical test, so no ``alpha``)
-=========================== ================== ===========================================================
+* :class:`StepwiseSelection` (FRF sets): forward-backward selection with a joint refit, scored on
+  the leave-one-pose-out held-out error, Bonferroni over ``2 max_effects`` x the candidates at a
+  family-wise ``alpha`` (:mod:`identify.frf`);
+* :class:`ForwardSelection` (force series): forward selection on the held-out revolutions, the same
+  threshold rule (:mod:`identify.forces`);
+* :class:`AICcSelection` (force statistics): every subset of at most 3 parameters, by AICc (no
+  held-out part, so no ``alpha``);
+* :class:`StabilitySelection` (stability observations): the damping value that makes the fewest
+  observations disagree (no statistical test, so no ``alpha``).
 
 Fields are checked at construction (:class:`robolobes.core.errors.BadInput`, one line).
 """

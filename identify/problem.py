@@ -2,14 +2,12 @@
 
 Measurement types (frozen; each has ``kind``, ``path``, ``case`` and ``variant``):
 
-============================================== ============== =======================================
-type                                           kind           read by
-============================================== ============== =======================================
-:class:`robolobes.linearize.frf_io.FRFSet`     ``frf``        :func:`linearize.frf_io.read_frf_set`
-:class:`identify.force_data.ForceSeries`       ``forces``     :func:`identify.force_data.read_force_set`
-:class:`identify.force_data.ForceStatistics`   ``force_stats`` :func:`identify.force_data.read_force_stats`
-:class:`identify.force_data.StabilityObservations` ``stability`` :func:`identify.force_data.read_stability`
-============================================== ============== =======================================
+* :class:`robolobes.linearize.frf_io.FRFSet`, kind ``frf``, read by :func:`robolobes.linearize.frf_io.read_frf_set`;
+* :class:`identify.force_data.ForceSeries`, kind ``forces``, read by :func:`identify.force_data.read_force_set`;
+* :class:`identify.force_data.ForceStatistics`, kind ``force_stats``, read by
+  :func:`identify.force_data.read_force_stats`;
+* :class:`identify.force_data.StabilityObservations`, kind ``stability``, read by
+  :func:`identify.force_data.read_stability`.
 """
 
 from __future__ import annotations
