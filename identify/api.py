@@ -171,11 +171,16 @@ def identify(problem: IdentifyProblem, method: Method | None = None, *,
     Identification
         Carries its problem and method (``result.problem``, ``result.method``).
 
-    Example (a 2-pose synthetic FRF set with a 180 Hz tool-holder mode; ``tests/test_identify_api_shape.py``)::
+    Example: a method's fields are checked when it is made, before any work.
 
-        >>> problem = IdentifyProblem(read_measurement("frf_set"), model)          # doctest: +SKIP
-        >>> identify(problem, StepwiseSelection(max_effects=1, poles=False)).identified  # doctest: +SKIP
-        ('tcp_mode',)
+    >>> StepwiseSelection(alpha=0.05, max_effects=2)
+    StepwiseSelection(alpha=0.05, max_effects=2, poles=True)
+    >>> StabilitySelection(max_effects=11)
+    Traceback (most recent call last):
+    ...
+    robolobes.core.errors.BadInput: StabilitySelection: max_effects = 11: must be an integer in 0..10 (each step fits every candidate)
+
+    Runs on each kind of measurement: ``tests/test_identify_api_shape.py``.
     """
     if not isinstance(problem, IdentifyProblem):
         raise BadInput(f"problem: a {type(problem).__name__}; valid: an IdentifyProblem(measurement, model, effects)")
