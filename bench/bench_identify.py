@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from robolobes.cases import load_case
-from robolobes.identify.api import identify, model_state, read_measurement
+from robolobes.identify import FRFSet, IdentifyProblem, StepwiseSelection, identify, model_state, read_measurement
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize import build_model, rigid_q
 from robolobes.linearize.tool import TcpOscillator
@@ -45,7 +45,7 @@ def main(n_poses: int = 6, n_lines: int = 1200):
             t0 = time.perf_counter()
             m = read_measurement(d)
             state, _ = model_state(m)
-            res = identify(m, state, poles=poles)
+            res = identify(IdentifyProblem(m, state), StepwiseSelection(poles=poles))
             wall = time.perf_counter() - t0
             print(f"identify, {n_poses} poses x 4 pairs x {n_lines} lines, {res.extra['n_candidates']} candidate "
                   f"effects, modal fit {'on ' if poles else 'off'}: "
@@ -58,7 +58,8 @@ def main(n_poses: int = 6, n_lines: int = 1200):
             print("  " + ", ".join(f"{k} = {v:.5g} +- {e.uncertainty[k]:.2g}" for k, v in e.params.items()))
         print(f"  truth: freq_hz 230, damping_ratio 0.025, stiffness_n_per_m {el.k1_n_per_m:.5g}")
         from robolobes.identify.frf import prepare, predict
-        poses = prepare(m, state)
+        assert isinstance(res.problem.measurement, FRFSet)  # the set written above
+        poses = prepare(res.problem.measurement, state)
         t0 = time.perf_counter()
         for _ in range(50):
             for pd in poses:

@@ -21,7 +21,7 @@ import numpy as np
 from scipy import signal
 
 from robolobes.cases import load_case
-from robolobes.identify.api import identify, model_state, read_measurement
+from robolobes.identify import IdentifyProblem, identify, model_state, read_measurement
 from robolobes.linearize import build_model
 from robolobes.timedomain import NonlinearNewmark, SimulationProblem, simulate
 
@@ -50,7 +50,7 @@ def main(rate_hz: float = 50e3, t0: float = 0.25, t1: float = 0.55):
             w1 = time.perf_counter()
             m = read_measurement(d)
             state, _ = model_state(m)
-            res = identify(m, state)
+            res = identify(IdentifyProblem(m, state))
             times.append(time.perf_counter() - w1)
     print(f"data: full nonlinear pass to {t1} s + dynamometer 2500 Hz, zeta 0.04, 2 N noise: {gen:.1f} s "
           f"(not timed in the target)")

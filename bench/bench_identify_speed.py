@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import numpy as np  # noqa: E402  (after the sys.path insert, with the imports it serves)
 from generators.tx200 import Effects, write_frf_set  # noqa: E402  (needs the tests/ path above)
-from robolobes.identify.api import identify, model_state, read_measurement  # noqa: E402  (same)
+from robolobes.identify import IdentifyProblem, StepwiseSelection, identify, model_state, read_measurement  # noqa: E402  (same)
 
 OLD = "77c6860"
 
@@ -60,7 +60,7 @@ def frf_bench(tmp: Path, old_frf) -> None:
     truth = write_frf_set(d, eff, n_poses=6, f_hz=np.linspace(2, 300, 400), rel_noise=0.02, seed=0)
     meas = read_measurement(d)
     state, _ = model_state(meas)
-    new, t_new = cpu(lambda: identify(meas, state, poles=False))
+    new, t_new = cpu(lambda: identify(IdentifyProblem(meas, state), StepwiseSelection(poles=False)))
     old, t_old = cpu(lambda: old_frf.identify_frf(meas, state, poles=False))
     print(f"FRF set, 6 poses x 4 pairs x 400 lines, tool mode + axis-3 stiffness (noise error {truth['noise_error']:.4f}):")
     for lab, r, t in (("now", new, t_new), (OLD, old, t_old)):
@@ -75,11 +75,11 @@ def forces_bench(tmp: Path, old_forces) -> None:
 
     d = tmp / "forces"
     write_force_set(d, ForceEffects(kte_n_per_m=3e4, kre_n_per_m=2e4, dynamometer=(2500.0, 0.04)), noise_n=2.0, seed=0)
-    new0, t_cold = cpu(lambda: identify(read_measurement(d), model_state(read_measurement(d))[0]))
+    new0, t_cold = cpu(lambda: identify(IdentifyProblem(read_measurement(d), model_state(read_measurement(d))[0])))
     print(f"  (a first, cold run: CPU {t_cold:.1f} s, the model's runs memoised after it)")
     meas = read_measurement(d)
     state, _ = model_state(meas)
-    new, t_new = cpu(lambda: identify(meas, state))
+    new, t_new = cpu(lambda: identify(IdentifyProblem(meas, state)))
     old, t_old = cpu(lambda: old_forces.identify_forces(meas, state))
     print("force set, 0.15 s at 56.1 kHz, edge coefficients + dynamometer 2.5 kHz, 2 N noise:")
     for lab, r, t in (("now", new, t_new), (OLD, old, t_old)):

@@ -1,53 +1,108 @@
-"""``identify(measurement, model, ...)``: recognise the measurement, run its pipeline, return typed results.
+"""``identify(problem, method)``: run the method's selection on the problem's measurement, return typed results.
 
-Kinds of measurement sets (recognised from their files, see :func:`measurement_kind`):
+In the shape of :mod:`robolobes.lobes` (problem / method / solve)::
 
-=============== ============================================= ==========================================
-kind            files                                         reader / pipeline
-=============== ============================================= ==========================================
-``frf``         ``poses.csv`` + ``<pose>.uff|.unv|.csv``      ``linearize.frf_io.read_frf_set`` /
-                                                              ``identify.frf.identify_frf``
-``forces``      ``forces.csv`` + ``cut.toml``                 ``identify.forces``
-``force_stats`` ``force_stats.toml``                          ``identify.forces``
-``stability``   ``stability.csv``                             ``identify.forces``
-=============== ============================================= ==========================================
+    measurement = read_measurement("rig/frf")                  # FRFSet, ForceSeries, ... (frozen)
+    model, notes = model_state(measurement)                   # the case named in the files
+    result = identify(IdentifyProblem(measurement, model), StepwiseSelection(alpha=0.01))
 
-Every pipeline has the signature ``pipeline(measurement, model: ModelState, *, alpha, max_effects,
-progress, effects=None) -> Identification`` (``effects``: the candidate Effect objects, default the
-library's default candidates for the kind); every reader ``reader(path) -> measurement`` with attributes ``kind``,
-``path``, ``case`` (the case named in the files, or None) and ``variant`` (or None).
+Kinds of measurement sets (recognised from their files, see :func:`measurement_kind`), with their
+type and default method:
+
+* ``frf``: ``poses.csv`` + ``<pose>.uff|.unv|.csv``; ``FRFSet`` (``read_frf_set``); ``StepwiseSelection``;
+* ``forces``: ``forces.csv`` + ``cut.toml``; ``ForceSeries``; ``ForwardSelection``;
+* ``force_stats``: ``force_stats.toml``; ``ForceStatistics``; ``AICcSelection``;
+* ``stability``: ``stability.csv``; ``StabilityObservations``; ``StabilitySelection``.
+
+:func:`identify` dispatches on the measurement's type (:data:`PIPELINES`); a method of another
+kind is refused (BadInput).
 """
 
 from __future__ import annotations
 
-import importlib
+from dataclasses import replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 from robolobes.core.errors import BadInput
+from robolobes.linearize.frf_io import FRFSet, read_frf_set
 
 from .effects import ModelState
+from .force_data import (ForceSeries, ForceStatistics, StabilityObservations, read_force_set, read_force_stats,
+                         read_stability)
+from .method import AICcSelection, ForwardSelection, Method, StabilitySelection, StepwiseSelection
+from .problem import IdentifyProblem, Measurement
 from .result import Identification
 
-__all__ = ["identify", "read_measurement", "measurement_kind", "model_state", "READERS", "PIPELINES"]
+__all__ = ["identify", "read_measurement", "measurement_kind", "model_state", "default_method", "READERS",
+           "PIPELINES"]
 
-READERS = {"frf": ("robolobes.linearize.frf_io", "read_frf_set"),
-           "forces": ("robolobes.identify.forces", "read_forces"),
-           "force_stats": ("robolobes.identify.forces", "read_force_stats"),
-           "stability": ("robolobes.identify.forces", "read_stability")}
-PIPELINES = {"frf": ("robolobes.identify.frf", "identify_frf"),
-             "forces": ("robolobes.identify.forces", "identify_forces"),
-             "force_stats": ("robolobes.identify.forces", "identify_force_stats"),
-             "stability": ("robolobes.identify.forces", "identify_stability")}
+#: The reader of each kind of set (path -> measurement).
+READERS: dict[str, Callable] = {"frf": read_frf_set, "forces": read_force_set, "force_stats": read_force_stats,
+                                "stability": read_stability}
+
+Progress = Callable[[str], None] | None
+
+
+def _frf(problem: IdentifyProblem, method: StepwiseSelection, progress: Progress) -> Identification:
+    from .frf import identify_frf
+
+    assert isinstance(problem.measurement, FRFSet)
+    return identify_frf(problem.measurement, problem.model, alpha=method.alpha, max_effects=method.max_effects,
+                        progress=progress, poles=method.poles, effects=problem.effects)
+
+
+def _forces(problem: IdentifyProblem, method: ForwardSelection, progress: Progress) -> Identification:
+    from .forces import identify_forces
+
+    assert isinstance(problem.measurement, ForceSeries)
+    return identify_forces(problem.measurement, problem.model, alpha=method.alpha, max_effects=method.max_effects,
+                           progress=progress, effects=problem.effects)
+
+
+def _force_stats(problem: IdentifyProblem, method: AICcSelection, progress: Progress) -> Identification:
+    from .forces import identify_force_stats
+
+    assert isinstance(problem.measurement, ForceStatistics)
+    return identify_force_stats(problem.measurement, problem.model, max_effects=method.max_effects,
+                                progress=progress, effects=problem.effects)
+
+
+def _stability(problem: IdentifyProblem, method: StabilitySelection, progress: Progress) -> Identification:
+    from .force_stability import identify_stability
+
+    assert isinstance(problem.measurement, StabilityObservations)
+    return identify_stability(problem.measurement, problem.model, effects=problem.effects,
+                              max_effects=method.max_effects, progress=progress)
+
+
+#: measurement type -> (its method type, the pipeline ``(problem, method, progress) -> Identification``).
+PIPELINES: dict[type, tuple[type, Callable]] = {FRFSet: (StepwiseSelection, _frf),
+                                                ForceSeries: (ForwardSelection, _forces),
+                                                ForceStatistics: (AICcSelection, _force_stats),
+                                                StabilityObservations: (StabilitySelection, _stability)}
+
+
+def default_method(measurement, **fields) -> Method:
+    """The method of ``measurement``'s kind with ``fields`` set (BadInput for a field it does not have)."""
+    cls = PIPELINES[_measurement_type(measurement)][0]
+    unknown = sorted(set(fields) - set(cls.field_names()))
+    if unknown:
+        raise BadInput(f"{', '.join(unknown)}: not used with {measurement.kind} measurements ({cls.__name__}); "
+                       f"valid: {', '.join(cls.field_names())}")
+    return cls(**fields)
+
+
+def _measurement_type(measurement) -> type:
+    for t in PIPELINES:
+        if isinstance(measurement, t):
+            return t
+    raise BadInput(f"measurement: a {type(measurement).__name__}; valid: {', '.join(t.__name__ for t in PIPELINES)}")
+
 
 # a file that identifies its set's kind
 _MARKERS = {"poses.csv": "frf", "forces.csv": "forces", "cut.toml": "forces", "force_stats.toml": "force_stats",
             "stability.csv": "stability"}
-
-
-def _load(table, kind) -> Callable:
-    module, name = table[kind]
-    return getattr(importlib.import_module(module), name)
 
 
 def measurement_kind(path: str | Path) -> tuple[str, Path]:
@@ -73,10 +128,10 @@ def measurement_kind(path: str | Path) -> tuple[str, Path]:
     return kind, target
 
 
-def read_measurement(path: str | Path) -> Any:
+def read_measurement(path: str | Path) -> Measurement:
     """Read a measurement set of any kind (files are never modified)."""
     kind, target = measurement_kind(path)
-    return _load(READERS, kind)(target)
+    return READERS[kind](target)
 
 
 def model_state(measurement, case: str | None = None, variant: str | None = None) -> tuple[ModelState, list[str]]:
@@ -98,33 +153,52 @@ def model_state(measurement, case: str | None = None, variant: str | None = None
     return ModelState(case=load_case(ref), variant=var, case_ref=str(ref)), notes
 
 
-def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
-             progress: Callable[[str], None] | None = None, **options) -> Identification:
-    """Identify the effects ``model`` lacks from ``measurement`` (any kind).
+def identify(problem: IdentifyProblem, method: Method | None = None, *,
+             progress: Callable[[str], None] | None = None) -> Identification:
+    """Identify the effects ``problem.model`` lacks from ``problem.measurement`` (any kind).
 
     Parameters
     ----------
-    measurement : a measurement object from :func:`read_measurement` (``kind`` selects the pipeline)
-    model : ModelState
-    alpha : float
-        Family-wise false-positive rate of the selection over the library (default 1 %).
-    max_effects : int
-        At most this many effects are added (greedy).
-    options
-        Passed to the kind's pipeline (e.g. ``poles=False`` for FRF sets).
+    problem : IdentifyProblem
+        The measurement (its type selects the pipeline), the model, the candidate effects.
+    method : StepwiseSelection, ForwardSelection, AICcSelection or StabilitySelection, optional
+        The selection rule; default the measurement kind's with its default fields (:func:`default_method`).
+        A method of another kind is refused (BadInput).
+    progress : callable ``(message)``, optional
+
+    Returns
+    -------
+    Identification
+        Carries its problem and method (``result.problem``, ``result.method``).
+
+    Example: a method's fields are checked when it is made, before any work.
+
+    >>> StepwiseSelection(alpha=0.05, max_effects=2)
+    StepwiseSelection(alpha=0.05, max_effects=2, poles=True)
+    >>> StabilitySelection(max_effects=11)
+    Traceback (most recent call last):
+    ...
+    robolobes.core.errors.BadInput: StabilitySelection: max_effects = 11: must be an integer in 0..10 (each step fits every candidate)
+
+    Runs on each kind of measurement: ``tests/test_identify_api_shape.py``.
     """
-    if not 0 < alpha < 1:
-        raise BadInput(f"alpha = {alpha}: must be in (0, 1)")
-    if not 0 <= max_effects <= 10:
-        raise BadInput(f"max_effects = {max_effects}: must be in 0..10 (each step fits every candidate)")
-    kind = measurement.kind
-    if kind not in PIPELINES:
-        raise BadInput(f"measurement kind {kind!r}; valid: {', '.join(PIPELINES)}")
+    if not isinstance(problem, IdentifyProblem):
+        raise BadInput(f"problem: a {type(problem).__name__}; valid: an IdentifyProblem(measurement, model, effects)")
+    wanted, run = PIPELINES[_measurement_type(problem.measurement)]
+    method = wanted() if method is None else method
+    if not isinstance(method, wanted):
+        raise BadInput(f"method {type(method).__name__}: does not apply to a {problem.kind} measurement; valid: "
+                       f"{wanted.__name__}(...)")
     from threadpoolctl import threadpool_limits
 
     # the fits' matrices are small (a few thousand rows by a few columns, 7-20 DOF): threaded BLAS only
     # adds contention (a least-squares SVD took 30x the CPU with two threads on a loaded machine)
-    # (the pipeline is imported first: a BLAS loaded inside the context would keep its threads)
-    pipeline = _load(PIPELINES, kind)
+    # (the pipeline's modules are imported first: a BLAS loaded inside the context would keep its threads)
+    _import_pipelines()
     with threadpool_limits(1):
-        return pipeline(measurement, model, alpha=alpha, max_effects=max_effects, progress=progress, **options)
+        result = run(problem, method, progress)
+    return replace(result, problem=problem, method=method)
+
+
+def _import_pipelines() -> None:
+    from . import force_stability, forces, frf  # noqa: F401  (imported for their BLAS, see identify())

@@ -86,27 +86,52 @@ def check_measurement(measurement, state, case_given: bool) -> None:
 
 
 def _prepare(args):
-    """Every check before any work: ``(measurement, state, prov, report)``."""
-    from robolobes.core.errors import BadInput
+    """Every check before any work: ``(problem, method, prov, report)``."""
     from robolobes.core.io import provenance
     from robolobes.core.outdir import OutputDir, cli_inputs, user_path_errors
 
     from .api import model_state, read_measurement
+    from .problem import IdentifyProblem
 
     with user_path_errors(args.measured, "read"):  # pyuff wraps OSError and Ctrl-C in a bare Exception
         measurement = read_measurement(args.measured)
-    if args.effects and measurement.kind == "stability":
-        raise BadInput("--effects is not used with stability observations: both candidates (joint_damping, "
-                       "process_damping) are always tried; drop --effects")
+    method = _method(args, measurement)
     state, notes = model_state(measurement, args.case, args.variant)
     check_measurement(measurement, state, args.case is not None)
     for n in notes:
         print(f"robolobes identify: note: {n}", file=sys.stderr)
     state.robot()  # builds the model: bad [[elements]] fail here, before any work
+    effects = None
+    if args.effects:  # names -> the library's Effect objects (BadInput for a name the kind does not observe)
+        from .effects import effects_for
+        effects = effects_for(measurement.kind, state, [x.strip() for x in args.effects.split(",") if x.strip()])
+    problem = IdentifyProblem(measurement, state, effects=effects)
     inputs = cli_inputs(args, case=state.case, files=_measured_files(measurement.path),
                         drop=("run", "quiet", "json", "report", "validate"))
     report = OutputDir(args.report, "identify", inputs, name="--report") if args.report else None
-    return measurement, state, provenance(inputs), report
+    return problem, method, provenance(inputs), report
+
+
+#: The command line's --alpha default (the methods that use a significance level default to it too).
+ALPHA_DEFAULT = 0.01
+
+
+def _method(args, measurement):
+    """The measurement kind's method from the flags: ``--alpha`` other than its default is refused
+    where the method has no significance level (force statistics, stability observations)."""
+    from robolobes.core.errors import BadInput
+
+    from .api import default_method
+
+    fields: dict = {"max_effects": args.max_effects}
+    if measurement.kind in ("frf", "forces"):
+        fields["alpha"] = args.alpha
+    elif args.alpha != ALPHA_DEFAULT:
+        raise BadInput(f"--alpha {args.alpha:g}: not used with {measurement.kind} measurements (no significance "
+                       f"test: {'chosen by AICc' if measurement.kind == 'force_stats' else 'the fewest disagreeing observations'}); drop --alpha")
+    if measurement.kind == "frf":
+        fields["poles"] = not args.no_poles
+    return default_method(measurement, **fields)
 
 
 def validate_identify(args) -> None:
@@ -121,7 +146,8 @@ def run_identify_cli(args) -> int:
 
     from .api import identify
 
-    measurement, state, prov, report = _prepare(args)
+    problem, method, prov, report = _prepare(args)
+    measurement, state = problem.measurement, problem.model
     bar = Progress("identify", enabled=not args.quiet)
     steps = [0]
 
@@ -129,12 +155,7 @@ def run_identify_cli(args) -> int:
         steps[0] += 1
         bar(min(0.99, 1 - 1 / (1 + 0.02 * steps[0])), msg)
 
-    kw = {"poles": False} if args.no_poles and measurement.kind == "frf" else {}
-    if args.effects:  # names -> the library's Effect objects (BadInput for a name the kind does not observe)
-        from .effects import effects_for
-        names = [x.strip() for x in args.effects.split(",") if x.strip()]
-        kw["effects"] = effects_for(measurement.kind, state, names)
-    result = identify(measurement, state, alpha=args.alpha, max_effects=args.max_effects, progress=progress, **kw)
+    result = identify(problem, method, progress=progress)
     bar.done()
     out = {**result.to_json(), "provenance": prov}
     if report is not None and result.kind == "frf":
@@ -142,6 +163,7 @@ def run_identify_cli(args) -> int:
     elif report is not None:
         from .report import write_report
         with report:
+            assert report.path is not None  # set on entering the output directory
             write_report(report.path, result, report.provenance, teeth=state.case.tool.teeth)
     if args.json:
         print(json.dumps(to_jsonable(out), indent=2))
@@ -171,7 +193,7 @@ def _register_identify(sub) -> None:
     p.add_argument("--measured", required=True, help="the measurement set's directory or one of its files")
     p.add_argument("--case", default=None, help="case name or TOML (overrides the case named in the files)")
     p.add_argument("--variant", default=None, help="model variant: basic (default), gravity, orthogonal, backlash")
-    p.add_argument("--alpha", type=float, default=0.01,
+    p.add_argument("--alpha", type=float, default=ALPHA_DEFAULT,
                    help="family-wise false-positive rate of the selection over the library (default 0.01)")
     p.add_argument("--max-effects", type=int, default=3, help="at most this many effects (default 3)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")

@@ -54,8 +54,8 @@ import numpy as np
 from .effects import Effect, ModelState, Parameter, check_params, register
 
 __all__ = ["ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
-           "FORCE_EFFECTS", "chain_transfer", "process_damping_c", "ProcessDamping", "KSP_RANGE_N_PER_M3",
-           "FLANK_RANGE_M"]
+           "FORCE_EFFECTS", "chain_transfer", "process_damping_c", "DampingEffect", "JointDamping", "ProcessDamping",
+           "KSP_RANGE_N_PER_M3", "FLANK_RANGE_M", "JOINT_DAMPING_CREDIBLE"]
 
 
 class ForceEffect(Effect):
@@ -384,12 +384,14 @@ class Backlash(ForceEffect):
 
 
 #: The force-side library, in the order candidates are tried (registered in identify.effects.REGISTRY).
-FORCE_EFFECTS = tuple(register(e) for e in (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash()))
+FORCE_EFFECTS: tuple[ForceEffect, ...] = (EdgeCoefficients(), Runout(), Dynamometer(), Lowpass(), Backlash())
+for _e in FORCE_EFFECTS:
+    register(_e)
 
 
 def chain_transfer(chain: tuple):
     """The product of the transfer functions of a measurement chain ``((name, params), ...)``."""
-    by_name = {e.name: e for e in FORCE_EFFECTS if e.chain}
+    by_name = {e.name: e for e in FORCE_EFFECTS if isinstance(e, ChainEffect)}
     hs = [by_name[n].transfer(tuple(p[k] for k in by_name[n].params)) for n, p in chain]
 
     def h(f):
@@ -427,7 +429,70 @@ def _engaged_nn(tool, cut) -> np.ndarray:
     return tool.teeth / (2 * np.pi) * np.array([[ss, sc], [sc, cc]])
 
 
-class ProcessDamping(Effect):
+class DampingEffect(Effect):
+    """An effect stability observations can fit (:mod:`identify.force_stability`): one parameter
+    ``theta`` (more damping = larger ``theta``) that enters only the damping, linearly,
+    ``C(theta) = C_a + theta C_b`` at each observation's pose, speed and depth.
+
+    Subclasses set ``verdict_key`` (the key of an observation's critical value in the result's
+    ``verdicts_before``) and implement :meth:`damping_line`.
+    """
+
+    verdict_key: str = ""
+
+    def damping_line(self, state: ModelState, theta_rad, s1, tool, cut) -> tuple:
+        """``(C_a, C_b)`` (n, n) N s/m (generalized): the damping at ``theta = 0`` and per unit ``theta``.
+
+        ``state``: the model (its case the observation's); ``theta_rad`` (n_joints,) the pose; ``s1``
+        the :class:`lobes.PhysicalStructure` there; ``tool``, ``cut`` the observation's (speed, depth)."""
+        raise NotImplementedError(f"effect {self.name}: a DampingEffect implements damping_line()")
+
+
+#: Joint-damping scales within this factor of 1 are credible: the paper's damping values come from
+#: a guess (eq. 8), usually off by a factor of a few; a servo loop adds damping, not tenfold on every axis.
+JOINT_DAMPING_CREDIBLE = 3.0
+
+
+class JointDamping(DampingEffect):
+    """A scale on every motion-axis damper of the robot (the paper's eq. 8 damping is a guess).
+
+    ``C(s) = C_other + s C_joints``: ``C_joints`` is the motion-axis dampers' share of the
+    linearized damping, taken from a second linearization at damping scale 2 (``C_2 - C_1``), so it
+    is exact for dampers linear in the scale. In a case TOML it is one ``joint_correction`` element
+    per joint with ``damping_scale = s`` (:meth:`apply`); :meth:`table` is the effect's own record.
+    Bounds [0.2, 50]: a fit on the upper bound says no credible joint damping explains the data.
+    """
+
+    name = "joint_damping"
+    stage = "element"
+    parameters = (Parameter("scale", 0.2, 50.0, neutral=1.0, log=True,
+                            doc="factor on every motion-axis damper (eq. 8 of the paper)",
+                            plausible=(1 / JOINT_DAMPING_CREDIBLE, JOINT_DAMPING_CREDIBLE)),)
+    observed_by = {"stability": "an observation whose margin to the lobes' limit the scaled damping closes"}
+    signatures = ("stability_shift",)
+    doc = "joint damping: a scale on every motion-axis damper (stability observations)"
+    verdict_key = "critical_joint_damping_scale"
+
+    def damping_line(self, state, theta_rad, s1, tool, cut) -> tuple:
+        from robolobes.linearize import linearize
+        from robolobes.lobes import PhysicalStructure
+
+        s2 = PhysicalStructure.from_linear(linearize(state.robot(damping_scale=2.0), theta_rad),
+                                           state.case.cut.feed_direction)
+        c_joint = np.asarray(s2.C) - np.asarray(s1.C)
+        return np.asarray(s1.C) - c_joint, c_joint
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with ``damping_scale = scale`` on every joint (``joint_correction`` elements)."""
+        from robolobes.cases.spec import ElementSpec
+
+        s = check_params(self, params)["scale"]
+        for j in range(1, model.case.robot.n_joints + 1):
+            model = model.with_element(ElementSpec(type="joint_correction", params={"joint": j, "damping_scale": s}))
+        return model
+
+
+class ProcessDamping(DampingEffect):
     """Process damping: the flank of each engaged tooth indents the wavy surface it cuts.
 
     Law (Altintas, Eynian & Onozuka 2008; Budak & Tunc 2010): a tooth whose flank of length ``L``
@@ -459,6 +524,7 @@ class ProcessDamping(Effect):
                                 "(see ProcessDamping.detection_threshold)"}
     signatures = ("stability_shift",)
     doc = "process damping: flank indentation, c = Ksp L^2 b / (2 V) per engaged tooth, averaged in the cut plane"
+    verdict_key = "critical_ksp_l2_n_per_m"
 
     @staticmethod
     def speed_m_per_s(tool, cut) -> float:
@@ -471,7 +537,15 @@ class ProcessDamping(Effect):
         return c * _engaged_nn(tool, cut)
 
     def table(self, params) -> dict:
-        raise NotImplementedError("process_damping depends on the cut: use element_table(ksp_l2, tool, cut, feed_direction)")
+        """The effect's TOML table ``{"type": "process_damping", "ksp_l2_n_per_m": ...}``, as the other
+        cutting-law effects write theirs (read back with :meth:`Effect.from_table`). The damper it
+        puts into a case depends on the cut (depth, speed): :meth:`element_table` gives that
+        ``tip_damper`` table, and :meth:`apply` adds it for the model's own cut."""
+        return {"type": self.name, "ksp_l2_n_per_m": check_params(self, params)["ksp_l2_n_per_m"]}
+
+    def damping_line(self, state, theta_rad, s1, tool, cut) -> tuple:
+        t2 = np.asarray(s1.tcp)[:2]
+        return np.asarray(s1.C), t2.T @ self.matrix_cut(1.0, tool, cut) @ t2
 
     def element_table(self, ksp_l2_n_per_m: float, tool, cut, feed_direction) -> dict:
         """The ``[[elements]]`` table (``tip_damper``) of the damper for this cut."""
@@ -490,7 +564,8 @@ class ProcessDamping(Effect):
 
     def flank_m(self, ksp_l2_n_per_m: float) -> tuple[float, float]:
         """Flank contact ``L`` (m) the value needs at ``Ksp`` = the upper and the lower end of its range."""
-        return tuple(math.sqrt(ksp_l2_n_per_m / k) for k in KSP_RANGE_N_PER_M3[::-1])
+        hi, lo = KSP_RANGE_N_PER_M3[1], KSP_RANGE_N_PER_M3[0]
+        return math.sqrt(ksp_l2_n_per_m / hi), math.sqrt(ksp_l2_n_per_m / lo)
 
     def detection_threshold(self, structure, tool, cut, fraction: float = 0.3) -> float:
         """``Ksp L^2`` (N/m) whose damper adds ``fraction`` of the structure's own damping to its
@@ -515,4 +590,5 @@ class ProcessDamping(Effect):
         return fraction * own / per_unit
 
 
+register(JointDamping())
 register(ProcessDamping())

@@ -194,6 +194,14 @@ class Effect:
         """The TOML table (with ``type``) that adds the effect to a case/robot file."""
         return {"type": self.name, **{k: float(v) for k, v in params.items()}}
 
+    def from_table(self, table: Mapping[str, Any]) -> dict:
+        """The parameters of a table written by :meth:`table` (its ``type`` this effect's name);
+        BadInput for another type, a missing, unknown or out-of-bounds parameter."""
+        t = dict(table)
+        if t.pop("type", None) != self.name:
+            raise BadInput(f"effect table of type {table.get('type')!r}; valid: {self.name!r}")
+        return check_params(self, t)
+
     # -- helpers -------------------------------------------------------------------------------
     @property
     def names(self) -> tuple[str, ...]:

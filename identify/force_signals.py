@@ -215,7 +215,7 @@ def spectrum_lines(avg: np.ndarray, teeth: int, *, axes=(0, 1)) -> dict:
     rev = (k > 0) & (k % teeth != 0)
     high = k > 5 * teeth
     return {
-        "mean_n": spec[0, ax].real.tolist(),
+        "mean_n": np.real(spec[0, ax]).tolist(),
         "tooth_harmonics_n": [amp[teeth * i, ax].tolist() for i in range(1, 6) if teeth * i < len(k)],
         "once_per_rev_rms_n": float(np.sqrt(np.sum(amp[rev][:, ax] ** 2) / 2)),
         "tooth_rms_n": float(np.sqrt(np.sum(amp[tooth][:, ax] ** 2) / 2)),

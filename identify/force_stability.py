@@ -1,15 +1,18 @@
 """Stability observations: which effect, with which value, makes the lobes agree with observed cuts.
 
-Candidates (each one parameter ``theta``, more damping = larger ``theta``):
+Candidates: the :class:`identify.cutting_effects.DampingEffect` s of the effect library
+(:data:`identify.effects.REGISTRY`), each one parameter ``theta``, more damping = larger ``theta``:
 
-* ``joint_damping``: a scale on every motion-axis damper, bounds [0.2, 50] (the paper's damping
-  values come from a guess, eq. 8, so they are the first suspect);
+* ``joint_damping`` (:class:`identify.cutting_effects.JointDamping`): a scale on every motion-axis
+  damper, bounds [0.2, 50] (the paper's damping values come from a guess, eq. 8, so they are the
+  first suspect);
 * ``process_damping``: flank indentation, parameter ``Ksp L^2`` in [0, 9e6] N/m
   (:class:`identify.cutting_effects.ProcessDamping`): per observation a tool-tip damper in the cut
   plane ``Cc = Ksp L^2 b / (2 V) * (N / 2 pi) int n n^T dphi``, so it weakens as ``1 / V`` and
   grows with the depth ``b``.
 
-**Pipeline** (fast: seconds per observation). Each observation's pose is linearized once; the
+**Pipeline** (fast: seconds per observation; the observation model, critical values and verdicts
+are in :mod:`identify.stability_model`, the fit and the evidence here). Each observation's pose is linearized once; the
 candidate enters only the damping, ``C(theta) = C_a + theta C_b`` (joint damping: ``C_b`` is the
 motion-axis dampers, from a second linearization at scale 2; process damping: ``C_b = tcp^T Cc tcp``
 per unit ``Ksp L^2``). The verdict at one (speed, depth, theta) is one SDM monodromy: stable when
@@ -30,7 +33,8 @@ exactly over those breakpoints. The value reported is inside the minimizing inte
 neutral value (the smallest change that explains the data): just past its edge when the interval
 runs to the bound, its geometric centre when observations bound it on both sides (the interval is
 reported as ``consistent_interval``). An effect is reported only if it makes strictly fewer
-observations disagree; candidates are ranked by their error after, then by credibility.
+observations disagree; candidates are ranked by their error after, then by credibility, and at
+most ``max_effects`` are reported (the first is written into the model).
 
 Binary observations hold no noise estimate and no held-out part: the error is the training
 misclassification (``noise_floor`` 0). Ratio before/after for binary data (tests): misclassified
@@ -40,167 +44,23 @@ counts with +1 smoothing, ``(wrong_before + 1) / (wrong_after + 1)``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from robolobes.cases import load_case
 from robolobes.core.errors import BadInput
-from robolobes.core.verdict import Verdict
 
-from .cutting_effects import FLANK_RANGE_M, KSP_RANGE_N_PER_M3, ProcessDamping, process_damping_c
+from .cutting_effects import FLANK_RANGE_M, KSP_RANGE_N_PER_M3, DampingEffect, ProcessDamping, process_damping_c
+from .effects import REGISTRY
 from .force_data import StabilityObservations
-from .result import EffectFit, Identification, SelectionStep
+from .result import EffectFit, Evidence, Identification, SelectionStep
+from .stability_model import (CANDIDATES, M_BOUND, M_VERDICT, SCALE_CREDIBLE, XTOL_LOG, Candidate, ObservationModel,
+                              Threshold, critical_value, stability_effects, threshold, value_verdict, wavelength_m)
 
 __all__ = ["identify_stability", "verdict_at", "wavelength_m", "KSP_RANGE_N_PER_M3", "FLANK_RANGE_M", "Candidate",
            "CANDIDATES", "ObservationModel", "Threshold", "critical_value", "threshold", "value_verdict",
-           "M_VERDICT", "M_BOUND"]
-
-#: SDM steps per period of the verdict, and of the coarser level that bounds its error.
-M_VERDICT = 40
-M_BOUND = 20
-#: Relative tolerance of each critical value (Brent on log theta), far below the m = 40 bound.
-XTOL_LOG = 2e-3
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """One candidate effect of stability observations: its parameter, bounds and neutral value."""
-
-    name: str
-    param: str
-    lower: float
-    upper: float
-    neutral: float
-
-
-CANDIDATES = (Candidate("joint_damping", "scale", 0.2, 50.0, 1.0),
-              Candidate("process_damping", "ksp_l2_n_per_m", 0.0, ProcessDamping.parameters[0].upper, 0.0))
-SCALE_CREDIBLE = 3.0
-
-
-def wavelength_m(speed_m_per_s: float, freq_hz: float) -> float:
-    """Wavelength ``V / f`` of a surface wave cut at speed V (m/s) and vibration frequency f (Hz), m."""
-    return speed_m_per_s / freq_hz
-
-
-def _pose(case, obs) -> np.ndarray:
-    from robolobes.linearize.path import Pass
-
-    if obs.q_rad is not None:
-        return np.asarray(obs.q_rad, float)
-    pas = Pass.from_case(case)
-    return np.asarray(pas.theta_at_s(obs.path_s_m), float)
-
-
-@dataclass(frozen=True, eq=False)
-class ObservationModel:
-    """One observation linearized once: the lobe problem at its speed and depth and, per candidate,
-    the damping line ``C(theta) = C_a + theta C_b`` (``lines[name] = (C_a, C_b)``, (n, n) SI)."""
-
-    obs: object
-    case: object
-    problem: object  # lobes.LobeProblem at theta = neutral
-    lines: dict
-
-    @classmethod
-    def build(cls, state, case, obs) -> "ObservationModel":
-        """Linearize ``state``'s robot (for ``case``) at the observation's pose, at damping scales 1 and 2."""
-        from robolobes.linearize import linearize
-        from robolobes.lobes import LobeProblem, PhysicalStructure
-
-        st = replace(state, case=case)
-        theta = _pose(case, obs)
-        s1 = PhysicalStructure.from_linear(linearize(st.robot(), theta), case.cut.feed_direction)
-        s2 = PhysicalStructure.from_linear(linearize(st.robot(damping_scale=2.0), theta), case.cut.feed_direction)
-        c_joint = np.asarray(s2.C) - np.asarray(s1.C)
-        cut = replace(case.cut, spindle_rpm=obs.rpm, ap_m=obs.depth_m)
-        t2 = np.asarray(s1.tcp)[:2]
-        c_pd = t2.T @ ProcessDamping().matrix_cut(1.0, case.tool, cut) @ t2
-        C1 = np.asarray(s1.C)
-        return cls(obs=obs, case=case, problem=LobeProblem(s1, case.tool, cut, case.law),
-                   lines={"joint_damping": (C1 - c_joint, c_joint), "process_damping": (C1, c_pd)})
-
-    def structure(self, name: str, value: float):
-        from robolobes.lobes import PhysicalStructure
-
-        s = self.problem.structure
-        ca, cb = self.lines[name]
-        return PhysicalStructure(s.M, ca + value * cb, s.K, s.tcp)
-
-    def engine(self, name: str, value: float, m: int):
-        from robolobes.lobes.sdm import SDMEngine, SemiDiscretization
-
-        prob = replace(self.problem, structure=self.structure(name, value))
-        return SDMEngine(prob, SemiDiscretization(m=m), 1.01 * self.obs.depth_m)
-
-    def radius(self, name: str, value: float, m: int = M_VERDICT) -> float:
-        """Spectral radius of the SDM monodromy (``m`` steps) at the observation's speed and depth."""
-        eng = self.engine(name, value, m)
-        return float(eng.multipliers(np.array([self.obs.rpm]), np.array([self.obs.depth_m]))[0][0])
-
-    def chatter_hz(self, name: str, value: float, m: int = M_VERDICT) -> float:
-        """Frequency of the critical Floquet solution at the operating point, Hz."""
-        eng = self.engine(name, value, m)
-        return float(eng.critical(np.array([self.obs.rpm]), np.array([self.obs.depth_m]))[2][0])
-
-
-def critical_value(om: ObservationModel, cand: Candidate, m: int = M_VERDICT) -> float:
-    """``theta*`` (m-step SDM): the radius is 1 there, below 1 above it. ``-inf`` when stable at the
-    lower bound, ``+inf`` when unstable at the upper bound."""
-    from scipy.optimize import brentq
-
-    g = lambda v: om.radius(cand.name, v, m) - 1.0
-    if g(cand.neutral) < 0:
-        lo_v = cand.lower if cand.lower > 0 else None
-        if lo_v is None or g(lo_v) < 0:
-            return -math.inf
-        a, b = math.log(lo_v), math.log(cand.neutral)
-    else:
-        if g(cand.upper) >= 0:
-            return math.inf
-        lo_v = cand.neutral if cand.neutral > 0 else cand.upper * 1e-6
-        if cand.neutral == 0 and g(lo_v) < 0:  # crossing below 1e-6 of the range: negligible
-            return lo_v
-        a, b = math.log(lo_v), math.log(cand.upper)
-    return math.exp(brentq(lambda u: g(math.exp(u)), a, b, xtol=XTOL_LOG))
-
-
-@dataclass(frozen=True)
-class Threshold:
-    """Critical value of one observation for one candidate, at m = 40 with its bound (module doc)."""
-
-    value: float
-    bound: float
-    coarse: float
-
-    @property
-    def band(self) -> tuple[float, float]:
-        if math.isinf(self.value) and self.value == self.coarse:
-            return self.value, self.value
-        if not (math.isfinite(self.value) and math.isfinite(self.coarse)):
-            return min(self.value, self.coarse), max(self.value, self.coarse)
-        return self.value - self.bound, self.value + self.bound
-
-
-def threshold(om: ObservationModel, cand: Candidate) -> Threshold:
-    v40 = critical_value(om, cand, M_VERDICT)
-    v20 = critical_value(om, cand, M_BOUND)
-    bound = abs(v40 - v20) if math.isfinite(v40) and math.isfinite(v20) else math.inf
-    return Threshold(v40, bound, v20)
-
-
-def value_verdict(value: float, thr: Threshold) -> Verdict:
-    """The decision rule (module doc) at parameter ``value`` for an observation's threshold."""
-    lo, hi = thr.band
-    if value > hi:
-        return Verdict("stable", f"value {value:.5g} above the critical {thr.value:.5g} + {thr.bound:.3g} "
-                                 f"(SDM m = {M_VERDICT}, bound |m {M_VERDICT} - m {M_BOUND}|)")
-    if value < lo:
-        return Verdict("unstable", f"value {value:.5g} below the critical {thr.value:.5g} - {thr.bound:.3g} "
-                                   f"(SDM m = {M_VERDICT}, bound |m {M_VERDICT} - m {M_BOUND}|)")
-    return Verdict("undetermined", f"value {value:.5g} within the bound of the critical {thr.value:.5g} +- "
-                                   f"{thr.bound:.3g} (SDM m = {M_VERDICT}/{M_BOUND})")
+           "M_VERDICT", "M_BOUND", "stability_effects"]
 
 
 def _wrong(value: float, thresholds, chatter) -> int:
@@ -251,7 +111,7 @@ def verdict_at(state, case, obs, *, damping_scale: float = 1.0, ksp_l2_n_per_m: 
     """The m-step SDM verdict of one observation (``|mu| < 1``: stable) with a joint-damping scale and
     a process damping ``Ksp L^2`` (N/m); ``state``: :class:`identify.effects.ModelState`."""
     om = ObservationModel.build(state, case, obs)
-    s = om.problem.structure
+    s = om.physical
     C = np.asarray(s.C) + (damping_scale - 1.0) * om.lines["joint_damping"][1] + ksp_l2_n_per_m * om.lines["process_damping"][1]
     from robolobes.lobes import PhysicalStructure
     from robolobes.lobes.sdm import SDMEngine, SemiDiscretization
@@ -310,28 +170,40 @@ def _jd_evidence(fit: dict) -> dict:
 
 
 def _model_toml(state, fit: EffectFit) -> str:
-    """The case TOML with the best effect: joint damping as a ``joint_correction`` damping scale on every
-    motion axis; process damping as the ``tip_damper`` of the case's own cut (it depends on depth and
-    speed, so the file holds the damper of that cut only)."""
-    from robolobes.cases.spec import ElementSpec
-
+    """The case TOML with the best effect (its :meth:`Effect.apply`): joint damping as a
+    ``joint_correction`` damping scale on every motion axis; process damping as the ``tip_damper`` of
+    the case's own cut (it depends on depth and speed, so the file holds the damper of that cut only)."""
     from .model_toml import model_toml
 
-    if fit.name == "joint_damping":
-        s = float(fit.params["scale"])
-        for j in range(1, state.case.robot.n_joints + 1):
-            state = state.with_element(ElementSpec(type="joint_correction", params={"joint": j, "damping_scale": s}))
-    else:
-        state = ProcessDamping().apply(state, fit.params)
-    return model_toml(state)
+    return model_toml(REGISTRY[fit.name].apply(state, fit.params))
 
 
-def identify_stability(obs: StabilityObservations, state, *, progress=None) -> Identification:
+def _evidence(c: Candidate, f: dict, models) -> dict:
+    if c.name == "joint_damping":
+        return _jd_evidence(f)
+    if c.name == "process_damping":
+        return _pd_evidence(f, models)
+    from .evidence import credibility
+
+    ok, why = credibility(REGISTRY[c.name], {c.param: f["value"]})
+    return {"credible": bool(ok), "why": "; ".join(why) or f"{c.param} = {f['value']:.5g} inside its physical range"}
+
+
+def identify_stability(obs: StabilityObservations, state, *, effects=None, max_effects: int = 3,
+                       progress=None) -> Identification:
     """Which candidate (joint-damping scale, process damping ``Ksp L^2``) reconciles the observations.
 
     ``state`` is the model (:class:`identify.effects.ModelState`); rows whose case is the model's use
     its case (``--case`` overrides the measurement's, see :func:`identify.api.model_state`), other
-    rows load theirs."""
+    rows load theirs. ``effects``: the candidate damping effects (default :func:`stability_effects`;
+    BadInput for one that is not a :class:`DampingEffect`); ``max_effects``: at most this many
+    effects are reported, best first (0: none)."""
+    chosen = stability_effects(state) if effects is None else list(effects)
+    bad = [getattr(e, "name", repr(e)) for e in chosen if not isinstance(e, DampingEffect)]
+    if bad or not chosen:
+        raise BadInput(f"effects {', '.join(bad) or '(none)'}: stability observations fit damping effects (one "
+                       f"parameter entering the damping); valid: {', '.join(e.name for e in stability_effects())}")
+    cands = [Candidate.of(e) for e in chosen]
     cases_ = _cases(obs, state)
     models = []
     for o in obs.rows:
@@ -339,24 +211,25 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
     chatter = [o.chatter for o in obs.rows]
     n = len(obs.rows)
     thr = {}
-    for c in CANDIDATES:
+    for c in cands:
         thr[c.name] = []
         for i, om in enumerate(models):
             if progress is not None:
                 progress(f"{c.name}: observation {i + 1}/{n}")
             thr[c.name].append(threshold(om, c))
-    before = [value_verdict(CANDIDATES[0].neutral, t) for t in thr["joint_damping"]]
-    wrong0 = _wrong(CANDIDATES[0].neutral, thr["joint_damping"], chatter)
+    ref = cands[0]  # the model before: every candidate at its neutral value is the unchanged model
+    before = [value_verdict(ref.neutral, t) for t in thr[ref.name]]
+    wrong0 = _wrong(ref.neutral, thr[ref.name], chatter)
     err0 = wrong0 / n
     chatter_hz = next((models[i].chatter_hz("joint_damping", 1.0) for i, v in enumerate(before)
                        if v.status != "stable"), None)
     fits, cand_err = [], {}
-    for c in CANDIDATES:
+    for c in cands:
         f = _fit(c, thr[c.name], chatter)
         cand_err[c.name] = f["wrong"] / n
         if f["wrong"] >= wrong0:
             continue
-        ev = _jd_evidence(f) if c.name == "joint_damping" else _pd_evidence(f, models)
+        ev = _evidence(c, f, models)
         lo, hi = f["interval"]
         ev.update(rule="smallest change from neutral inside the interval of values with the fewest disagreeing "
                        "observations (SDM m = 40 verdict, bound |m 40 - m 20|)",
@@ -367,18 +240,19 @@ def identify_stability(obs: StabilityObservations, state, *, progress=None) -> I
         fits.append(EffectFit(c.name, {c.param: f["value"]}, {c.param: half}, ev))
     fits.sort(key=lambda f: (f.evidence["wrong_after"], not f.evidence["credible"], f.name))
     if len(fits) > 1 and fits[0].evidence["wrong_after"] == fits[1].evidence["wrong_after"]:
-        for f in fits:
-            f.evidence["tied"] = True
+        fits = [replace(f, evidence=Evidence.of(f.evidence, tied=True)) for f in fits]
+    fits = fits[:max_effects]
     err_after = fits[0].evidence["wrong_after"] / n if fits else err0
     steps = (SelectionStep(candidates=cand_err, kept=fits[0].name if fits else None, error_before=err0,
                            error_after=err_after, statistic=float(wrong0 - (fits[0].evidence["wrong_after"] if fits
                                                                             else wrong0)), threshold=1.0),)
     model = _model_toml(state, fits[0]) if fits else ""
+    keys = {e.name: e.verdict_key or f"critical_{e.name}" for e in chosen if isinstance(e, DampingEffect)}
     vb = [{"rpm": obs.rows[i].rpm, "depth_mm": obs.rows[i].depth_m * 1e3,
            "observed": "chatter" if obs.rows[i].chatter else "stable",
            "verdict": v.status, "stable": v.stable, "verdict_reason": v.reason,
-           "critical_joint_damping_scale": thr["joint_damping"][i].value,
-           "critical_ksp_l2_n_per_m": thr["process_damping"][i].value} for i, v in enumerate(before)]
+           **{keys[c.name]: thr[c.name][i].value for c in cands}}
+          for i, v in enumerate(before)]
     return Identification(kind="stability", effects=tuple(fits), error_before=err0, error_after=err_after,
                           metric="fraction of the observations whose lobe verdict (SDM m = 40, bound |m 40 - m 20| on "
                                  "the critical value; undetermined = not stable) disagrees with the observed one "

@@ -32,7 +32,7 @@ freedom ``n - k`` are reported.
 
 ``stability`` (observed stable / chatter cuts)
 ----------------------------------------------
-See :func:`identify_stability`: the joint-damping scale (and the process damping it would take)
+See :func:`identify.force_stability.identify_stability`: the joint-damping scale (and the process damping it would take)
 that makes the lobes' verdict agree with every observation.
 """
 
@@ -46,7 +46,7 @@ import numpy as np
 
 from robolobes.core.errors import BadInput
 
-from .cutting_effects import FORCE_EFFECTS, chain_transfer
+from .cutting_effects import FORCE_EFFECTS, ForceEffect, chain_transfer
 from .effects import SIGNATURES, ModelState, effects_for
 from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
 from .force_model import revolution_averages, simulate_forces, with_spindle_hz
@@ -56,10 +56,11 @@ from .model_toml import model_toml
 from .result import EffectFit, Identification
 from .evidence import accept, credibility, determined
 from .selection import Trial, forward_select
-from .signatures import annotate, force_signatures
+from .ranking import annotate
+from .signatures import force_signatures
 
 __all__ = ["read_forces", "read_force_stats", "read_stability", "identify_forces", "identify_force_stats",
-           "identify_stability", "ForceContext", "check_window", "aicc"]
+           "ForceContext", "check_window", "aicc"]
 
 read_forces = read_force_set
 
@@ -170,6 +171,7 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
                                              np.append(np.ones(len(lo)), shift0 + 0.5)), x_scale="jac")
         if best is None or r.cost < best.cost:
             best = r
+    assert best is not None, effect.name  # starts_for gives at least one start
     x = best.x
     v = lo + x[:-1] * scale
     n, p = best.fun.size, x.size
@@ -379,6 +381,7 @@ def _fit_stats(ctx, combo, state, target):
         r = least_squares(lambda x: model(x) - target, x0, bounds=(0, 1), diff_step=1e-4)
         if best is None or r.cost < best.cost:
             best = r
+    assert best is not None  # at least one start
     v = lo + best.x * scale
     out, k = [], 0
     for n in sizes:
@@ -409,7 +412,8 @@ def identify_force_stats(measurement: ForceStatistics, model: ModelState, *, alp
     the combinations tried."""
     stats, case, state = measurement, model.case, model
     check_window(stats.path, stats.window_s, case)
-    lib = [e for e in (effects if effects is not None else effects_for("force_stats", state)) if hasattr(e, "family")]
+    lib = [e for e in (effects if effects is not None else effects_for("force_stats", state))
+           if isinstance(e, ForceEffect)]
     ctx = _StatsContext(stats, case)
     target = stats.workpiece
     base = _stats_of(ctx.averages(state)[0])
@@ -453,11 +457,3 @@ def identify_force_stats(measurement: ForceStatistics, model: ModelState, *, alp
                           metric="RMS over the 8 statistics (x, y min, max, mean, rms) of model - measured, N "
                                  "(training fit: statistics-only data have no held-out part; chosen by AICc)",
                           noise_floor=float("nan"), steps=(), model_toml=model_toml(final), extra=extra)
-
-
-def identify_stability(measurement, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3, progress=None,
-                       **_) -> Identification:
-    """Stability observations: see :mod:`identify.force_stability`."""
-    from .force_stability import identify_stability as run
-
-    return run(measurement, model, progress=progress)

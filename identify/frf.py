@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy.ndimage import median_filter, uniform_filter1d
@@ -245,6 +245,7 @@ def fit(poses: list[PoseData], fixed: list, effects: list, starts: list[list[dic
                             x_scale=np.maximum(span, 1e-12) / 10, method="trf", max_nfev=25 * (len(x0) + 1))
         if best is None or res.cost < best.cost:
             best = res
+    assert best is not None  # at least one start
     chi2 = 2 * best.cost
     Jm = best.jac
     dof = max(1, len(best.fun) - len(best.x))
@@ -571,7 +572,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
                          metric=METRIC, noise_floor=floor, steps=sel.steps, model_toml=model_toml(state), extra=extra,
                          unexplained=verdict)
     from .modal import _model_modes
-    from .signatures import annotate, frf_pose_residual, frf_signatures
+    from .frf_signatures import frf_pose_residual, frf_signatures
+    from .ranking import annotate
     detected = frf_signatures([frf_pose_residual(pd, predict(pd, []), _model_modes(pd, [])) for pd in poses],
                               alpha=alpha)
     return annotate(res, detected, candidates)
@@ -623,9 +625,10 @@ def _shared(eff, params: dict, block: np.ndarray, alternatives: list) -> list:
                  == getattr(eff, "joint", -1) and hasattr(REGISTRY[a["name"]], "static_stiffness_scale")]
     if not same_axis:
         return []
+    scaled: dict[str, Any] = {a["name"]: REGISTRY[a["name"]] for a in same_axis}  # each has static_stiffness_scale
     return [{"quantity": f"axis {eff.joint} static stiffness / joint table's", "value": value, "sd": float(sd),
              "indistinguishable_from": [{"name": a["name"],
-                                         "value": REGISTRY[a["name"]].static_stiffness_scale(a["params"])}
+                                         "value": scaled[a["name"]].static_stiffness_scale(a["params"])}
                                         for a in same_axis],
              "meaning": "below the rotor resonance a joint's stiffness and its servo's gain act in series and the "
                         "FRFs cannot tell them apart; only this combination is determined"}]
@@ -674,7 +677,7 @@ def _unexplained(poses: list[PoseData], residual: np.ndarray, sigma: np.ndarray,
         v.sort(key=lambda x: -x["ratio_to_noise"])
     if out["unexplained"]:
         from .modal import _model_modes
-        from .signatures import frf_pose_residual, frf_signatures
+        from .frf_signatures import frf_pose_residual, frf_signatures
         det = frf_signatures([frf_pose_residual(pd, predict(pd, final), _model_modes(pd, final)) for pd in poses],
                              alpha=alpha)
         where["signatures"] = [k for k, v in det.items() if v.present]

@@ -53,7 +53,7 @@ def pose_poles(pd, approx_hz) -> tuple[np.ndarray, np.ndarray] | None:
         warnings.simplefilter("ignore")
         m = EMA.Model(frf=frf, freq=f, lower=lo, upper=hi, pol_order_high=POLE_ORDER, frf_form="receptance")
         m.get_poles("lscf", show_progress=False)
-        m.select_closest_poles(list(approx), f_window=max(2.0, 0.1 * min(approx)))
+        m.select_closest_poles(list(approx), f_window=max(2.0, 0.1 * min(approx)))  # type: ignore[arg-type]  # sdypy types f_window int; it is a band in Hz, a float
         m.get_constants(method="lsfd")
     return np.asarray(m.nat_freq, dtype=float), np.asarray(m.nat_xi, dtype=float)
 
@@ -78,7 +78,7 @@ def compare_poles(poses, models: dict, extra_hz: float | None = None) -> dict:
     measured poles with no model pole within 5 %, and per mode the mean and spread of the shift over
     the poses (JSON-ready).
     """
-    out = {label: {"per_pose": {}, "shifts": {}} for label in models}
+    out: dict[str, dict] = {label: {"per_pose": {}, "shifts": {}} for label in models}
     shifts = {label: {} for label in models}
     for pd in poses:
         modal = {label: _model_modes(pd, eff) for label, eff in models.items()}

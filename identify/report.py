@@ -76,7 +76,7 @@ def _summary_lines(title: str, result, provenance: dict) -> list[str]:
     else:
         lines += ["No effect lowers the held-out error significantly: the model explains the data "
                   "within its noise (`effects: []`).", ""]
-    from .signatures import diagnosis_markdown
+    from .ranking import diagnosis_markdown
     lines += diagnosis_markdown(result.extra)
     lines += ["## Selection steps", "", "| step | action | kept | removed | z | threshold | error before | error after |",
               "|---|---|---|---|---|---|---|---|"]

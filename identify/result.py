@@ -1,6 +1,6 @@
 """Typed results of identification (shared by the FRF and the force pipelines).
 
-``identify(measurement, model, ...)`` returns an :class:`Identification`; the command line writes
+``identify(problem, method)`` returns an :class:`Identification`; the command line writes
 ``Identification.to_json()``. Errors are relative (dimensionless) and always held out: computed on
 data the fit did not see (leave-one-pose-out for FRF sets, held-out blocks of revolutions for
 force series); statistics-only data (8 numbers) have no held-out part and report AICc instead.
@@ -8,9 +8,60 @@ force series); statistics-only data (8 numbers) have no held-out part and report
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
-__all__ = ["EffectFit", "SelectionStep", "Identification"]
+__all__ = ["Evidence", "EffectFit", "SelectionStep", "Identification"]
+
+
+@dataclass(frozen=True, eq=False)
+class Evidence(Mapping):
+    """Why an effect was chosen: a read-only mapping, frozen at construction, in the order written.
+
+    Keys by pipeline (values JSON-ready): FRF sets and force series (:mod:`identify.selection`)
+    ``heldout_error_with``, ``heldout_error_without``, ``z``, ``z_threshold``, ``alternatives``,
+    ``signature``...; force statistics ``aicc``, ``aicc_without``, ``dof``, ``rss_n2``; stability
+    observations ``credible``, ``why``, ``consistent_interval``, ``wrong_before``, ``wrong_after``,
+    ``thresholds`` (and ``tied`` when two candidates explain as many observations). A changed copy
+    is made with :meth:`with_entries`; the object itself never changes.
+
+    Attributes
+    ----------
+    entries : tuple of (str, value) pairs
+    """
+
+    entries: tuple = ()
+
+    def __post_init__(self) -> None:
+        keys = [k for k, _ in self.entries]
+        if len(set(keys)) != len(keys) or not all(isinstance(k, str) for k in keys):
+            raise ValueError(f"evidence keys must be distinct strings, got {keys}")
+
+    @classmethod
+    def of(cls, mapping: Mapping | None = None, **entries) -> "Evidence":
+        """Evidence from a mapping (and keywords, which replace its keys)."""
+        merged = {**dict(mapping or {}), **entries}
+        return cls(tuple(merged.items()))
+
+    def with_entries(self, **entries) -> "Evidence":
+        """A copy with ``entries`` added or replaced (this evidence is not changed)."""
+        return Evidence.of(self, **entries)
+
+    def __getitem__(self, key: str) -> Any:
+        for k, v in self.entries:
+            if k == key:
+                return v
+        raise KeyError(key)
+
+    def __iter__(self) -> Iterator[str]:
+        return (k for k, _ in self.entries)
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def to_json(self) -> dict:
+        return dict(self.entries)
 
 
 @dataclass(frozen=True)
@@ -25,8 +76,8 @@ class EffectFit:
         Fitted values, SI units, unit in the key (``freq_hz``, ``stiffness_n_per_m``, ``kte_n_per_m``).
     uncertainty : dict[str, float]
         One standard deviation of each parameter (same keys and units).
-    evidence : dict
-        Why it was chosen: the signature it explains, the held-out error with and without it, the
+    evidence : Evidence
+        (a dict given to the constructor is frozen into one) Why it was chosen: the signature it explains, the held-out error with and without it, the
         test statistic and its threshold, the candidates the data could not tell from it
         (``alternatives``).
     credible : bool
@@ -44,11 +95,15 @@ class EffectFit:
     name: str
     params: dict
     uncertainty: dict
-    evidence: dict
+    evidence: Mapping  # an Evidence after construction (a dict given is frozen into one)
     credible: bool = True
     not_credible_because: tuple = ()
     determined: dict = field(default_factory=dict)
     surrogate: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.evidence, Evidence):
+            object.__setattr__(self, "evidence", Evidence.of(self.evidence))
 
     def to_json(self) -> dict:
         return {"name": self.name, "params": dict(self.params), "uncertainty": dict(self.uncertainty),
@@ -113,6 +168,10 @@ class Identification:
         ``model_before_n``, ``model_after_n`` (M, 3) N, the held-out synchronous average and the model's
         (aligned) over the M bins of one revolution, and ``heldout_noise_n`` (M, 3) N, its standard
         error per bin.
+    problem : IdentifyProblem or None
+        The problem solved (set by :func:`identify.api.identify`; not written to the JSON).
+    method : the method object or None
+        The selection rule used (set by :func:`identify.api.identify`; not written to the JSON).
     """
 
     kind: str
@@ -126,6 +185,8 @@ class Identification:
     extra: dict = field(default_factory=dict)
     arrays: dict = field(default_factory=dict, repr=False, compare=False)
     unexplained: dict = field(default_factory=dict)
+    problem: Any = field(default=None, repr=False, compare=False)
+    method: Any = field(default=None, compare=False)
 
     @property
     def identified(self) -> tuple:

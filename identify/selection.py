@@ -268,7 +268,7 @@ def _backward(current: Trial, chosen: list, fits: list, steps: list, trial, drop
             z = significance(t.residual, current.residual, current.sigma)
             if z < worst_z:
                 worst, worst_z, worst_t = k, z, t
-        if worst is None or worst_z > thr:
+        if worst is None or worst_t is None or worst_z > thr:
             return current
         removed = name(chosen[worst])
         steps.append(SelectionStep(candidates={removed: worst_t.error}, kept=None, error_before=current.error,

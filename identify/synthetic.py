@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from robolobes.core.errors import BadInput
+from robolobes.linearize.linear import FrameName
 
 __all__ = ["POSE_OFFSETS_DEG", "PAIRS", "synthetic_frf_set", "write_uff_pairs", "truth_errors"]
 
@@ -54,7 +55,7 @@ def write_uff_pairs(path: Path, pose: str, f_hz: np.ndarray, pairs, H: np.ndarra
 
 def synthetic_frf_set(directory, case, *, variant: str = "basic", elements=(), n_poses: int = 4,
                       pairs=PAIRS, f_hz=None, rel_noise: float = 0.02, add_noise: float = 0.02, seed: int = 0,
-                      ordinate: int = 8, frame: str = "base", offsets_deg=None) -> dict:
+                      ordinate: int = 8, frame: FrameName = "base", offsets_deg=None) -> dict:
     """Write ``poses.csv`` and ``p<k>.uff`` into the new ``directory``; return the truth.
 
     ``frame``: the axes of the written FRFs (``"base"`` or ``"cut"``, the case's feed direction).

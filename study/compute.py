@@ -10,7 +10,7 @@ For the two built-in cases (``tx200-aluminium``, ``tx200-steel``):
    the time domain, each as a bracket [largest unstable, smallest stable];
 5. the paper's Tab. 10 (forces) and Tab. 11/12 (roughness) beside ours;
 6. (full study) the seed's facts confronted with identification: (a) Tab. 10 identified by force
-   statistics, (b) the steel cut observed stable (:mod:`robolobes.identify.force_facts`).
+   statistics, (b) the steel cut observed stable (:mod:`robolobes.study.force_facts`).
 
 Nothing here writes a file: :mod:`.output` renders the result.
 """
@@ -336,7 +336,7 @@ def measured_tab10():
     """The paper's measured Tab. 10 row as shipped in ``force_stats.toml`` (identify's format):
     ``ForceStatistics`` with ``stats[axis][min|max|mean|rms]`` in N, paper axes, and ``window_s``."""
     from robolobes.identify.force_data import read_force_stats
-    from robolobes.identify.force_facts import TAB10_FILE
+    from robolobes.study.force_facts import TAB10_FILE
     m = read_force_stats(TAB10_FILE)
     if m.axes != "paper":
         raise ValueError(f"{TAB10_FILE}: the study compares forces in the paper's axes, got axes = {m.axes!r}")
@@ -402,7 +402,7 @@ NOTES = ("The Tab. 7 pose has A3 = -212.14 deg = +147.86 deg, 2.86 deg past the 
 def compute_identify_facts(settings: StudySettings) -> dict:
     """Facts (a) Tab. 10 and (b) steel by identification, those named in ``settings.identify_facts``;
     a fact not computed is None."""
-    from robolobes.identify.force_facts import steel_fact, tab10_fact
+    from robolobes.study.force_facts import steel_fact, tab10_fact
 
     run = {"tab10": tab10_fact, "steel": steel_fact}
     return {k: (f() if k in settings.identify_facts else None) for k, f in run.items()}

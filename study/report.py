@@ -130,7 +130,7 @@ def _tab10_section(res: StudyResult) -> list[str]:
 
 
 def _facts_section(res: StudyResult) -> list[str]:
-    from robolobes.identify.force_facts import facts_markdown
+    from robolobes.study.force_facts import facts_markdown
 
     out = ["\n## The seed's facts, confronted with identification\n"]
     f = res.identify_facts or {}

@@ -243,7 +243,7 @@ class StudyResult:
     wall_s: float
     generated: str
     linearize_calls: int = 0
-    identify_facts: dict | None = None   # {"tab10": ..., "steel": ...} (identify.force_facts); None: not computed
+    identify_facts: dict | None = None   # {"tab10": ..., "steel": ...} (study.force_facts); None: not computed
 
     # ---- look-ups -------------------------------------------------------------------------------
     def mode_set(self, variant: str, pose: str) -> ModeSet:

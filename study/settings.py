@@ -36,7 +36,7 @@ class StudySettings:
     damping_tol : float         width of the final [largest unstable, smallest stable] bracket of
                                 the lobes' search (the time domain's is at least 0.25)
     identify_facts : tuple      the seed's facts confronted with identification
-                                (:mod:`robolobes.identify.force_facts`): ``"tab10"`` (a, minutes: full
+                                (:mod:`robolobes.study.force_facts`): ``"tab10"`` (a, minutes: full
                                 study only) and ``"steel"`` (b, about 15 s)
     """
 

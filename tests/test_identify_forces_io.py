@@ -236,12 +236,18 @@ def test_report_for_stability_observations(tmp_path, capsys):
     assert [r.split(" | ")[1:4] for r in rows] == [["0.2", "stable", "stable"], ["0.3", "stable", "stable"]], rows
 
 
-def test_effects_flag_refused_for_stability_observations(tmp_path, capsys):
-    """A flag that would have no effect is an error (one line, exit 2, before any work)."""
+@pytest.mark.parametrize("flags, match", [
+    (["--effects", "tcp_mode"], "--effects tcp_mode: stability observations fit damping effects only"),
+    (["--effects", "edge_coefficients"], "--effects edge_coefficients: not an effect a stability measurement observes"),
+    (["--alpha", "0.05"], "--alpha 0.05: not used with stability measurements"),
+])
+def test_flags_stability_observations_cannot_use_are_refused(tmp_path, capsys, flags, match):
+    """A flag the stability fit cannot honour is an error (one line, exit 2, before any work); the
+    damping effects of the library (--effects process_damping) are used (tests/test_identify_api_shape.py)."""
     from robolobes.main import main
 
     p = tmp_path / "stability.csv"
     p.write_text("case,rpm,depth_mm,observed,path_s_m\ntx200-steel,3100,0.2,stable,0.0\n")
-    assert main(["identify", "--measured", str(p), "--effects", "process_damping"]) == 2
+    assert main(["identify", "--measured", str(p), *flags]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--effects is not used with stability observations" in err[0], err
+    assert len(err) == 1 and match in err[0], err

@@ -14,8 +14,9 @@ import pytest
 
 from robolobes.identify.cutting_effects import Dynamometer, Lowpass
 from robolobes.identify.force_signals import apply_transfer
-from robolobes.identify.signatures import (FORCE_SIGNATURES, FRF_SIGNATURES, PoseResidual, frf_signatures,
-                                           force_signatures, rank_candidates)
+from robolobes.identify.frf_signatures import PoseResidual, frf_signatures
+from robolobes.identify.ranking import rank_candidates
+from robolobes.identify.signatures import FORCE_SIGNATURES, FRF_SIGNATURES, force_signatures
 
 M, TEETH, REV_HZ, S = 256, 2, 311.7, 0.3
 

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from robolobes import cases
-from robolobes.identify.api import identify, model_state, read_measurement
+from robolobes.identify import IdentifyProblem, StepwiseSelection, identify, model_state, read_measurement
 from robolobes.identify.synthetic import synthetic_frf_set
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.tool import TcpOscillator
@@ -33,7 +33,7 @@ with tempfile.TemporaryDirectory(prefix="robolobes-gallery-") as tmp:
     data = synthetic_frf_set(hammer, case, elements=(truth,), n_poses=3, f_hz=np.linspace(2.0, 300.0, 300), seed=1)
     measurement = read_measurement(hammer)
     state, _ = model_state(measurement)
-    found = identify(measurement, state, poles=False)
+    found = identify(IdentifyProblem(measurement, state), StepwiseSelection(poles=False))
 
 print(f"held-out error {found.error_before:.3f} -> {found.error_after:.4f} (noise floor {found.noise_floor:.4f})")
 for eff in found.effects:

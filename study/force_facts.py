@@ -46,10 +46,12 @@ def paper_rows_rms() -> dict:
 
 def tab10_fact(variant: str = "basic", progress=None) -> dict:
     """Fact (a): identification on the paper's Tab. 10 experimental row (module docstring)."""
-    from .api import model_state, read_measurement
-    from .forces import identify_force_stats
+    from robolobes.identify.api import model_state, read_measurement
+    from robolobes.identify.force_data import ForceStatistics
+    from robolobes.identify.forces import identify_force_stats
 
     m = read_measurement(_tab10_file())
+    assert isinstance(m, ForceStatistics), m  # the shipped file is force_stats.toml
     state, _ = model_state(m, variant=variant)
     res = identify_force_stats(m, state, progress=progress)
     d = res.to_json()
@@ -72,9 +74,10 @@ def steel_fact(variant: str = "basic", progress=None) -> dict:
     from robolobes.cases import load_case
     from robolobes.lobes import stability
 
-    from .effects import ModelState
-    from .force_data import StabilityObservation, StabilityObservations
-    from .force_stability import Candidate, ObservationModel, _pd_evidence, critical_value, identify_stability
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.force_data import StabilityObservation, StabilityObservations
+    from robolobes.identify.force_stability import (Candidate, ObservationModel, _pd_evidence, critical_value,
+                                                    identify_stability)
 
     case = load_case("tx200-steel")
     row = StabilityObservation(case="tx200-steel", rpm=case.cut.spindle_rpm, depth_m=case.cut.ap_m, chatter=False,
@@ -104,7 +107,7 @@ def steel_fact(variant: str = "basic", progress=None) -> dict:
 
 def wide_bound() -> float:
     """The physical upper bound of process damping's ``Ksp L^2``, N/m."""
-    from .cutting_effects import ProcessDamping
+    from robolobes.identify.cutting_effects import ProcessDamping
 
     return ProcessDamping.parameters[0].upper
 
