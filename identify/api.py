@@ -112,6 +112,28 @@ def identify(measurement, model: ModelState, *, alpha: float = 0.01, max_effects
         At most this many effects are added (greedy).
     options
         Passed to the kind's pipeline (e.g. ``poles=False`` for FRF sets).
+
+    Examples
+    --------
+    A tool-tip FRF set of the aluminium case written with a 200 Hz tool-holder mode the model
+    lacks (0.2 kg modal mass along x, 3 % damping; 2 poses, 150 lines 2-300 Hz, 1 % noise): the
+    mode is found, the held-out error falls from the whole response to the noise floor.
+
+    >>> import math, tempfile
+    >>> import numpy as np
+    >>> from robolobes.cases import load_case
+    >>> from robolobes.identify.synthetic import synthetic_frf_set
+    >>> from robolobes.linearize.extra_elements import TcpMode
+    >>> d = tempfile.mkdtemp() + "/set"
+    >>> mode = TcpMode(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
+    >>> _ = synthetic_frf_set(d, load_case("tx200-aluminium"), elements=(mode,), n_poses=2,
+    ...                       f_hz=np.linspace(2, 300, 150), rel_noise=0.01, add_noise=0.01, seed=5)
+    >>> measurement = read_measurement(d)
+    >>> res = identify(measurement, model_state(measurement)[0], poles=False)
+    >>> [(e.name, round(e.params["freq_hz"], 1)) for e in res.effects]
+    [('tcp_mode', 200.0)]
+    >>> res.error_before > 0.5, res.error_after < 1.1 * res.noise_floor
+    (True, True)
     """
     if not 0 < alpha < 1:
         raise BadInput(f"alpha = {alpha}: must be in (0, 1)")

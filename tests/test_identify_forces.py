@@ -169,27 +169,29 @@ def test_dynamometer_one_draw(base, tmp_path, capsys):
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_no_effect_twenty_seeds(base, tmp_path, capsys):
+def test_no_effect_twenty_seeds(base, tmp_path, capsys, draw_plan):
     case, t, f = base
+    plan = draw_plan(range(100, 120), 19)  # --draws N: the first N seeds, ceil(19 N / 20) of N
     found = []
-    for seed in range(100, 120):
+    for seed in plan.seeds:
         d = tmp_path / f"null-{seed}"
         _write(d, t, f, seed)
         res = identify_cli(d, capsys)
         found.append([e.name for e in res.effects])
-    print("null seeds 100-119, effects found:", found)
-    assert sum(1 for x in found if not x) >= 19, found
+    print(f"null seeds {plan.seeds}, effects found:", found)
+    assert sum(1 for x in found if not x) >= plan.need, (plan.describe("19 of 20"), found)
 
 
 @pytest.mark.slow
 @pytest.mark.long
 @pytest.mark.parametrize("name", ["dynamometer", "lowpass", "edge_coefficients", "runout"])
-def test_effect_five_draws(base, tmp_path, capsys, name):
-    results = _run_draws(name, range(5), base, tmp_path, capsys)
+def test_effect_five_draws(base, tmp_path, capsys, name, draw_plan):
+    plan = draw_plan(range(5), 4)  # --draws N: the first N seeds, ceil(4 N / 5) of N (tests/draw_counts.py)
+    results = _run_draws(name, plan.seeds, base, tmp_path, capsys)
     with capsys.disabled():
         for r in results:
             print(name, r)
-    assert sum(ok for ok, _, _ in results) >= 4, results
+    assert sum(ok for ok, _, _ in results) >= plan.need, (plan.describe("4 of 5"), results)
 
 
 def test_report_for_a_force_series(base, tmp_path, capsys):
