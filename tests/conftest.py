@@ -12,7 +12,10 @@ algorithms take a ``pin.Data`` workspace per call (docs/guide/development.md).
 * ``tx200_robot``: ``tx200_robot(variant)`` is the TX200 built as that variant
   (``"basic"``, ``"gravity"``, ``"orthogonal"``, ``"backlash"``), nominal damping, no extra
   elements, built once per variant. A robot with other arguments (damping scale, extra elements,
-  another spec) is built by the test itself.
+  another spec) is built by the test itself;
+* ``draw_plan``: ``draw_plan(seeds, need)`` is the :class:`draw_counts.DrawPlan` of an
+  identification draw set's rule "``need`` of ``seeds`` right" under the ``--draws N`` option
+  (``pytest -m long --draws 2``: the first 2 seeds, both right; tests/draw_counts.py).
 """
 
 from __future__ import annotations
