@@ -171,7 +171,9 @@ def identify(problem: IdentifyProblem, method: Method | None = None, *,
     Identification
         Carries its problem and method (``result.problem``, ``result.method``).
 
-    Example: a method's fields are checked when it is made, before any work.
+    Examples
+    --------
+    A method's fields are checked when it is made, before any work.
 
     >>> StepwiseSelection(alpha=0.05, max_effects=2)
     StepwiseSelection(alpha=0.05, max_effects=2, poles=True)
@@ -180,7 +182,28 @@ def identify(problem: IdentifyProblem, method: Method | None = None, *,
     ...
     robolobes.core.errors.BadInput: StabilitySelection: max_effects = 11: must be an integer in 0..10 (each step fits every candidate)
 
-    Runs on each kind of measurement: ``tests/test_identify_api_shape.py``.
+    Runs on each kind of measurement: ``tests/test_identify_api_shape.py``. A tool-tip FRF set of the aluminium case written with a 200 Hz tool-holder mode the model
+    lacks (0.2 kg modal mass along x, 3 % damping; 2 poses, 150 lines 2-300 Hz, 1 % noise): the
+    mode is found, the held-out error falls from the whole response to the noise floor
+    (``max_effects=1`` keeps the example to one step of the search, about 3 s of CPU; the default
+    gives the same answer here in about three times the time).
+
+    >>> import math, tempfile
+    >>> import numpy as np
+    >>> from robolobes.cases import load_case
+    >>> from robolobes.identify.synthetic import synthetic_frf_set
+    >>> from robolobes.linearize.tool import TcpOscillator
+    >>> d = tempfile.mkdtemp() + "/set"
+    >>> mode = TcpOscillator.one_axis(200.0, 0.03, 0.2 * (2 * math.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
+    >>> _ = synthetic_frf_set(d, load_case("tx200-aluminium"), elements=(mode,), n_poses=2,
+    ...                       f_hz=np.linspace(2, 300, 150), rel_noise=0.01, add_noise=0.01, seed=5)
+    >>> measurement = read_measurement(d)
+    >>> problem = IdentifyProblem(measurement, model_state(measurement)[0])
+    >>> res = identify(problem, StepwiseSelection(max_effects=1, poles=False))
+    >>> [(e.name, round(e.params["freq_hz"], 1)) for e in res.effects]
+    [('tcp_mode', 200.0)]
+    >>> res.error_before > 0.5, res.error_after < 1.1 * res.noise_floor
+    (True, True)
     """
     if not isinstance(problem, IdentifyProblem):
         raise BadInput(f"problem: a {type(problem).__name__}; valid: an IdentifyProblem(measurement, model, effects)")

@@ -415,6 +415,25 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
     ``progress(fraction)`` is called as the work advances; ``lins`` (default: a new shared cache)
     is where robots and linearizations are kept; with ``lins.share`` False, simulated runs are not
     shared either (the behaviour before sharing, for ``bench/bench_study.py``).
+
+    The whole study takes minutes (``robolobes study --quick``: :func:`robolobes.study.run_study`
+    with ``quick=True``). Its first comparison in a few lines, on the same inputs and shared
+    linearizations: each cut against the lobes at the start of the pass, basic variant. As in the
+    paper's model, aluminium is stable and steel is not (margin -0.60, a flip at 51.7 Hz, half
+    the 103.3 Hz tooth passing frequency), although the real steel cut was stable.
+
+    >>> from robolobes.lobes import LobeProblem, stability
+    >>> from robolobes.study.compute import load_inputs, study_poses
+    >>> from robolobes.study.linearizations import Linearizations
+    >>> cs, pas, paper = load_inputs()
+    >>> theta = study_poses(pas)["start"]
+    >>> lins = Linearizations()
+    >>> for material, case in cs.items():
+    ...     _, st = lins.structure(case, "basic", "start", theta)
+    ...     op = stability(LobeProblem(st, case.tool, case.cut, case.law))
+    ...     print(material, op.verdict.status, round(op.margin, 2), op.bifurcation, round(op.chatter_freq_hz, 1))
+    aluminium stable 2.18 hopf 25.1
+    steel unstable -0.6 flip 51.7
     """
     t0 = time.perf_counter()
     lins = Linearizations() if lins is None else lins

@@ -12,12 +12,16 @@ algorithms take a ``pin.Data`` workspace per call (docs/guide/development.md).
 * ``tx200_robot``: ``tx200_robot(variant)`` is the TX200 built as that variant
   (``"basic"``, ``"gravity"``, ``"orthogonal"``, ``"backlash"``), nominal damping, no extra
   elements, built once per variant. A robot with other arguments (damping scale, extra elements,
-  another spec) is built by the test itself.
+  another spec) is built by the test itself;
+* ``draw_plan``: ``draw_plan(seeds, need)`` is the :class:`draw_counts.DrawPlan` of an
+  identification draw set's rule "``need`` of ``seeds`` right" under the ``--draws N`` option
+  (``pytest -m long --draws 2``: the first 2 seeds, both right; tests/draw_counts.py).
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Callable
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -26,6 +30,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import pytest  # noqa: E402  (after the BLAS settings: pytest's plugins may import numpy)
 
 if TYPE_CHECKING:
+    from draw_counts import DrawPlan
     from robolobes.cases.spec import MillingCase, RobotSpec
     from robolobes.linearize import FlexibleRobot
 
@@ -67,3 +72,25 @@ def tx200_robot(tx200_spec: RobotSpec) -> Callable[[str], FlexibleRobot]:
         return built[variant]
 
     return robot
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--draws", type=int, default=None, metavar="N",
+                     help="identification draw sets (tests marked long): run the first N seeds of each; a rule "
+                          "'k of n right' becomes ceil(k N / n) of N, never looser (tests/draw_counts.py)")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    n = config.getoption("--draws")
+    if n is not None and n < 1:
+        raise pytest.UsageError(f"--draws {n}: must be a whole number >= 1")
+
+
+@pytest.fixture
+def draw_plan(request: pytest.FixtureRequest) -> Callable[[Sequence[int], int], DrawPlan]:
+    """``draw_plan(seeds, need)``: the :class:`draw_counts.DrawPlan` of a rule "``need`` of ``seeds``
+    right" under this run's ``--draws`` option (the full set without it)."""
+    from draw_counts import plan_draws
+
+    n = request.config.getoption("--draws")
+    return lambda seeds, need: plan_draws(seeds, need, n)

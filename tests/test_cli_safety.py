@@ -155,7 +155,8 @@ def test_frf_rerun_replaces_its_own_file_and_records_provenance(capsys, tmp_path
     assert rc == 2 and "other inputs" in err  # a different result is not silently swapped in
     uff = tmp_path / "tcp.uff"
     assert run(capsys, "frf", "--n", "20", "--fmax-hz", "50", "--out", uff)[0] == 0
-    assert read_provenance(uff)["robolobes_version"] == prov["robolobes_version"]
+    got = read_provenance(uff)
+    assert got is not None and got["robolobes_version"] == prov["robolobes_version"]
 
 
 def test_ctrl_c_while_pyuff_writes_gives_130_and_no_file(capsys, tmp_path, monkeypatch):

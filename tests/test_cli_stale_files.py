@@ -28,10 +28,11 @@ def test_stale_staging_directory_removed_live_one_kept(tmp_path):
     stale = [p for p in tmp_path.iterdir() if ".robolobes-stage-" in p.name]
     assert len(stale) == 1
     live = OutputDir(tmp_path / "out", "test", INPUTS)
-    live.open()                      # this run's own staging directory, locked
+    live_path = live.open()          # this run's own staging directory, locked
     again = OutputDir(tmp_path / "out", "test", INPUTS)   # another run: removes only the dead one
-    assert not stale[0].exists() and live.path.is_dir()
+    assert not stale[0].exists() and live_path.is_dir()
     with again:
+        assert again.path is not None  # set on entering the OutputDir
         (again.path / "a.txt").write_text("a")
     live.discard()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -11,9 +11,9 @@ Tolerances asserted (and stated in docs/guide/identify-answers.md):
 * the unexplained margin's false-alarm rate on noise-only lines stays below alpha (binomial bound);
 * on a null FRF set from the generator: nothing identified, the residual not unexplained, the noise
   floor within 20 % of the generating model's error;
-* slow: 5 draws of joint + servo and of each effect outside the library, at least 4 right; 20 nulls,
-  at least 19 clean (tests/generators/draws.py states what "right" means); the tool-mode pairs'
-  draws are in bench/bench_identify_answers.py (the same rule, too long for CI);
+* slow, long: 5 draws of joint + servo, of the tool-mode pairs and of each effect outside the
+  library, at least 4 right; 20 nulls, at least 19 clean (tests/generators/draws.py states what
+  "right" means); CI runs the first 2 of each, both right (``--draws 2``);
 * the provisional and replace steps of the selection on a toy whose single fits are not credible.
 """
 
@@ -211,20 +211,27 @@ def test_null_set_from_the_generator_is_clean(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z"])
-def test_draws_right_in_at_least_4_of_5(tmp_path, case):
-    # the two tool-mode cases (about 80 s of CPU per draw) run only in bench/bench_identify_answers.py
-    got = [run_case(case, seed, tmp_path) for seed in range(1, 6)]
+@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "mode_xy+payload", pytest.param(
+    "mode_xy+joint", marks=pytest.mark.xfail(strict=True, reason=(
+        "known shortfall (2026-12-02): seed 2 is wrong, nothing identified, the residual unexplained at 63.7x "
+        "the noise floor (seed 1 right); seeds 3-5 not run this round (docs/guide/identify-answers.md)")))])
+def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
+    # the tool-mode cases take 30-100 s of CPU per draw (bench/bench_identify_answers.py runs the same
+    # rule); --draws N: the first N seeds, ceil(4 N / 5) of N right (tests/draw_counts.py)
+    plan = draw_plan(range(1, 6), 4)
+    got = [run_case(case, seed, tmp_path) for seed in plan.seeds]
     right = sum(r["right"] for r in got)
-    assert right >= 4, [(r["seed"], r["why"]) for r in got]
-    assert sum(r["floor_ok"] for r in got) >= 4, [r["floor_ratio"] for r in got]
+    assert right >= plan.need, (plan.describe("4 of 5"), [(r["seed"], r["why"]) for r in got])
+    assert sum(r["floor_ok"] for r in got) >= plan.need, [r["floor_ratio"] for r in got]
 
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_nulls_clean_in_at_least_19_of_20(tmp_path):
-    got = [run_case("null", seed, tmp_path) for seed in range(1, 21)]
-    assert sum(r["right"] for r in got) >= 19, [(r["seed"], r["why"]) for r in got if not r["right"]]
+def test_nulls_clean_in_at_least_19_of_20(tmp_path, draw_plan):
+    plan = draw_plan(range(1, 21), 19)
+    got = [run_case("null", seed, tmp_path) for seed in plan.seeds]
+    assert sum(r["right"] for r in got) >= plan.need, (plan.describe("19 of 20"),
+                                                       [(r["seed"], r["why"]) for r in got if not r["right"]])
     assert all(r["floor_ok"] for r in got), [r["floor_ratio"] for r in got]
 
 

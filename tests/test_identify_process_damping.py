@@ -328,30 +328,34 @@ def test_process_damping_one_draw(setup, tmp_path, capsys):
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_process_damping_draws(setup, tmp_path, capsys):
-    res = _run(setup, tmp_path, capsys, "process_damping", [12, 13, 14, 15, 16])
-    assert sum(r[1] for r in res) >= 4, res
+def test_process_damping_draws(setup, tmp_path, capsys, draw_plan):
+    plan = draw_plan([12, 13, 14, 15, 16], 4)  # --draws N: the first N seeds, ceil(4 N / 5) of N
+    res = _run(setup, tmp_path, capsys, "process_damping", plan.seeds)
+    assert sum(r[1] for r in res) >= plan.need, (plan.describe("4 of 5"), res)
 
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_joint_damping_draws_pick_joint_damping(setup, tmp_path, capsys):
-    res = _run(setup, tmp_path, capsys, "joint_damping", [21, 22, 23, 24, 25])
-    assert sum(r[1] for r in res) >= 4, res
+def test_joint_damping_draws_pick_joint_damping(setup, tmp_path, capsys, draw_plan):
+    plan = draw_plan([21, 22, 23, 24, 25], 4)  # --draws N: the first N seeds, ceil(4 N / 5) of N
+    res = _run(setup, tmp_path, capsys, "joint_damping", plan.seeds)
+    assert sum(r[1] for r in res) >= plan.need, (plan.describe("4 of 5"), res)
 
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_no_effect_in_at_least_19_of_20_seeds(setup, tmp_path, capsys):
+def test_no_effect_in_at_least_19_of_20_seeds(setup, tmp_path, capsys, draw_plan):
     """The issue's null check for stability observations: data from the time domain of the model
     itself (no effect), depths 0.7 and 1.3 times the model's limit (+-5 % jitter) at the four speeds,
     so that both verdicts occur and every disagreement between the time domain and the SDM shows.
-    At least 19 of 20 listed seeds must give ``"effects": []``."""
+    At least 19 of 20 listed seeds must give ``"effects": []`` (``--draws N``: the first N seeds,
+    ceil(19 N / 20) of N)."""
+    plan = draw_plan(range(101, 121), 19)
     found = []
-    for seed in range(101, 121):
+    for seed in plan.seeds:
         d, _, observed, _ = _draw(setup, tmp_path, seed, None, ratios=(0.7, 1.3))
         out = _identify(d, capsys)
         found.append([e["name"] for e in out["effects"]])
         sys.__stderr__.write(f"null seed {seed}: observed {''.join('C' if o else 's' for o in observed)}; "
                              f"effects {found[-1]}\n")
-    assert sum(not f for f in found) >= 19, found
+    assert sum(not f for f in found) >= plan.need, (plan.describe("19 of 20"), found)

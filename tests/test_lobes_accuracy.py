@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pytest
@@ -37,9 +38,10 @@ from robolobes.lobes import LobeProblem, LobeResult, Mode, ModalStructure, Refin
 def lobe_problem(name: str) -> LobeProblem:
     """The reference case ``name`` as a robolobes problem (cut frame: x = feed, y = normal)."""
     c = ref.CASES[name]
-    modes = [Mode(*c["x"], (1.0, 0.0))]
-    if c["y"] is not None:
-        modes.append(Mode(*c["y"], (0.0, 1.0)))
+    x, y = cast(tuple[float, float, float], c["x"]), cast("tuple[float, float, float] | None", c["y"])
+    modes = [Mode(*x, (1.0, 0.0))]
+    if y is not None:
+        modes.append(Mode(*y, (0.0, 1.0)))
     cut = Cut(ae_m=c["aD"] * ref.DIAM, ap_m=1e-3, spindle_rpm=10000.0, mode=c["mode"])
     return LobeProblem(ModalStructure(tuple(modes)), Tool(diameter_m=ref.DIAM, teeth=ref.TEETH), cut,
                        CuttingLaw(ktc_pa=ref.KT, krc_pa=ref.KN))
@@ -97,6 +99,7 @@ def test_default_is_within_one_percent_where_m40_is_not(name, rpms):
 def test_default_is_within_one_percent_at_every_speed(name):
     rows = reference_rows(name)
     err, res = criterion(name, RefinedSDM(), rows)
+    assert res.status is not None  # a refined solve reports each speed's status
     n_unconv = int((res.status == "unconverged").sum())
     print(f"\n{name}: {len(err)} usable reference speeds of {len(rows)}, max shifted error "
           f"{100 * err.max():.3f} %, unconverged {n_unconv} of {res.status.size} speeds")
@@ -141,7 +144,9 @@ def test_a_speed_not_resolved_by_m_max_is_flagged_unconverged():
     speed is "unconverged", with its estimate, rather than reported as converged."""
     p = lobe_problem("1dof-slot")
     res = solve(p, RefinedSDM(SemiDiscretization(m=10), tol=0.001, m_max=20), [7000.0])
+    assert res.status is not None and res.m_final is not None  # a refined solve reports both
     assert res.status[0] == "unconverged" and res.m_final[0] == 20
     assert res.depth_error_m[0] > 0.001 * res.depth_limit_m[0]
     ok = solve(p, RefinedSDM(), [7000.0])
+    assert ok.status is not None
     assert ok.status[0] == "converged" and ok.depth_error_m[0] <= 0.01 * ok.depth_limit_m[0]

@@ -377,7 +377,10 @@ def _dependency_fingerprint() -> str:
     hsh = hashlib.sha256(numba.__version__.encode())
     for mod in (_milling, _model, _workpiece, _entry_exit):
         try:
-            with open(inspect.getsourcefile(mod), "rb") as f:
+            src = inspect.getsourcefile(mod)
+            if src is None:
+                raise OSError(f"no source file for {mod.__name__}")
+            with open(src, "rb") as f:
                 hsh.update(f.read())
         except (OSError, TypeError):  # pragma: no cover - sources not available: never trust the cache
             hsh.update(os.urandom(16))
@@ -389,7 +392,7 @@ def _guard_cache(dispatcher) -> None:
     was written (stamp file next to the cache); best effort, silent when the cache is read-only."""
     cache = getattr(dispatcher, "_cache", None)
     path = getattr(cache, "cache_path", None)
-    if not path:  # pragma: no cover - caching disabled
+    if cache is None or not path:  # pragma: no cover - caching disabled
         return
     fp = _dependency_fingerprint()
     stamp = os.path.join(path, f"fastpath.{dispatcher.py_func.__name__}.deps")
@@ -447,8 +450,8 @@ _f64 = partial(finite_array, error=FastPathError, contiguous=True)
 
 
 def _is_int(x, lo: int, hi: int | None = None) -> bool:
-    return (not isinstance(x, bool) and isinstance(x, (int, np.integer)) and x >= lo
-            and (hi is None or x <= hi))
+    return bool(not isinstance(x, bool) and isinstance(x, (int, np.integer)) and x >= lo
+                and (hi is None or x <= hi))
 
 
 def _check_run_args(h_s, n_steps, omega_rad_s, chunk_steps, atol, rtol, max_iter,

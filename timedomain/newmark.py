@@ -64,13 +64,16 @@ import math
 import signal
 import threading
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.linalg.lapack import dgetrs as _getrs
 
 from robolobes.core.validate import finite_array, readonly
+
+# LAPACK's dgetrs (the LU solve without sla.lu_solve's checks); scipy's stubs do not list the
+# lapack module's names, so it is looked up by name
+_getrs = sla.get_lapack_funcs(("getrs",), dtype=np.float64)[0]
 
 __all__ = [
     "NewmarkError",
@@ -380,7 +383,11 @@ def initial_acceleration(
     a = np.zeros_like(q)
     for _ in range(max_iter):
         r = np.asarray(residual(q, v, a, float(t0_s)), dtype=float)
-        m = constant_tangent[2] if constant_tangent is not None else tangent(q, v, a, float(t0_s))[2]
+        if constant_tangent is not None:
+            m = constant_tangent[2]
+        else:
+            assert tangent is not None  # one of the two, checked above
+            m = tangent(q, v, a, float(t0_s))[2]
         da = np.linalg.solve(np.asarray(m, float), -r)
         a = a + da
         if np.all(np.abs(da) <= rtol * np.abs(a) + atol):
@@ -412,7 +419,11 @@ def _check_start(q0, v0, t0_s, h_s, n_steps) -> tuple[np.ndarray, np.ndarray, fl
     return q_n, v_n, t0, h_nom
 
 
-def _check_tangents(n: int, tangent, constant_tangent, linear: bool) -> tuple | None:
+#: the constant tangent (dr/dq, dr/dv, dr/da), each (n, n)
+_Tangents = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def _check_tangents(n: int, tangent, constant_tangent, linear: bool) -> _Tangents | None:
     """The constant tangent as float arrays (n, n), or None when full Newton uses ``tangent``."""
     if tangent is None and constant_tangent is None:
         raise NewmarkError("give tangent (full Newton) or constant_tangent (prefactored)")
@@ -422,7 +433,8 @@ def _check_tangents(n: int, tangent, constant_tangent, linear: bool) -> tuple | 
         return None
     if len(constant_tangent) != 3:
         raise NewmarkError("constant_tangent must be (dr/dq, dr/dv, dr/da)")
-    const = tuple(np.asarray(m, dtype=float) for m in constant_tangent)
+    dq, dv, da = (np.asarray(m, dtype=float) for m in constant_tangent)
+    const = (dq, dv, da)
     for m in const:
         if m.shape != (n, n) or not np.all(np.isfinite(m)):
             raise NewmarkError(f"constant_tangent matrices must be finite ({n}, {n}), got {m.shape}")
@@ -432,7 +444,8 @@ def _check_tangents(n: int, tangent, constant_tangent, linear: bool) -> tuple | 
 class _NewtonStep:
     """Newton on ``q1`` for one Newmark step from an accepted state (module docstring)."""
 
-    def __init__(self, residual, tangent, const, opt: NewmarkOptions, n: int, h_nom: float, linear: bool):
+    def __init__(self, residual, tangent, const: _Tangents | None, opt: NewmarkOptions, n: int, h_nom: float,
+                 linear: bool):
         self.residual, self.tangent, self.const, self.opt, self.n = residual, tangent, const, opt, n
         self.h_nom, self.linear = h_nom, linear
         self.gamma, self.beta = float(opt.gamma), float(opt.beta)
@@ -633,7 +646,8 @@ def integrate(
     ctl = _StepSize(opt, n_steps, h_nom)
     t_n = t0
     g_n = None if events is None else np.asarray(events(q_n, v_n, t_n), dtype=float)
-    stats = dict(accepted=0, rejected=0, event_refinements=0, newton_iterations=0, max_iterations=0, min_step_s=math.inf)
+    stats: dict[str, Any] = dict(accepted=0, rejected=0, event_refinements=0, newton_iterations=0, max_iterations=0,
+                                 min_step_s=math.inf)
     next_progress = opt.progress_every
 
     def result(done: bool) -> NewmarkResult:
@@ -661,8 +675,10 @@ def integrate(
                         )
                     ctl.halve()
                     continue
+                assert v1 is not None and a1 is not None  # solve returns all three states or none
                 if events is not None:
                     g1 = np.asarray(events(q1, v1, t1), dtype=float)
+                    assert g_n is not None  # evaluated at the start when events are given
                     if ctl.level < opt.event_halvings and np.any(np.sign(g1) != np.sign(g_n)):
                         stats["event_refinements"] += 1
                         ctl.halve()
