@@ -275,7 +275,7 @@ def _load_library() -> None:
     import importlib
 
     for mod in ("robolobes.identify.structural", "robolobes.identify.cutting_effects",
-                "robolobes.identify.tool_effect", "robolobes.identify.chain_effects"):
+                "robolobes.identify.tool_effect"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as e:  # a library not written yet

@@ -75,7 +75,6 @@ class PoseData:
     sigma : array (N,), m/N            noise standard deviation per line (``E|n|^2``)
     pair : array (N,) of int           which pair of the pose each line belongs to
     pair_out, pair_in : array (P, 3)   each pair's signed directions in base axes
-    pair_channel : array (P,) of int   each pair's response channel (0, 1, 2: the frame's x, y, z)
     """
 
     name: str
@@ -89,7 +88,6 @@ class PoseData:
     pair: np.ndarray
     pair_out: np.ndarray
     pair_in: np.ndarray
-    pair_channel: np.ndarray | None = None
 
 
 def line_noise(H: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
@@ -165,8 +163,7 @@ def prepare(measurement: FRFSet, model: ModelState, progress: Callable[[str], No
             pair.append(np.full(n, k))
         out.append(PoseData(pf.pose, pm, omega, np.concatenate(idx), np.vstack(ov), np.vstack(iv),
                             np.concatenate(H), np.concatenate(sig), np.concatenate(pair),
-                            np.array([v[0] for v in ov]), np.array([v[0] for v in iv]),
-                            np.array([p.out_axis for p in pf.pairs])))
+                            np.array([v[0] for v in ov]), np.array([v[0] for v in iv])))
     return out
 
 
@@ -185,12 +182,7 @@ def predict(pose: PoseData, effects: list) -> np.ndarray:
     in_r = W[:, n:] @ (Minv @ pm.J.T)          # (2n, 3)
     coef = (pose.pair_out @ out_r) * (in_r @ pose.pair_in.T).T        # (P, 2n)
     den = 1.0 / (1j * pose.omega[:, None] - lam[None, :])             # (F, 2n)
-    H = (den @ coef.T)[pose.index, pose.pair]
-    for eff, params in effects:   # measurement-chain stages (identify.chain_effects) act on what is measured
-        stage = getattr(eff, "measured", None)
-        if stage is not None:
-            H = stage(pose, H, params)
-    return H
+    return (den @ coef.T)[pose.index, pose.pair]
 
 
 # ----------------------------------------------------------------------------------------------
