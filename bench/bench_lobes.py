@@ -135,12 +135,12 @@ def bench_tx200(quick: bool) -> None:
               f"{res.chatter_freq_hz[j]:.1f} Hz)")
 
 
-def tx200_problem(case_name: str) -> LobeProblem:
+def tx200_problem(case_name: str, variant: str = "orthogonal") -> LobeProblem:
     from robolobes import linearize
     from robolobes.cases import load_case
 
     case = load_case(case_name)
-    rob = linearize.build_model(case.robot, "orthogonal")
+    rob = linearize.build_model(case.robot, variant)
     lin = linearize.linearize(rob, case.robot.poses_rad["tab7"])
     return LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -37,27 +36,14 @@ import numpy as np  # noqa: E402  (after the BLAS thread count is set)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from robolobes.lobes import LobeProblem, PhysicalStructure, RefinedSDM, SemiDiscretization, solve  # noqa: E402
+from robolobes.lobes import RefinedSDM, SemiDiscretization, solve  # noqa: E402
 from robolobes.lobes.basis import basis_for, truncated_with_residual  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_lobes import cpu, tx200_problem  # noqa: E402  (the TX200 Tab. 7 problem and the CPU timer)
 
 DEPTH_MAX_M = 10e-3
 CASES = ("steel-orthogonal", "aluminium-orthogonal", "steel-basic", "aluminium-basic", "aluminium-orthogonal-low")
-
-
-def problem(material: str, variant: str) -> LobeProblem:
-    from robolobes import linearize
-    from robolobes.cases import load_case
-
-    case = load_case(f"tx200-{material}")
-    rob = linearize.build_model(case.robot, variant)
-    lin = linearize.linearize(rob, case.robot.poses_rad["tab7"])
-    return LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
-
-
-def cpu(f, *a, **k):
-    t = time.process_time()
-    r = f(*a, **k)
-    return time.process_time() - t, r
 
 
 def compare(full, red, depth: float) -> tuple[float, int, int]:
@@ -71,7 +57,7 @@ def compare(full, red, depth: float) -> tuple[float, int, int]:
 
 def bench_case(name: str, n: int, candidates: tuple = ()) -> dict:
     material, variant = name.split("-")[:2]
-    p = problem(material, variant)
+    p = tx200_problem(f"tx200-{material}", variant)
     rpm_max, depth = (8000.0, 3e-3) if name.endswith("-low") else (25000.0, DEPTH_MAX_M)
     speeds = np.linspace(2000.0, rpm_max, n)
     tb, red = cpu(basis_for, p, speeds, depth)
