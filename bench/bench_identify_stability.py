@@ -14,6 +14,7 @@ whole new identification (both candidates) of that observation.
 import os
 import time
 import warnings
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 warnings.filterwarnings("ignore", "joint A3")
@@ -46,7 +47,7 @@ def main(scale: float = 12.3):
           f"new {t_new:.3f} s (|mu| = {rho:.4f}); ratio old/new {t_old / t_new:.0f}")
 
     t = time.perf_counter()
-    res = identify_stability(StabilityObservations(path=None, rows=(row,)), state)
+    res = identify_stability(StabilityObservations(path=Path("<bench: one synthetic row>"), rows=(row,)), state)
     t_all = time.perf_counter() - t
     print(f"whole identification of the observation (both candidates, m = 40 and 20): {t_all:.1f} s; "
           f"found {[(e.name, e.params) for e in res.effects]}")

@@ -8,6 +8,7 @@ code 2, before any work. The measurement files are written here directly with py
 import math
 import os
 import re
+from typing import Any
 
 import numpy as np
 import pytest
@@ -31,11 +32,13 @@ def _uff(path, pose_label, pairs=((1, 1), (2, 2)), h=None, **over):
     h = _h() if h is None else h
     sets = []
     for o, i in pairs:
-        fields = dict(binary=0, id1=f"pose {pose_label}", id2="frame base", func_type=4, rsp_node=1, rsp_dir=o,
-                      ref_node=1, ref_dir=i, ord_data_type=6, num_pts=len(F), abscissa_spacing=1,
-                      abscissa_min=float(F[0]), abscissa_inc=float(F[1] - F[0]), abscissa_spec_data_type=18,
-                      ordinate_spec_data_type=8, orddenom_spec_data_type=13, ordinate_axis_units_lab="m",
-                      orddenom_axis_units_lab="N", data=np.asarray(h, dtype=np.complex128), x=F)
+        # pyuff's keywords take values of several types (str, int, float, arrays)
+        fields: dict[str, Any] = dict(
+            binary=0, id1=f"pose {pose_label}", id2="frame base", func_type=4, rsp_node=1, rsp_dir=o,
+            ref_node=1, ref_dir=i, ord_data_type=6, num_pts=len(F), abscissa_spacing=1,
+            abscissa_min=float(F[0]), abscissa_inc=float(F[1] - F[0]), abscissa_spec_data_type=18,
+            ordinate_spec_data_type=8, orddenom_spec_data_type=13, ordinate_axis_units_lab="m",
+            orddenom_axis_units_lab="N", data=np.asarray(h, dtype=np.complex128), x=F)
         fields.update(over)
         sets.append(pyuff.prepare_58(**fields))
     pyuff.UFF(str(path)).write_sets(sets, mode="add")

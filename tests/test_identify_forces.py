@@ -54,8 +54,9 @@ def _dynamometer(t, f, fn, zeta):
 
 
 def _lowpass(t, f, fc):
-    b, a = signal.butter(4, 2 * np.pi * fc, analog=True)
-    return _lsim(signal.lti(b, a), t, f)
+    ba = signal.butter(4, 2 * np.pi * fc, analog=True)
+    assert isinstance(ba, tuple) and len(ba) == 2  # (b, a); scipy types butter's return for every output=
+    return _lsim(signal.lti(*ba), t, f)
 
 
 def _write(d: Path, t, f_clean, seed):

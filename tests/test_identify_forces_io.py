@@ -126,8 +126,9 @@ def test_transfer_on_periodic_equals_lsim_steady_state():
     fn, z = 2500.0, 0.05
     w = 2 * np.pi * fn
     dyn = signal.lti([w * w], [1, 2 * z * w, w * w])
-    b, a = signal.butter(4, 2 * np.pi * 1200.0, analog=True)
-    for h, sys_ in ((_dynamometer_h(fn, z), dyn), (_butterworth_h(1200.0), signal.lti(b, a))):
+    ba = signal.butter(4, 2 * np.pi * 1200.0, analog=True)
+    assert isinstance(ba, tuple) and len(ba) == 2  # (b, a); scipy types butter's return for every output=
+    for h, sys_ in ((_dynamometer_h(fn, z), dyn), (_butterworth_h(1200.0), signal.lti(*ba))):
         y = np.column_stack([signal.lsim(sys_, x[:, j], t)[1] for j in range(2)])
         starts, revs = revolutions(t[t > 0.05], y[t > 0.05], f_rev, 256)
         got = sync_average(starts, revs, 1 / f_rev).mean

@@ -10,6 +10,7 @@
 
 import json
 import math
+from typing import Any, cast
 
 import numpy as np
 import pytest
@@ -47,6 +48,25 @@ def _element_receptance(J, kp, kd, w):
     return lin.frf(w).H[1, 1]
 
 
+def _ss(*args):
+    """``control.ss(*args)``, checked to be a linear state space (python-control's ``ss`` is unannotated
+    and may return a NonlinearIOSystem; the tests below read A, B, C, D)."""
+    import control
+
+    sys_ = control.ss(*args)
+    assert isinstance(sys_, control.StateSpace), type(sys_)
+    return sys_
+
+
+def _feedback(plant, gain):
+    """Negative feedback of the state space ``gain`` around ``plant`` by ``control.feedback``. Its
+    ``sys2`` is unannotated with the default 1, from which pyright infers ``int``: the gain goes in as
+    ``Any``."""
+    import control
+
+    return control.feedback(plant, cast(Any, gain), sign=-1)
+
+
 def _plant(J):
     """Link and rotor as a python-control state space, written from the equations of motion.
 
@@ -78,10 +98,9 @@ def test_servo_drive_equals_python_control_pd_loop(J, kp, kd):
     # control.feedback (a static output-feedback gain on [q, phi, phid]); its tau_ext -> q response
     # times r^2 is the TCP receptance. The element (pinocchio model, linearized, direct solve) must
     # equal it and the closed form: rtol 1e-9 (a 4-state solve, round-off ~1e-12; observed < 1e-12).
-    import control
 
     w = 2 * math.pi * np.geomspace(0.5, 500, 120)
-    loop = control.feedback(_plant(J), control.ss([], [], [], np.array([[0.0, 0, 0], [0, kp, kd]])), sign=-1)
+    loop = _feedback(_plant(J), _ss([], [], [], np.array([[0.0, 0, 0], [0, kp, kd]])))
     ref = np.array([loop(1j * wi)[0, 0] for wi in w]) * R_TCP ** 2
     got = _element_receptance(J, kp, kd, w)
     assert_allclose(ref, _closed_form(J, kp, kd, w), rtol=1e-9)
@@ -93,12 +112,12 @@ def _pid_receptance(J, kp, ki, kd, tf, w):
     a python-control state space (tf -> ss) fed back to the motor torque input."""
     import control
 
-    c = control.ss(control.tf([kp * tf + kd, kp + ki * tf, ki], [tf, 1, 0]))
+    c = _ss(control.tf([kp * tf + kd, kp + ki * tf, ki], [tf, 1, 0]))
     # embed the SISO controller phi -> u into the 3-output, 2-input plant's feedback path
     Ac, Bc, Cc, Dc = (np.atleast_2d(np.asarray(m, dtype=float)) for m in (c.A, c.B, c.C, c.D))
-    K = control.ss(Ac, np.hstack([np.zeros((Ac.shape[0], 1)), Bc, np.zeros((Ac.shape[0], 1))]),
-                   np.vstack([np.zeros((1, Ac.shape[0])), Cc]), np.array([[0, 0, 0], [0, Dc[0, 0], 0]]))
-    loop = control.feedback(_plant(J), K, sign=-1)
+    K = _ss(Ac, np.hstack([np.zeros((Ac.shape[0], 1)), Bc, np.zeros((Ac.shape[0], 1))]),
+            np.vstack([np.zeros((1, Ac.shape[0])), Cc]), np.array([[0, 0, 0], [0, Dc[0, 0], 0]]))
+    loop = _feedback(_plant(J), K)
     return np.array([loop(1j * wi)[0, 0] for wi in w]) * R_TCP ** 2
 
 

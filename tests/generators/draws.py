@@ -142,7 +142,7 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
         used |= {id(e) for e in modes}
     for axis, s in truth.get("axes", {}).items():
         hit = [e for e in ident if e["name"] in (f"joint_correction_a{axis}", f"servo_a{axis}")]
-        ok = [e for e in hit if _covers(*_static_scale(e), s)]
+        ok = [e for e in hit if (sc := _static_scale(e)) is not None and _covers(*sc, s)]
         if not ok:
             why.append(f"axis {axis} static scale {s:.3f} not covered by {[(e['name'], _static_scale(e)) for e in hit]}")
         used |= {id(e) for e in hit}
