@@ -55,11 +55,11 @@ from .cutting_effects import FLANK_RANGE_M, KSP_RANGE_N_PER_M3, DampingEffect, P
 from .effects import REGISTRY
 from .force_data import StabilityObservations
 from .result import EffectFit, Evidence, Identification, SelectionStep
-from .stability_model import (CANDIDATES, M_BOUND, M_VERDICT, SCALE_CREDIBLE, XTOL_LOG, Candidate, ObservationModel,
-                              Threshold, critical_value, stability_effects, threshold, value_verdict, wavelength_m)
+from .stability_model import (M_BOUND, M_VERDICT, SCALE_CREDIBLE, XTOL_LOG, Candidate, ObservationModel, Threshold,
+                              candidate, critical_value, stability_effects, threshold, value_verdict, wavelength_m)
 
 __all__ = ["identify_stability", "verdict_at", "wavelength_m", "KSP_RANGE_N_PER_M3", "FLANK_RANGE_M", "Candidate",
-           "CANDIDATES", "ObservationModel", "Threshold", "critical_value", "threshold", "value_verdict",
+           "candidate", "ObservationModel", "Threshold", "critical_value", "threshold", "value_verdict",
            "M_VERDICT", "M_BOUND", "stability_effects"]
 
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from robolobes.cases.spec import MillingCase
     from robolobes.lobes import LobeProblem
 
-__all__ = ["Candidate", "stability_effects", "CANDIDATES", "SCALE_CREDIBLE", "wavelength_m", "ObservationModel",
+__all__ = ["Candidate", "stability_effects", "candidate", "SCALE_CREDIBLE", "wavelength_m", "ObservationModel",
            "critical_value", "Threshold", "threshold", "value_verdict", "M_VERDICT", "M_BOUND", "XTOL_LOG"]
 
 #: SDM steps per period of the verdict, and of the coarser level that bounds its error.
@@ -66,8 +66,13 @@ def stability_effects(state=None, names=None) -> list[DampingEffect]:
     return [e for e in chosen if isinstance(e, DampingEffect)]
 
 
-#: The default candidates, from the registry (joint damping, process damping).
-CANDIDATES = tuple(Candidate.of(e) for e in stability_effects())
+def candidate(name: str, state=None) -> Candidate:
+    """The candidate of the registered damping effect ``name`` (read from the registry at the call;
+    BadInput for a name that is not one)."""
+    effect, = stability_effects(state, [name])
+    return Candidate.of(effect)
+
+
 SCALE_CREDIBLE = JOINT_DAMPING_CREDIBLE
 
 

@@ -91,6 +91,12 @@ def _robot(case, cut, effect, value):
     return build_model(case.robot, "basic", extra_elements=(TipDamper(**t),))
 
 
+def _progress(line):
+    """One line of progress on the terminal past pytest's capture (capsys holds the CLI's output)."""
+    if sys.__stderr__ is not None:
+        sys.__stderr__.write(line)
+
+
 def _observed(case, rpm, depth, effect, value):
     """Time-domain verdict (True: chatter, False: stable) of the pass at (rpm, depth) with the effect.
 
@@ -104,6 +110,7 @@ def _observed(case, rpm, depth, effect, value):
     for _ in range(4):
         run = simulate(SimulationProblem(robot, c, t_end_s=t_end), LinearizedNewmark(deg_per_step=1.0))
         s = run.summary
+        assert s is not None  # simulate() sets the summary of every run it returns
         if s.verdict.status != "undetermined":
             return s.verdict.status == "unstable"
         assert s.duration_to_decide_s, s.verdict.reason
@@ -156,16 +163,16 @@ def test_process_damper_scales_with_depth_over_speed():
     assert pdm.flank_m(p)[0] == pytest.approx(math.sqrt(p / 1e14))
 
 
-def test_tip_damper_linearizes_to_its_tcp_projection():
+def test_tip_damper_linearizes_to_its_tcp_projection(steel_case, tx200_robot):
     # the element's linearized damping is J^T R2^T Cc R2 J, built here from linearize's J and the cut
     # frame (cases.milling.cut_frame), not from the element's own code; and it composes in a case TOML
     from robolobes.cases.milling import cut_frame
     from robolobes.linearize.extra_elements import element_from_spec, element_table
 
-    case = load_case("tx200-steel")
+    case = steel_case
     th = Pass.from_case(case).theta_at_s(0.0)
     el = TipDamper(cxx_n_s_per_m=300.0, cyy_n_s_per_m=500.0, cxy_n_s_per_m=-200.0)
-    l0 = linearize(build_model(case.robot, "basic"), th)
+    l0 = linearize(tx200_robot("basic"), th)
     l1 = linearize(build_model(case.robot, "basic", extra_elements=(el,)), th)
     R2 = cut_frame(np.array(case.cut.feed_direction), l0.tool_axis)[:2]
     T = R2 @ np.asarray(l0.J)
@@ -181,11 +188,11 @@ def test_tip_damper_linearizes_to_its_tcp_projection():
 
 
 def test_decision_rule_and_fit_on_known_thresholds():
-    from robolobes.identify.force_stability import CANDIDATES, Threshold, _fit, value_verdict
+    from robolobes.identify.force_stability import candidate, Threshold, _fit, value_verdict
 
     t = Threshold(value=2.0, bound=0.1, coarse=2.1)
     assert [value_verdict(v, t).status for v in (1.85, 2.05, 2.15)] == ["unstable", "undetermined", "stable"]
-    jd = CANDIDATES[0]
+    jd = candidate("joint_damping")
     thr = [Threshold(1.2, 0.05, 1.25), Threshold(2.0, 0.1, 2.1), Threshold(3.0, 0.1, 3.1)]
     # stable, stable, chatter: every scale in (2.1, 3.1) explains all three (inside [2.9, 3.1] the third
     # is undetermined, which counts as not stable, as observed) -> the geometric centre
@@ -208,7 +215,7 @@ def test_detection_threshold_matches_the_sdm(setup):
     # estimate takes one undamped mode and the lobes' minimum, not the local lobe.
     from robolobes.identify.effects import ModelState
     from robolobes.identify.force_data import StabilityObservation
-    from robolobes.identify.force_stability import CANDIDATES, ObservationModel, critical_value
+    from robolobes.identify.force_stability import candidate, ObservationModel, critical_value
 
     path, case, st, lim = setup
     for rpm in (300.0, 700.0):
@@ -216,7 +223,7 @@ def test_detection_threshold_matches_the_sdm(setup):
         est = ProcessDamping().detection_threshold(st, case.tool, cut, 0.3)
         om = ObservationModel.build(ModelState(case=case), case,
                                     StabilityObservation("x", rpm, cut.ap_m, True, path_s_m=0.0))
-        assert critical_value(om, CANDIDATES[1]) == pytest.approx(est, rel=0.25), rpm
+        assert critical_value(om, candidate("process_damping")) == pytest.approx(est, rel=0.25), rpm
 
 
 def test_damping_lines_reuse_one_linearization():
@@ -228,7 +235,7 @@ def test_damping_lines_reuse_one_linearization():
     from robolobes.identify.cutting_effects import _engaged_nn
     from robolobes.identify.effects import ModelState
     from robolobes.identify.force_data import StabilityObservation
-    from robolobes.identify.force_stability import CANDIDATES, ObservationModel, critical_value
+    from robolobes.identify.force_stability import candidate, ObservationModel, critical_value
 
     case = load_case("tx200-steel")
     obs = StabilityObservation("x", 3100.0, 1.0e-3, True, path_s_m=0.0)
@@ -249,8 +256,8 @@ def test_damping_lines_reuse_one_linearization():
     one = ObservationModel(obs=StabilityObservation("x", 3000.0, cut.ap_m, True, path_s_m=0.0), case=case,
                            problem=prob, lines={"joint_damping": (np.zeros((1, 1)), np.array([[c0]])),
                                                 "process_damping": (np.array([[c0]]), line_pd)})
-    s = critical_value(one, CANDIDATES[0])
-    p = critical_value(one, CANDIDATES[1])
+    s = critical_value(one, candidate("joint_damping"))
+    p = critical_value(one, candidate("process_damping"))
     assert 1.0 < s < 50.0
     assert p == pytest.approx(2 * speed * c0 * (s - 1) / (cut.ap_m * dyy), rel=5e-3)
 
@@ -316,8 +323,8 @@ def _run(setup, tmp, capsys, effect, seeds):
                         "".join("C" if o else "s" for o in observed),
                         [(v["verdict"], v["critical_joint_damping_scale"], v["critical_ksp_l2_n_per_m"])
                          for v in out["verdicts_before"]]))
-        sys.__stderr__.write(f"draw {effect} seed {seed}: truth {value:.4g}; observed {results[-1][5]}; {why}; "
-                             f"found {results[-1][4]}; pass {ok}\n")
+        _progress(f"draw {effect} seed {seed}: truth {value:.4g}; observed {results[-1][5]}; {why}; "
+                  f"found {results[-1][4]}; pass {ok}\n")
     return results
 
 
@@ -356,6 +363,6 @@ def test_no_effect_in_at_least_19_of_20_seeds(setup, tmp_path, capsys, draw_plan
         d, _, observed, _ = _draw(setup, tmp_path, seed, None, ratios=(0.7, 1.3))
         out = _identify(d, capsys)
         found.append([e["name"] for e in out["effects"]])
-        sys.__stderr__.write(f"null seed {seed}: observed {''.join('C' if o else 's' for o in observed)}; "
-                             f"effects {found[-1]}\n")
+        _progress(f"null seed {seed}: observed {''.join('C' if o else 's' for o in observed)}; "
+                  f"effects {found[-1]}\n")
     assert sum(not f for f in found) >= plan.need, (plan.describe("19 of 20"), found)
