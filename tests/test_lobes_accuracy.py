@@ -20,16 +20,13 @@ of ``b_ref(n)`` count as a match (the limit curve is continuous between them).
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import cast
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import lobes_plain_reference as ref
+import lobes_plain_reference as ref  # pytest (import mode prepend) puts tests/, which has no __init__.py, on sys.path
 
 from robolobes.cases.milling import Cut, CuttingLaw, Tool
 from robolobes.lobes import LobeProblem, LobeResult, Mode, ModalStructure, RefinedSDM, SemiDiscretization, solve
