@@ -157,19 +157,24 @@ class Progress:
     def __init__(self, label: str, enabled: bool = True, stream=None, log_interval_s: float = 60.0):
         import sys
 
-        from tqdm.auto import tqdm
-
         self.label, self.enabled = label, enabled
         stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(stream, "isatty", lambda: False)())
-        self._bar = tqdm(total=1000, desc=label, disable=not enabled, leave=True, dynamic_ncols=self.tty,
-                         file=stream if self.tty else _LineStream(stream),
-                         mininterval=0.1 if self.tty else log_interval_s, miniters=1,
-                         bar_format="{desc} {percentage:3.0f}%|{bar:20}| [{elapsed}<{remaining}{postfix}]"
-                         if self.tty else "{desc} {percentage:3.0f}% [elapsed {elapsed}, left ~{remaining}{postfix}]")
+        self._bar = self._open(stream, log_interval_s) if enabled else None
+
+    def _open(self, stream, log_interval_s: float):
+        # the plain bar (tqdm.std), imported only when it is shown: tqdm.auto adds only async iteration
+        # and imports asyncio (docs/guide/development.md, start-up times)
+        from tqdm.std import tqdm
+
+        return tqdm(total=1000, desc=self.label, leave=True, dynamic_ncols=self.tty,
+                    file=stream if self.tty else _LineStream(stream),
+                    mininterval=0.1 if self.tty else log_interval_s, miniters=1,
+                    bar_format="{desc} {percentage:3.0f}%|{bar:20}| [{elapsed}<{remaining}{postfix}]"
+                    if self.tty else "{desc} {percentage:3.0f}% [elapsed {elapsed}, left ~{remaining}{postfix}]")
 
     def __call__(self, fraction: float, note: str = "") -> None:
-        if not self.enabled or self._bar.disable:
+        if self._bar is None or self._bar.disable:
             return
         n = int(round(1000 * min(max(float(fraction), 0.0), 1.0)))
         if note:
@@ -181,7 +186,7 @@ class Progress:
 
     def done(self, note: str = "") -> None:
         """Complete and close the bar."""
-        if self.enabled and not self._bar.disable:
+        if self._bar is not None and not self._bar.disable:
             if note:
                 self._bar.set_postfix_str(note, refresh=False)
             if self.tty:
@@ -191,7 +196,8 @@ class Progress:
         self.close()
 
     def close(self) -> None:
-        self._bar.close()
+        if self._bar is not None:
+            self._bar.close()
 
     def __enter__(self) -> "Progress":
         return self

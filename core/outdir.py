@@ -69,7 +69,6 @@ import fcntl
 import json
 import os
 import re
-import secrets
 import shutil
 import tempfile
 import time
@@ -452,7 +451,7 @@ class OutputDir:
                     if self.target.exists():
                         # locked before it is renamed, so that a later run knows it is not a dead run's
                         old_fd = _lock_dir(self.target, wait=True)
-                        old = self.target.parent / f".{self.target.name}{_OLD}{secrets.token_hex(4)}"
+                        old = self.target.parent / f".{self.target.name}{_OLD}{os.urandom(4).hex()}"
                         os.rename(self.target, old)
                     try:
                         os.rename(self.path, self.target)

@@ -17,6 +17,7 @@ when the pitch is uniform and every tooth regenerates on its predecessor, else o
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -47,6 +48,14 @@ def average_directional_matrix(tool: Tool, cut: Cut, law: CuttingLaw, nodes: int
     phi = st + (x + 1) * (ex - st) / 2
     D = directional_matrix(phi, law)
     return np.einsum("n,nij->ij", w, D) * (ex - st) / 2 / (2 * math.pi)
+
+
+@functools.cache
+def _gauss_nodes(q: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes on [0, 1] and weights summing to 1, ``q`` points (read-only, computed
+    once per ``q``: a lobe diagram asks for the same rule at every step average)."""
+    x, w = np.polynomial.legendre.leggauss(q)
+    return readonly((x + 1) / 2), readonly(w / 2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,8 +236,7 @@ class DirectionalPlan:
         q = self.quadrature
         if self.rule == "midpoint":
             return (np.arange(q) + 0.5) / q, np.full(q, 1.0 / q)
-        x, w = np.polynomial.legendre.leggauss(q)
-        return (x + 1) / 2, w / 2
+        return _gauss_nodes(q)
 
     def _step_average(self, start: np.ndarray) -> np.ndarray:
         """Average of ``g(phi) D(phi)`` over one step for an edge whose angle at the step start is
