@@ -22,12 +22,12 @@ def run(capsys, *argv):
     return rc, out.out, out.err
 
 
-def test_modes_json_defaults_match_python_api(capsys):
+def test_modes_json_defaults_match_python_api(capsys, tx200_spec, tx200_robot):
     rc, out, err = run(capsys, "modes", "--json")
     assert rc == 0
     d = json.loads(out)
-    spec = cases.load_robot("tx200")
-    lin = L.linearize(L.build_model(spec, "basic"), spec.pose("tab7"))
+    spec = tx200_spec
+    lin = L.linearize(tx200_robot("basic"), spec.pose("tab7"))
     # same computation through two entry points: equal to round-off
     assert_allclose(d["freq_hz"], lin.modes().freq_hz, rtol=1e-12)
     assert_allclose(d["tcp_static_stiffness_n_per_m"], lin.stiffness(), rtol=1e-10)
@@ -66,15 +66,14 @@ def test_cli_bad_input_is_one_clear_line(capsys, tmp_path, monkeypatch, argv, ms
 
 
 @pytest.mark.parametrize("ext", ["csv", "uff"])
-def test_frf_file_and_plot(capsys, tmp_path, ext):
+def test_frf_file_and_plot(capsys, tmp_path, ext, tx200_spec, tx200_robot):
     out = tmp_path / f"tcp.{ext}"
     rc, txt, err = run(capsys, "frf", "--variant", "orthogonal", "--fmin-hz", "1", "--fmax-hz", "200",
                        "--n", "200", "--out", str(out))
     assert rc == 0, err
     assert out.exists() and out.with_suffix(".png").stat().st_size > 10000
     frf = read_frf(out)
-    spec = cases.load_robot("tx200")
-    lin = L.linearize(L.build_model(spec, "orthogonal"), spec.pose("tab7"))
+    lin = L.linearize(tx200_robot("orthogonal"), tx200_spec.pose("tab7"))
     ref = lin.frf(frf.omega).H
     # CSV keeps 13 significant digits; UFF58 stores frequencies (min, increment) with 6 significant
     # digits (format E13.5), which moves the sampled frequencies by < 1e-5 relative

@@ -32,10 +32,9 @@ ALU = cases.load_case("tx200-aluminium")
 STEEL = cases.load_case("tx200-steel")
 
 
-def _setup(case, variant, t_end, linearized=True, extra=()):
+def _setup(robot, case, t_end, linearized=True):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the Tab. 7 pose is 2.86 deg past A3's limit (accepted, warned)
-        robot = build_model(case.robot, variant, extra_elements=extra)
         method = LinearizedNewmark() if linearized else NonlinearNewmark()
         return PassSetup(SimulationProblem(robot, case, t_end_s=t_end), method)
 
@@ -52,7 +51,7 @@ REFERENCE_RUNS = [(ALU, "basic", 0.1, ()), (ALU, "backlash", 0.1, ()), (STEEL, "
 
 @pytest.mark.parametrize("case, variant, t_end, extra", REFERENCE_RUNS,
                          ids=[f"{c.name}-{v}{'-extra' if e else ''}" for c, v, _, e in REFERENCE_RUNS])
-def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_end, extra):
+def test_compiled_loop_reproduces_the_python_linearized_path(tx200_robot, case, variant, t_end, extra):
     # Same equations, same Newmark update, same Newton iteration and tolerances: the two agree to
     # round-off as long as they take the same number of iterations at every step. Where round-off
     # flips a convergence test, one path takes one more increment, of at most atol = 1e-11 m (rad)
@@ -61,8 +60,9 @@ def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_en
     # (cutting stiffness <= 5e6 N/m) x 1e-11 m = 5e-5 N, i.e. < 1e-6 of the peak force (100-240 N).
     # Hence: forces to 1e-6 of the peak, centre to 1e-10 m, wall to 1e-9 m (the brief's bound; a
     # wall column is the minimum of chords through the tips, which move with the centre).
-    S_c = _setup(case, variant, t_end, extra=extra)
-    S_p = _setup(case, variant, t_end, extra=extra)
+    robot = build_model(case.robot, variant, extra_elements=extra) if extra else tx200_robot(variant)
+    S_c = _setup(robot, case, t_end)
+    S_p = _setup(robot, case, t_end)
     rc = run_linearized(S_c, None)
     rp = run_linearized_python(S_p, None)
     n = S_c.n_steps + 1
@@ -84,7 +84,7 @@ def test_compiled_loop_reproduces_the_python_linearized_path(case, variant, t_en
     assert rc.stats["max_iterations"] == rp.stats["max_iterations"]
 
 
-def test_linearized_path_agrees_with_the_full_path_on_the_aluminium_cut():
+def test_linearized_path_agrees_with_the_full_path_on_the_aluminium_cut(tx200_robot):
     # Basic model, 0.3 s: approach, entry and 0.07 s (22 revolutions) of full engagement. The only
     # difference is the linearization at the start pose: the tool moves ~12 mm of a ~0.8 m reach,
     # which changes the robot's compliance by ~1 %; the forces feel the compliance through the
@@ -92,8 +92,8 @@ def test_linearized_path_agrees_with_the_full_path_on_the_aluminium_cut():
     # statistics move by ~1e-4 of the RMS at most (measured 2e-5-3e-5). Tolerance: mean and RMS
     # of each axis within 5e-4 x that axis' RMS over the full engagement, and every sample within
     # 0.5 % of the peak force (measured 0.16 %; a time shift of one step would give ~10 %).
-    S_l = _setup(ALU, "basic", 0.3)
-    S_f = _setup(ALU, "basic", 0.3, linearized=False)
+    S_l = _setup(tx200_robot("basic"), ALU, 0.3)
+    S_f = _setup(tx200_robot("basic"), ALU, 0.3, linearized=False)
     rl = run_linearized(S_l, None)
     rf = run_full(S_f, None)
     sel = rl.t_s >= S_l.steady[0]
@@ -108,30 +108,30 @@ def test_linearized_path_agrees_with_the_full_path_on_the_aluminium_cut():
     assert_allclose(rl.force_tool_n, rf.force_tool_n, rtol=0, atol=5e-3 * peak)
 
 
-def _fresh(case, variant, t_end):
-    S = _setup(case, variant, t_end)
+def _fresh(robot, case, t_end):
+    S = _setup(robot, case, t_end)
     return S, linear_system_data(S)
 
 
-def test_progress_is_reported_per_chunk_and_reaches_one():
-    S, d = _fresh(ALU, "backlash", 0.1)
+def test_progress_is_reported_per_chunk_and_reaches_one(tx200_robot):
+    S, d = _fresh(tx200_robot("backlash"), ALU, 0.1)
     seen = []
     run = run_linear_milling(d, S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega, progress=seen.append)
     assert 95 <= len(seen) <= 101  # about every 1 %
     assert np.all(np.diff(seen) > 0) and seen[-1] == 1.0
     assert run.stats["chunks"] == len(seen)
     # chunking is bookkeeping only: another chunk size gives the same numbers bit for bit
-    S2, d2 = _fresh(ALU, "backlash", 0.1)
+    S2, d2 = _fresh(tx200_robot("backlash"), ALU, 0.1)
     run2 = run_linear_milling(d2, S2.milling, h_s=S2.h, n_steps=S2.n_steps, omega_rad_s=S2.omega, chunk_steps=1000)
     assert_array_equal(run2.force_tool_n, run.force_tool_n)
     assert_array_equal(S2.workpiece.wall_profile().y_m, S.workpiece.wall_profile().y_m)
 
 
-def test_ctrl_c_lands_between_chunks_with_a_consistent_part():
+def test_ctrl_c_lands_between_chunks_with_a_consistent_part(tx200_robot):
     # A real SIGINT, sent from another thread while the compiled loop runs: it surfaces after the
     # running chunk as NewmarkInterrupted carrying the last accepted state, and the part is eroded
     # exactly up to that state: a fresh run stopped at that step count gives the same part.
-    S, d = _fresh(ALU, "backlash", 0.2)
+    S, d = _fresh(tx200_robot("backlash"), ALU, 0.2)
     timer = []
 
     def progress(frac):
@@ -148,13 +148,13 @@ def test_ctrl_c_lands_between_chunks_with_a_consistent_part():
     assert 0 < k < S.n_steps and k % 50 == 0  # between two chunks
     assert res.t_s == k * S.h and not res.completed
     assert S.workpiece.revision == k
-    S2, d2 = _fresh(ALU, "backlash", 0.2)
+    S2, d2 = _fresh(tx200_robot("backlash"), ALU, 0.2)
     run2 = run_linear_milling(d2, S2.milling, h_s=S2.h, n_steps=k, omega_rad_s=S2.omega)
     assert_array_equal(run2.q, res.q)
     assert_array_equal(S2.workpiece.wall_profile().y_m, S.workpiece.wall_profile().y_m)
 
 
-def test_failed_kernel_steps_are_redone_with_step_halving():
+def test_failed_kernel_steps_are_redone_with_step_halving(tx200_robot):
     # With max_iter = 1 no cutting step can converge in the kernel (the first increment of a
     # cutting step exceeds atol): each is redone by the Python reference from the last accepted
     # state, which halves the step until one iteration suffices. The run must still be the same
@@ -168,11 +168,11 @@ def test_failed_kernel_steps_are_redone_with_step_halving():
     # Richardson 4/3 of it) of the h run; that difference is 1.4 % of the excursion here. And the
     # erosion bookkeeping must stay consistent (one workpiece revision per accepted step, kernel
     # or fallback).
-    S0, d0 = _fresh(ALU, "basic", 0.08)
+    S0, d0 = _fresh(tx200_robot("basic"), ALU, 0.08)
     ref = run_linear_milling(d0, S0.milling, h_s=S0.h, n_steps=S0.n_steps, omega_rad_s=S0.omega)
-    Sh, dh = _fresh(ALU, "basic", 0.08)
+    Sh, dh = _fresh(tx200_robot("basic"), ALU, 0.08)
     half = run_linear_milling(dh, Sh.milling, h_s=Sh.h / 2, n_steps=2 * Sh.n_steps, omega_rad_s=Sh.omega)
-    S, d = _fresh(ALU, "basic", 0.08)
+    S, d = _fresh(tx200_robot("basic"), ALU, 0.08)
     run = run_linear_milling(d, S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega, max_iter=1)
     assert run.stats["python_fallback_steps"] > 50 and run.stats["rejected"] > 0
     assert ref.stats["python_fallback_steps"] == 0
@@ -186,11 +186,11 @@ def test_failed_kernel_steps_are_redone_with_step_halving():
     assert S.workpiece.revision == S.n_steps - fb + run.stats["python_fallback_substeps"]
 
 
-def test_unconvergeable_step_fails_loudly_with_the_time_and_the_last_state():
+def test_unconvergeable_step_fails_loudly_with_the_time_and_the_last_state(tx200_robot):
     # One Newton iteration and no halving allowed in the fallback: the first cutting step cannot
     # converge anywhere; the error names the step's time and carries the last accepted state,
     # with the part eroded exactly up to it.
-    S, d = _fresh(ALU, "basic", 0.1)
+    S, d = _fresh(tx200_robot("basic"), ALU, 0.1)
     with pytest.raises(FastPathConvergenceError, match=r"at the step to t = [0-9.]+ s") as ei:
         run_linear_milling(d, S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega, max_iter=1,
                            fallback_halvings=0)
@@ -208,8 +208,8 @@ def test_unconvergeable_step_fails_loudly_with_the_time_and_the_last_state():
     (dict(max_iter=0), "max_iter"), (dict(atol=0.0), "atol"), (dict(n_steps=10 ** 7), "tables"),
     (dict(fallback_halvings=-1), "fallback_halvings"),
 ])
-def test_bad_input_is_named(kw, match):
-    S, d = _fresh(ALU, "basic", 0.01)
+def test_bad_input_is_named(tx200_robot, kw, match):
+    S, d = _fresh(tx200_robot("basic"), ALU, 0.01)
     args = dict(h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega) | kw
     with pytest.raises(FastPathError, match=match):
         run_linear_milling(d, S.milling, **args)

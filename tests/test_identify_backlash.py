@@ -125,22 +125,22 @@ def _draws(seeds, base, tmp_path, capsys):
     return out
 
 
-def test_backlash_element_sets_the_dead_zone_of_any_variant():
+def test_backlash_element_sets_the_dead_zone_of_any_variant(tx200_spec, tx200_robot):
     """The ``backlash`` element gives the motion springs of the basic variant eq. 12's dead zone:
     ``tau_i = -k_i (delta_i - s sign(delta_i))`` outside ``|delta_i| <= s``, 0 inside (closed form,
     k_i from the paper's Tab. 5), with the same DOF as the basic variant; on the backlash variant the
     element's width replaces the robot file's."""
     from robolobes.linearize.model import element_forces, rigid_q
 
-    spec = load_case("tx200-aluminium").robot
+    spec = tx200_spec
     s = 1e-4
-    basic = build_model(spec, "basic")
+    basic = tx200_robot("basic")
     robot = build_model(spec, "basic", extra_elements=(GearBacklash(s),))
     assert robot.nv == basic.nv == 6 and robot.backlash_rad == s and basic.backlash_rad == 0.0
     assert build_model(spec, "backlash", extra_elements=(GearBacklash(2e-4),)).backlash_rad == 2e-4
     # orthogonal + the element at the robot file's 7.3e-5 rad is the paper's backlash variant
     ortho = build_model(spec, "orthogonal", extra_elements=(GearBacklash(7.3e-5),))
-    paper = build_model(spec, "backlash")
+    paper = tx200_robot("backlash")
     assert (ortho.nv, ortho.backlash_rad, [e.name for e in ortho.elements]) == \
         (paper.nv, paper.backlash_rad, [e.name for e in paper.elements]) == (18, 7.3e-5, [e.name for e in paper.elements])
     theta = np.radians([-11.71, 20.78, -212.14, 82.76, 60.80, -166.96])

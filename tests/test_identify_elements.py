@@ -44,9 +44,9 @@ def _substructured(H_r, d, f_hz, zeta, k, w):
 
 
 @pytest.mark.parametrize("direction", [(1.0, 0.0, 0.0), (0.0, 0.6, 0.8)])
-def test_tcp_mode_frf_equals_substructured_robot_plus_oscillator(direction):
+def test_tcp_mode_frf_equals_substructured_robot_plus_oscillator(tx200_robot, direction):
     f0, zeta, k = 900.0, 0.03, 2.0e7
-    base = linearize(build_model(CASE.robot, "basic"), TAB7)
+    base = linearize(tx200_robot("basic"), TAB7)
     mode = TcpOscillator.one_axis(f0, zeta, k, direction)
     lin = linearize(build_model(CASE.robot, "basic", extra_elements=(mode,)), TAB7)
     w = 2 * math.pi * np.concatenate([np.linspace(5, 60, 56), np.linspace(700, 1100, 41)])
@@ -172,14 +172,14 @@ def test_model_toml_runs_in_lobes_and_modes(tmp_path, capsys):
     assert any(abs(f - 900) < 20 for f in modes["freq_hz"])
 
 
-def test_servo_drive_stiff_loop_recovers_the_model_and_static_series_springs():
+def test_servo_drive_stiff_loop_recovers_the_model_and_static_series_springs(tx200_robot):
     # kp -> inf: the rotor is locked and the robot is the one without servo (1e-4 of the peak at
     # kp = 1e12, k / kp = 6e-6). Statics: joint spring k and loop kp in series give the axis a
     # stiffness k kp / (k + kp), so the static TCP compliance equals that of a joint table with it.
     import dataclasses
     spec = CASE.robot
     w = 2 * math.pi * np.linspace(2, 200, 100)
-    base = linearize(build_model(spec, "basic"), TAB7).frf(w).H
+    base = linearize(tx200_robot("basic"), TAB7).frf(w).H
     stiff = linearize(build_model(spec, "basic", extra_elements=(ServoDrive(2, 5.0, 1e12, 1e3),)), TAB7).frf(w).H
     assert_allclose(stiff, base, rtol=0, atol=1e-4 * np.abs(base).max())
     k, kp = spec.joints[1].stiffness_n_m_per_rad, 3e6

@@ -23,25 +23,22 @@ import pytest
 from scipy import signal
 
 from robolobes.main import main
-from robolobes.cases import load_case
-from robolobes.linearize import build_model
 from robolobes.timedomain import NonlinearNewmark, SimulationProblem, simulate
 
 T_START, T_END = 0.25, 0.40   # steady cut from 0.228 s; 46 revolutions at 18 700 rpm
 PER_REV = 180                 # simulation samples per revolution (2 deg steps)
 
 
-def _full_forces(case):
-    run = simulate(SimulationProblem(build_model(case.robot, "basic"), case, t_end_s=T_END), NonlinearNewmark(),
+def _full_forces(case, robot):
+    run = simulate(SimulationProblem(robot, case, t_end_s=T_END), NonlinearNewmark(),
                    verdict_companion=False)
     return np.asarray(run.t_s), np.asarray(run.force_workpiece_n)
 
 
 @pytest.fixture(scope="module")
-def base():
-    case = load_case("tx200-aluminium")
-    t, f = _full_forces(case)
-    return case, t, f
+def base(alu_case, tx200_robot):
+    t, f = _full_forces(alu_case, tx200_robot("basic"))
+    return alu_case, t, f
 
 
 def _lsim(sys_, t, f):
@@ -123,27 +120,27 @@ def _draw(name, rng):
     raise ValueError(name)
 
 
-def _data_with(name, p, case, t, f):
+def _data_with(name, p, case, t, f, robot):
     if name == "dynamometer":
         return _dynamometer(t, f, p["fn"], p["zeta"])
     if name == "lowpass":
         return _lowpass(t, f, p["fc"])
     if name == "edge_coefficients":
         c = replace(case, law=replace(case.law, kte_n_per_m=p["kte"], kre_n_per_m=p["kre"]))
-        return _full_forces(c)[1]
+        return _full_forces(c, robot)[1]
     if name == "runout":
         c = replace(case, tool=replace(case.tool, runout_m=(p["delta"] / 2, -p["delta"] / 2)))
-        return _full_forces(c)[1]
+        return _full_forces(c, robot)[1]
     raise ValueError(name)
 
 
-def _run_draws(name, seeds, base, tmp_path, capsys):
+def _run_draws(name, seeds, base, robot, tmp_path, capsys):
     case, t, f = base
     out = []
     for seed in seeds:
         rng = np.random.default_rng(1000 + seed)
         p = _draw(name, rng)
-        fe = _data_with(name, p, case, t, f)
+        fe = _data_with(name, p, case, t, f, robot)
         d = tmp_path / f"{name}-{seed}"
         t_sel, noise = _write(d, t, fe, seed)
         res = identify_cli(d, capsys)
@@ -163,8 +160,8 @@ def test_no_effect_fast_subset(base, tmp_path, capsys):
         assert res.error_before < 1.5 * res.noise_floor
 
 
-def test_dynamometer_one_draw(base, tmp_path, capsys):
-    (ok, p, info), = _run_draws("dynamometer", [0], base, tmp_path, capsys)
+def test_dynamometer_one_draw(base, tx200_robot, tmp_path, capsys):
+    (ok, p, info), = _run_draws("dynamometer", [0], base, tx200_robot("basic"), tmp_path, capsys)
     assert ok, (p, info)
 
 
@@ -193,9 +190,9 @@ def test_no_effect_twenty_seeds(base, tmp_path, capsys, draw_plan):
         strict=True, reason="known shortfall, found when the long tests were first run together (2026-12-02): 1 of 5 "
         "right; in draws 0, 2, 3, 4 (|delta| 6.5e-6 to 1.9e-5 m) nothing is identified (error_after 5-21 x the "
         "generating model's in draws 2-4)"))])
-def test_effect_five_draws(base, tmp_path, capsys, name, draw_plan):
+def test_effect_five_draws(base, tx200_robot, tmp_path, capsys, name, draw_plan):
     plan = draw_plan(range(5), 4)  # --draws N: the first N seeds, ceil(4 N / 5) of N (tests/draw_counts.py)
-    results = _run_draws(name, plan.seeds, base, tmp_path, capsys)
+    results = _run_draws(name, plan.seeds, base, tx200_robot("basic"), tmp_path, capsys)
     with capsys.disabled():
         for r in results:
             print(name, r)

@@ -26,13 +26,13 @@ TAB7 = CASE.path.start_q_rad
 THETA = TAB7 + np.radians([15, 5, -5, 0, 10, 0])
 
 
-def _fast_vs_element(variant, effect_name, params, element):
+def _fast_vs_element(robot, variant, effect_name, params, element):
     """Receptance by the identifier's perturbation against the element's full model (base axes)."""
     from robolobes.identify.frf import PoseData, predict
     from robolobes.identify.structural import pose_matrices
 
     w = 2 * math.pi * np.linspace(2, 300, 150)
-    pm = pose_matrices(build_model(CASE.robot, variant), THETA)
+    pm = pose_matrices(robot, THETA)
     pairs = [(o, i) for o in range(3) for i in range(3)]
     n = len(w)
     pd = PoseData("p", pm, w, np.tile(np.arange(n), 9), np.zeros((9 * n, 3)), np.zeros((9 * n, 3)),
@@ -59,13 +59,13 @@ def _fast_vs_element(variant, effect_name, params, element):
                            "rotor_damping_ratio": 2e3 / (2 * math.sqrt(10.02e6 * 5.0))},
      ServoDrive(2, 5.0, 4e6, 2e3)),
 ])
-def test_fast_perturbation_equals_element_model(variant, name, params, element):
+def test_fast_perturbation_equals_element_model(tx200_robot, variant, name, params, element):
     # two independent paths: M, C, K perturbed in place (identify) vs pinocchio rebuilt with the
     # element (linearize). Exact to round-off for the basic variant (no gravity). With gravity
     # (gravity, orthogonal variants) a softer spring sags further under the uncompensated load, so
     # q, J and dg/dq of the equilibrium move, which the fast path ignores: observed 2e-3 of the
     # peak for the virtual joints halved; tolerance 5e-3, below the 1-3 % measurement noise.
-    fast, full = _fast_vs_element(variant, name, params, element)
+    fast, full = _fast_vs_element(tx200_robot(variant), variant, name, params, element)
     tol = 1e-9 if variant == "basic" else 5e-3
     assert_allclose(fast, full, rtol=0, atol=tol * np.abs(full).max())
 

@@ -144,11 +144,11 @@ CASE = load_case("tx200-aluminium")
 K_AXES = CASE.robot.joint_stiffness          # N m/rad, the joint table
 
 
-def _axis_modes():
+def _axis_modes(robot):
     """Per axis, at the first synthetic pose (the case's start pose): the undamped robot mode (Hz)
     with the largest share of its strain energy in that axis's spring (f_r of the threshold), and the
-    axis's link-side inertia M[j, j] (kg m^2)."""
-    lin = linearize(build_model(CASE.robot, "basic"), CASE.path.start_q_rad)
+    axis's link-side inertia M[j, j] (kg m^2). ``robot``: the basic TX200."""
+    lin = linearize(robot, CASE.path.start_q_rad)
     w2, V = sla.eigh(lin.K, lin.M)
     share = K_AXES[:, None] * V ** 2 / np.einsum("im,ij,jm->m", V, lin.K, V)[None, :]
     return np.sqrt(w2[np.argmax(share, axis=1)]) / (2 * math.pi), np.diag(lin.M)[:len(K_AXES)]
@@ -182,14 +182,14 @@ def _draw_servo(rng, f_r, inertia):
     return f"servo_a{j}", ServoDrive(j, J, kp, 2 * zeta * math.sqrt((k + kp) * J))
 
 
-def _identify_servo_draw(tmp_path, capsys, seed):
+def _identify_servo_draw(robot, tmp_path, capsys, seed):
     """Write a 4-pose, 4-pair, 400-line UFF set with one undeclared servo, run the CLI, judge it.
 
     Correct (the issue's three criteria): servo_aN of the drawn axis first, error_after <= 1.2x the
     generating model's error on the same held-out lines, before/after >= 5 when the servo's own error
-    is above 5x the noise floor."""
+    is above 5x the noise floor. ``robot``: the basic TX200 (its axis modes set the drawn ranges)."""
     rng = np.random.default_rng(seed)
-    name, el = _draw_servo(rng, *_axis_modes())
+    name, el = _draw_servo(rng, *_axis_modes(robot))
     d = tmp_path / f"servo_{seed}"
     t = synthetic_frf_set(d, CASE, elements=(el,), n_poses=4, f_hz=np.linspace(2, 300, 400),
                           rel_noise=rng.uniform(0.01, 0.03), add_noise=rng.uniform(0.01, 0.03), seed=seed)
@@ -204,10 +204,10 @@ def _identify_servo_draw(tmp_path, capsys, seed):
     return ok, (seed, name, el, [e["name"] for e in res["effects"]], res["error_before"], res["error_after"], e_gen), res
 
 
-def test_servo_found_by_default(tmp_path, capsys):
+def test_servo_found_by_default(tx200_robot, tmp_path, capsys):
     # one draw, default candidates (servo_a1..a6 among them, no --effects); the model TOML loads
     # and carries the servo as a servo_drive element of the drawn axis
-    ok, info, res = _identify_servo_draw(tmp_path, capsys, 1)
+    ok, info, res = _identify_servo_draw(tx200_robot("basic"), tmp_path, capsys, 1)
     assert ok, info
     p = tmp_path / "model.toml"
     p.write_text(res["model"])
@@ -217,15 +217,15 @@ def test_servo_found_by_default(tmp_path, capsys):
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_servo_found_in_at_least_4_of_5_draws(tmp_path, capsys, draw_plan):
+def test_servo_found_in_at_least_4_of_5_draws(tx200_robot, tmp_path, capsys, draw_plan):
     plan = draw_plan((11, 12, 13, 14, 15), 4)  # --draws N: the first N seeds, ceil(4 N / 5) of N
-    got = [_identify_servo_draw(tmp_path, capsys, s)[:2] for s in plan.seeds]
+    got = [_identify_servo_draw(tx200_robot("basic"), tmp_path, capsys, s)[:2] for s in plan.seeds]
     with capsys.disabled():
         print(f"\nservo: {sum(ok for ok, _ in got)} of {len(got)} draws correct", *got, sep="\n")
     assert sum(ok for ok, _ in got) >= plan.need, (plan.describe("4 of 5"), [info for _, info in got])
 
 
-def test_every_axis_observable_at_the_tool_tip():
+def test_every_axis_observable_at_the_tool_tip(tx200_robot):
     # Why all six servos are default candidates: the servo's static part is a softer axis, and a
     # 10 % stiffness change of any axis (JointCorrection, pinocchio path) moves the default set
     # (4 poses, pairs xx yy zz xy, 400 lines 2-300 Hz, 2 % relative + 2 % additive noise) by
@@ -236,7 +236,7 @@ def test_every_axis_observable_at_the_tool_tip():
     from robolobes.linearize.extra_elements import JointCorrection
 
     w = 2 * math.pi * np.linspace(2, 300, 400)
-    base = build_model(CASE.robot, "basic")
+    base = tx200_robot("basic")
     thetas = [CASE.path.start_q_rad + np.radians(POSE_OFFSETS_DEG[p]) for p in range(4)]
     H0 = [linearize(base, th).frf(w).H for th in thetas]
     z = []

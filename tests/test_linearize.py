@@ -269,12 +269,12 @@ def test_control_interop(tx200_robot):
     assert_allclose(resp, lin.frf(w).H, rtol=1e-8)
 
 
-def test_pass_map_matches_single_pose_linearization(alu_case):
+def test_pass_map_matches_single_pose_linearization(alu_case, tx200_robot):
     # The batched map at s = 0 is the single-pose linearization at the pass start (same code path,
     # stacked): equal to round-off.
     from robolobes.linearize.maps import pass_map
     case = alu_case
-    robot = L.build_model(case.robot, "basic")
+    robot = tx200_robot("basic")
     with pytest.warns(L.JointLimitWarning, match=r"A3 .*= -212.14 deg, wrapped to \+147.86 deg"):
         pas = L.Pass.from_case(case)
     m = pass_map(robot, pas, n=3)
@@ -285,10 +285,10 @@ def test_pass_map_matches_single_pose_linearization(alu_case):
     assert_allclose(m.path_s_m, [0, pas.travel_m / 2, pas.travel_m])
 
 
-def test_grid_map_reports_unreachable_targets(alu_case):
+def test_grid_map_reports_unreachable_targets(alu_case, tx200_robot):
     from robolobes.linearize.maps import grid_map
     case = alu_case
-    robot = L.build_model(case.robot, "basic")
+    robot = tx200_robot("basic")
     p0, R0 = L.fk(case.robot, case.path.start_q_rad)
     pts = np.array([p0, p0 + [3.0, 0, 0]])
     g = grid_map(robot, pts, R0, case.path.start_q_rad)

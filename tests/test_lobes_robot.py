@@ -46,18 +46,18 @@ EXPECTED = {
 }
 
 
-def robot_problem(variant, casename):
+def robot_problem(robot, casename):
+    """The lobe problem of case ``casename`` on ``robot`` (a TX200 from the ``tx200_robot`` fixture) at Tab. 7."""
     case = load_case(casename)
-    rob = linearize.build_model(case.robot, variant)
-    lin = linearize.linearize(rob, case.robot.poses_rad["tab7"])
+    lin = linearize.linearize(robot, case.robot.poses_rad["tab7"])
     st = PhysicalStructure.from_linear(lin, case.cut.feed_direction)
     return LobeProblem(st, case.tool, case.cut, case.law)
 
 
 @pytest.mark.parametrize("variant, casename", list(EXPECTED))
-def test_tx200_verdict_margin_and_m_convergence(variant, casename):
+def test_tx200_verdict_margin_and_m_convergence(tx200_robot, variant, casename):
     verdict, limit_mm, bif, freq = EXPECTED[(variant, casename)]
-    p = robot_problem(variant, casename)
+    p = robot_problem(tx200_robot(variant), casename)
     pt = stability(p, SemiDiscretization(m=40), depth_max_m=0.02)
     print(f"\n{variant} {casename}: {pt.verdict}, margin {pt.margin:+.5f} +- {pt.margin_error:.2g}, "
           f"limit {pt.depth_limit_m * 1e3:.5f} mm, |mu| = {pt.spectral_radius:.7f}, {pt.bifurcation} "
@@ -80,11 +80,11 @@ def test_tx200_verdict_margin_and_m_convergence(variant, casename):
         assert_allclose(b * 1e3, limit_mm, rtol=5e-3)
 
 
-def test_fifth_decimal_of_mu_and_the_depth_decision():
+def test_fifth_decimal_of_mu_and_the_depth_decision(tx200_robot):
     """Basic model, aluminium speed: |mu| - 1 is ~ -6e-5 at 5 mm and ~ +9e-5 at 10 mm for every m
     and both schemes (values in the module docstring); its sign never flips with m, and the
     critical depth (5.092 mm) that the verdict uses lies between the two depths."""
-    p = robot_problem("basic", "tx200-aluminium")
+    p = robot_problem(tx200_robot("basic"), "tx200-aluminium")
     for scheme in ("sdm", "free-exact"):
         for m in (40, 80, 160):
             e = SDMEngine(p, SemiDiscretization(m=m, scheme=scheme), 0.02)
@@ -98,10 +98,10 @@ def test_fifth_decimal_of_mu_and_the_depth_decision():
     assert 1 - rho0 < 1e-2  # the lightly damped robot modes: |mu| > 0.99 before cutting
 
 
-def test_prescan_gives_the_sdm_limits():
+def test_prescan_gives_the_sdm_limits(tx200_robot):
     """The free-exact prescan only brackets; the refined limits are the SDM's own (equal within
     the bracket tolerance 1e-6), checked on the 6-DOF model (12 states: prescan on by default)."""
-    p = robot_problem("basic", "tx200-aluminium")
+    p = robot_problem(tx200_robot("basic"), "tx200-aluminium")
     sp = np.linspace(3000, 20000, 6)
     a = solve(p, SemiDiscretization(m=40), sp, rtol=1e-7)
     b = solve(p, SemiDiscretization(m=40, prescan=False), sp, rtol=1e-7)
@@ -110,14 +110,14 @@ def test_prescan_gives_the_sdm_limits():
     assert a.bifurcation.tolist() == b.bifurcation.tolist()
 
 
-def test_modal_truncation_of_the_18dof_model_reports_its_error():
+def test_modal_truncation_of_the_18dof_model_reports_its_error(tx200_robot):
     """Dropping the six fast overdamped poles (|lambda| / 2 pi > 600 Hz) of the orthogonal model:
     the report gives the static compliance error (5.9e-4 measured) and the FRF error below 300 Hz
     (3.2e-5); the steel limit moves by 0.5 % -- the same order as the compliance error times the
     sensitivity of a flip lobe, and well inside the margin of that cut (-0.59)."""
     from dataclasses import replace
 
-    p = robot_problem("orthogonal", "tx200-steel")
+    p = robot_problem(tx200_robot("orthogonal"), "tx200-steel")
     assert isinstance(p.structure, PhysicalStructure)  # robot_problem builds one
     red = p.structure.truncated(max_freq_hz=600.0, band_hz=(0.0, 300.0))
     rep = red.report
@@ -130,12 +130,12 @@ def test_modal_truncation_of_the_18dof_model_reports_its_error():
     assert stability(replace(p, structure=red), meth, depth_max_m=0.02).verdict.status == "unstable"
 
 
-def test_structure_frf_equals_the_linearized_robot_frf_in_the_cut_frame():
+def test_structure_frf_equals_the_linearized_robot_frf_in_the_cut_frame(steel_case, tx200_robot):
     """Two codes, one receptance: lobes.PhysicalStructure.from_linear(...).frf (direct solve on the
     cut-frame tcp rows) against linearize.LinearModel.frf(frame="cut") (its own direct solve), both in
     the core.frf convention (3, 3, F), m/N, omega rad/s, frame "cut"; equal to rounding (1e-9)."""
-    case = load_case("tx200-steel")
-    lin = linearize.linearize(linearize.build_model(case.robot, "basic"), case.robot.poses_rad["tab7"])
+    case = steel_case
+    lin = linearize.linearize(tx200_robot("basic"), case.robot.poses_rad["tab7"])
     w = 2 * np.pi * np.linspace(1.0, 200.0, 50)
     a = PhysicalStructure.from_linear(lin, case.cut.feed_direction).frf(w)
     b = lin.frf(w, frame="cut", feed_direction=case.cut.feed_direction)

@@ -133,13 +133,12 @@ def test_loop_stiffness_is_the_closed_form(ae_frac, angle):
     assert k == pytest.approx(2 * 2e-3 * math.hypot(1e9, 3e8) * angle / (2 * math.pi), rel=1e-10)
 
 
-def test_reduced_basis_lobes_match_the_full_model_on_a_robot_pose():
+def test_reduced_basis_lobes_match_the_full_model_on_a_robot_pose(alu_case, tx200_robot):
     from robolobes import linearize
-    from robolobes.cases import load_case
     from robolobes.lobes import LobeProblem
 
-    case = load_case("tx200-aluminium")
-    lin = linearize.linearize(linearize.build_model(case.robot, "orthogonal"), case.robot.poses_rad["tab7"])
+    case = alu_case
+    lin = linearize.linearize(tx200_robot("orthogonal"), case.robot.poses_rad["tab7"])
     p = LobeProblem(PhysicalStructure.from_linear(lin, case.cut.feed_direction), case.tool, case.cut, case.law)
     speeds, depth = np.linspace(2000.0, 8000.0, 20), 3e-3
     red = basis_for(p, speeds, depth)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from scipy.linalg import expm
 
-from robolobes import cases, linearize
+from robolobes import linearize
 from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization
 from robolobes.lobes.sdm import SDMEngine, phi_exps
 
@@ -77,12 +77,11 @@ def test_random_stable_modal_systems_against_expm():
             assert _rel(g[i], w[i]) < 1e-12, (i, norms[i], _rel(g[i], w[i]))
 
 
-def test_tx200_reduced_structure_steps_against_expm():
+def test_tx200_reduced_structure_steps_against_expm(alu_case, tx200_robot):
     # The SDM's own step matrices for the 18-DOF orthogonal TX200 at Tab. 7, truncated to 300 Hz
     # as in a map, aluminium cut, engaged steps at 2000 and 25 000 rpm and depths 1 and 10 mm.
     # Against the Van Loan expm the SDM used before: rtol 1e-12 per block.
-    case = cases.load_case("tx200-aluminium")
-    robot = linearize.build_model(case.robot, "orthogonal")
+    case, robot = alu_case, tx200_robot("orthogonal")
     lin = linearize.linearize(robot, case.path.start_q_rad)
     red = PhysicalStructure.from_linear(lin, case.cut.feed_direction).truncated(max_freq_hz=300.0)
     eng = SDMEngine(LobeProblem(red, case.tool, case.cut, case.law), SemiDiscretization(m=40), 0.01)

@@ -21,7 +21,6 @@ from robolobes.timedomain.problem import MAX_RECORD_BYTES, RECORD_BYTES_PER_STEP
 
 warnings.filterwarnings("ignore", category=JointLimitWarning)  # Tab. 7's A3, accepted and tested elsewhere
 ALU = cases.load_case("tx200-aluminium")
-BASIC = build_model(ALU.robot, "basic")
 # The aluminium pass: 1.754 s; full engagement from 0.228 s; 18 700 rpm (3.2 ms per revolution).
 PASS_S = 1.754054
 
@@ -38,19 +37,19 @@ def _summary(r: SimulationResult) -> SimulationSummary:
     assert r.summary is not None
     return r.summary
 
-def test_t_end_past_the_pass_is_refused_naming_the_pass_duration():
+def test_t_end_past_the_pass_is_refused_naming_the_pass_duration(tx200_robot):
     with pytest.raises(SimulationError, match=r"past the end of the pass \(1\.75405 s") as ei:
-        SimulationProblem(BASIC, ALU, t_end_s=2.0)
+        SimulationProblem(tx200_robot("basic"), ALU, t_end_s=2.0)
     assert isinstance(ei.value, BadInput)
-    assert SimulationProblem(BASIC, ALU, t_end_s=PASS_S - 1e-6).end_time_s == pytest.approx(PASS_S - 1e-6)
+    assert SimulationProblem(tx200_robot("basic"), ALU, t_end_s=PASS_S - 1e-6).end_time_s == pytest.approx(PASS_S - 1e-6)
     with pytest.raises(SimulationError, match="t_end_s must be > 0"):
-        SimulationProblem(BASIC, ALU, t_end_s=0.0)
+        SimulationProblem(tx200_robot("basic"), ALU, t_end_s=0.0)
     with pytest.raises(SimulationError, match="end > start"):
-        SimulationProblem(BASIC, ALU, stats_window_s=(1.0, 0.5))
+        SimulationProblem(tx200_robot("basic"), ALU, stats_window_s=(1.0, 0.5))
     with pytest.raises(SimulationError, match="linearize.FlexibleRobot"):
         SimulationProblem("basic", ALU)  # pyright: ignore[reportArgumentType]  # deliberately invalid input
     with pytest.raises(TypeError):  # t_end_s is keyword-only
-        SimulationProblem(BASIC, ALU, 1.0)  # pyright: ignore[reportCallIssue]  # the positional call is the test
+        SimulationProblem(tx200_robot("basic"), ALU, 1.0)  # pyright: ignore[reportCallIssue]  # the positional call is the test
 
 
 @pytest.mark.parametrize("kw, match", [
@@ -66,15 +65,15 @@ def test_method_bounds(kw, match):
         NonlinearNewmark(max_iter=0)
 
 
-def test_a_tiny_step_is_refused_before_any_work_with_the_memory_it_would_take():
+def test_a_tiny_step_is_refused_before_any_work_with_the_memory_it_would_take(tx200_robot):
     # 1e-4 deg per step over the whole pass: 18 700 rpm x 360 deg / 60 s / 1e-4 deg x 1.754 s = 1.97e9
     # steps, 72 bytes of records each: 132 GiB > 2 GiB. The bound: steps <= 2 GiB / 72 B = 2.98e7.
     with pytest.raises(SimulationError, match=r"1968048649 steps.*132\.0 GiB.*2 GiB"):
-        simulate(SimulationProblem(BASIC, ALU), LinearizedNewmark(deg_per_step=1e-4))
-    h, n = step_count(SimulationProblem(BASIC, ALU), LinearizedNewmark(deg_per_step=0.01))
+        simulate(SimulationProblem(tx200_robot("basic"), ALU), LinearizedNewmark(deg_per_step=1e-4))
+    h, n = step_count(SimulationProblem(tx200_robot("basic"), ALU), LinearizedNewmark(deg_per_step=0.01))
     assert (n + 1) * RECORD_BYTES_PER_STEP < MAX_RECORD_BYTES  # a fine but sane step still runs
     with pytest.raises(SimulationError, match="LinearizedNewmark"):
-        simulate(SimulationProblem(BASIC, ALU, t_end_s=0.01), "linearized")  # pyright: ignore[reportArgumentType, reportCallIssue]  # deliberately invalid input
+        simulate(SimulationProblem(tx200_robot("basic"), ALU, t_end_s=0.01), "linearized")  # pyright: ignore[reportArgumentType, reportCallIssue]  # deliberately invalid input
 
 
 def _check_ranges(s: dict):
@@ -88,9 +87,9 @@ FIELDS = {f.name for f in dataclasses.fields(SimulationSummary)} | {"stable", "v
 
 
 @pytest.fixture(scope="module")
-def short_runs():
+def short_runs(tx200_robot):
     # 0.05 s ends before the steady cut (0.228 s); 0.25 s ends 22 ms (7 revolutions) into it
-    return {t: simulate(SimulationProblem(BASIC, ALU, t_end_s=t), LinearizedNewmark()) for t in (0.05, 0.25)}
+    return {t: simulate(SimulationProblem(tx200_robot("basic"), ALU, t_end_s=t), LinearizedNewmark()) for t in (0.05, 0.25)}
 
 
 def test_short_runs_keep_every_summary_field_with_reasons_and_no_inverted_range(short_runs):
@@ -163,10 +162,10 @@ def test_save_result_into_an_earlier_run_removes_its_stale_outputs_only(short_ru
     assert (other / "series.csv").read_text() == "a user's own file"
 
 
-def test_the_nonlinear_method_runs_through_simulate_with_its_options():
+def test_the_nonlinear_method_runs_through_simulate_with_its_options(tx200_robot):
     # 0.02 s of the approach (no cut yet): the full path records the axial TCP deviation, which the
     # linearized path does not have (NaN there), and uses the method's Newton options
-    pb = SimulationProblem(BASIC, ALU, t_end_s=0.02)
+    pb = SimulationProblem(tx200_robot("basic"), ALU, t_end_s=0.02)
     full = _simulated(pb, NonlinearNewmark(max_iter=30))
     lin = _simulated(pb, LinearizedNewmark())
     assert _summary(full).linearized is False and _summary(lin).linearized is True

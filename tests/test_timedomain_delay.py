@@ -178,28 +178,19 @@ def _alu(helix=True, factor=0.8):
     return replace(ALU, tool=tool, cut=cut, path=replace(ALU.path, part_length_m=0.045))
 
 
-_ROBOT = {}
-
-
-def _robot():
-    if "r" not in _ROBOT:
-        _ROBOT["r"] = L.build_model(ALU.robot, "basic")
-    return _ROBOT["r"]
-
-
-def _alu_sigma(case):
-    st = PhysicalStructure.from_linear(L.linearize(_robot(), case.path.start_q_rad), case.cut.feed_direction)
+def _alu_sigma(case, robot):
+    st = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
     return floquet_exponent(LobeProblem(st, case.tool, case.cut, case.law), SemiDiscretization(m=40, axial_slices=32))
 
 
-def test_aluminium_helical_tool_at_0p8_rate_equals_the_floquet_exponent():
+def test_aluminium_helical_tool_at_0p8_rate_equals_the_floquet_exponent(tx200_robot):
     # The paper's helical tool (30 deg, pitch 170/190 deg) at 0.8 times the limit, default settings
     # (2 deg per step, 54 discs): observed -0.2757 +- 0.0041 1/s against the SDM's -0.2666 (m = 40/80,
     # 32 axial slices, Richardson error 4e-4).
-    case = _alu()
-    sdm = _alu_sigma(case)
+    case, robot = _alu(), tx200_robot("basic")
+    sdm = _alu_sigma(case, robot)
     assert sdm.error_per_s < 0.01
-    r = simulate(SimulationProblem(_robot(), case), DelayNewmark())
+    r = simulate(SimulationProblem(robot, case), DelayNewmark())
     assert r.stats["n_discs"] == 54
     assert _within(r.rate.rate_per_s, r.rate.se_per_s, sdm.value_per_s), (r.rate.rate_per_s, sdm.value_per_s)
     assert r.verdict.verdict.status == "stable", r.verdict.verdict.reason
@@ -207,11 +198,12 @@ def test_aluminium_helical_tool_at_0p8_rate_equals_the_floquet_exponent():
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_aluminium_helical_rate_does_not_depend_on_the_disc_count():
+def test_aluminium_helical_rate_does_not_depend_on_the_disc_count(tx200_robot):
     # The eroded part's rate moved by 0.13 1/s between 4, 16 and 54 discs; the delay model's moves by
     # less than 0.005 1/s (observed -0.2754, -0.2756, -0.2757 +- 0.0041, whole pass).
     case = _alu()
-    rates = [simulate(SimulationProblem(_robot(), case), DelayNewmark(n_discs=n)).rate.rate_per_s for n in (4, 16, 54)]
+    robot = tx200_robot("basic")
+    rates = [simulate(SimulationProblem(robot, case), DelayNewmark(n_discs=n)).rate.rate_per_s for n in (4, 16, 54)]
     assert max(rates) - min(rates) < 0.005, rates
 
 
@@ -219,10 +211,10 @@ def test_aluminium_helical_rate_does_not_depend_on_the_disc_count():
 @pytest.mark.long
 @pytest.mark.parametrize("helix", [True, False])
 @pytest.mark.parametrize("factor", FACTORS)
-def test_aluminium_grid_rate_equals_the_floquet_exponent(helix, factor):
-    case = _alu(helix, factor)
-    sdm = _alu_sigma(case)
-    r = simulate(SimulationProblem(_robot(), case), DelayNewmark())
+def test_aluminium_grid_rate_equals_the_floquet_exponent(tx200_robot, helix, factor):
+    case, robot = _alu(helix, factor), tx200_robot("basic")
+    sdm = _alu_sigma(case, robot)
+    r = simulate(SimulationProblem(robot, case), DelayNewmark())
     assert r.rate.estimate is not None, r.rate.reason
     assert _within(r.rate.rate_per_s, r.rate.se_per_s, sdm.value_per_s), (r.rate.rate_per_s, sdm.value_per_s)
 
@@ -262,7 +254,7 @@ STEEL_LIMIT_M = 0.6427e-3  # SDM limit at 3100 rpm (basic model)
 @pytest.mark.slow
 @pytest.mark.long
 @pytest.mark.parametrize("factor, runout", [(0.5, True), (0.8, True), (1.25, False), (2.0, False)])
-def test_steel_rate_equals_the_floquet_exponent(factor, runout):
+def test_steel_rate_equals_the_floquet_exponent(tx200_robot, factor, runout):
     # Below the limit with the tool's runout (observed 0.5x -4.68 +- 1.16, SDM -3.44; 0.8x -4.50 +-
     # 0.51, SDM -3.64: the robot's modes around the 103 Hz tooth passing beat, hence the SE). Above
     # it the runout's period-2 forced response sits at the flip frequency (51.7 Hz) and is in the
@@ -270,7 +262,7 @@ def test_steel_rate_equals_the_floquet_exponent(factor, runout):
     # problem is the same without runout, which is what is compared there (kick 1 nm).
     tool = STEEL.tool if runout else replace(STEEL.tool, runout_m=(0.0, 0.0))
     case = replace(STEEL, tool=tool, cut=replace(STEEL.cut, ap_m=factor * STEEL_LIMIT_M))
-    robot = L.build_model(STEEL.robot, "basic")
+    robot = tx200_robot("basic")
     st = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
     sdm = floquet_exponent(LobeProblem(st, case.tool, case.cut, case.law), SemiDiscretization(m=40, axial_slices=32))
     kick: dict[str, Any] = {} if factor < 1 else {"kick_m": 1e-9}

@@ -66,7 +66,7 @@ def test_undamped_unforced_robot_conserves_energy():
 
 
 @pytest.mark.parametrize("variant", ["basic", "orthogonal"])
-def test_small_amplitude_response_reproduces_frf_at_peaks(variant):
+def test_small_amplitude_response_reproduces_frf_at_peaks(tx200_robot, variant):
     # Stepped sine at the damped frequency of the first three modes, 1 N along x and along y at the
     # TCP, on the nonlinear model around its static equilibrium. The run starts on the linear
     # steady state (q = q_eq + Re X, v = Re(i w X)), so the fit over the last 5 periods measures the
@@ -74,7 +74,7 @@ def test_small_amplitude_response_reproduces_frf_at_peaks(variant):
     # Tolerance 2 % (the issue's); expected error: amplitude nonlinearity ~ (1e-6 rad)^1, Newmark
     # period error (w h)^2 / 12 = 8e-5 at 200 steps per period, which at zeta ~ 1 % moves a peak
     # amplitude by < 0.1 %.
-    robot = L.build_model(SPEC, variant)
+    robot = tx200_robot(variant)
     lin = L.linearize(robot, TAB7)
     q_eq = np.asarray(lin.q)
     modes = lin.modes()
@@ -106,7 +106,7 @@ def test_small_amplitude_response_reproduces_frf_at_peaks(variant):
         assert abs(np.angle(H_sim / H_ref)) < 0.02  # rad
 
 
-def test_backlash_dead_zone_seen_in_simulation():
+def test_backlash_dead_zone_seen_in_simulation(tx200_robot):
     # A slow (0.5 Hz, far below the 11.6 Hz first mode: quasi-static) alternating 500 N TCP force
     # along x reverses the torque on the vertical axis A1. The torque the A1 gear transmits is NOT
     # evaluated with the model's spring (MotionSprings, dead_zone, element_forces: the code under
@@ -121,7 +121,7 @@ def test_backlash_dead_zone_seen_in_simulation():
     # N m/rad: ~1e-4 N m); asserted: |tau_gear| < 1e-6 k s = 0.15 N m inside the zone (the loaded
     # torques reach ~130 N m), slope within 1e-6, crossings within 1e-4 of s (measured: 2e-10 k s,
     # 3e-12, 3e-12). Without backlash the same pairs give 0.64 k s "inside": the test can fail.
-    robot = L.build_model(SPEC, "backlash")
+    robot = tx200_robot("backlash")
     q_eq = np.asarray(L.equilibrium(robot, TAB7).q)
     force = lambda t, p: (np.array([500.0 * math.sin(2 * math.pi * 0.5 * t), 0, 0]), np.zeros((3, 3)))
     res, tan, _, _ = robot_equations(robot, lambda t: TAB7, force)
@@ -169,7 +169,7 @@ def _zero_crossing_freq_hz(t, x):
 
 
 @pytest.mark.parametrize("mode", [0, 3])
-def test_robot_with_an_extra_element_rings_at_its_linearized_mode(mode):
+def test_robot_with_an_extra_element_rings_at_its_linearized_mode(tx200_robot, mode):
     # A robot built with extra_elements (50 kg at the TCP on the gravity variant: gravity and its
     # compensation) is released in free vibration (no cut, motors fixed at Tab. 7) from the state of
     # one of its complex modes, x0 = eps Re(phi), v0 = eps Re(lambda phi), TCP amplitude ~10 um, and
@@ -186,7 +186,7 @@ def test_robot_with_an_extra_element_rings_at_its_linearized_mode(mode):
     lin = L.linearize(robot, TAB7)
     modes = lin.modes()
     f_ref = modes.damped_freq_hz[mode]
-    f_without = L.linearize(L.build_model(SPEC, "gravity"), TAB7).modes().damped_freq_hz[mode]
+    f_without = L.linearize(tx200_robot("gravity"), TAB7).modes().damped_freq_hz[mode]
     assert abs(f_ref / f_without - 1) > 0.1
     lam = complex(2 * math.pi * (modes.damped_freq_hz[mode] * 1j - modes.damping_ratio[mode] * modes.freq_hz[mode]))
     phi = modes.shapes[:, mode]

@@ -34,16 +34,19 @@ PAPER = cases.load_reference("tx200-paper-results")
 DURATIONS_S = (0.3, 0.45, 0.6, 0.8, 1.0)  # the issue's durations; plus the whole pass
 
 
-def _structure(case, variant="basic", damping_scale=1.0):
-    robot = L.build_model(case.robot, variant, damping_scale=damping_scale)
+def _structure(robot, case):
     return PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
 
 
-def _run(case, variant="basic", damping_scale=1.0, linearized=True, **kw):
-    """A run of ``case`` on the linearized fast path (or the full model)."""
-    robot = L.build_model(case.robot, variant, damping_scale=damping_scale)
+def _run(robot, case, linearized=True, **kw):
+    """A run of ``case`` on ``robot`` on the linearized fast path (or the full model)."""
     method = LinearizedNewmark() if linearized else NonlinearNewmark()
     return simulate(SimulationProblem(robot, case, **kw), method)
+
+
+def _damped(tx200_robot, scale):
+    """The basic TX200 with its joint damping times ``scale`` (the shared fixture's robot at 1)."""
+    return tx200_robot("basic") if scale == 1.0 else L.build_model(STEEL.robot, "basic", damping_scale=scale)
 
 
 def _poles(problem):
@@ -61,10 +64,11 @@ def _truncated(run, t_end_s):
 _RUNS = {}
 
 
-def _alu_run(variant, linearized=True):
+def _alu_run(tx200_robot, variant, linearized=True):
+    """The whole aluminium pass on ``tx200_robot(variant)`` (the fixture), run once per module."""
     key = (variant, linearized)
     if key not in _RUNS:
-        _RUNS[key] = _run(ALU, variant, linearized=linearized, stats_window_s=(0.4, 1.4))
+        _RUNS[key] = _run(tx200_robot(variant), ALU, linearized=linearized, stats_window_s=(0.4, 1.4))
     return _RUNS[key]
 
 
@@ -82,7 +86,7 @@ _SPEED_PARAMS = [pytest.param(r, marks=pytest.mark.xfail(strict=False, reason=(
 
 
 @pytest.mark.parametrize("rpm", _SPEED_PARAMS)
-def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(rpm):
+def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(tx200_robot, rpm):
     # Reference: the SDM limit (m = 40/80, Richardson) at this speed. The time domain cuts the
     # whole pass at 0.8 and 1.25 times it. The tool has no runout (the TX200 steel tool's 6.9 um
     # does not change which teeth cut nor the delays, so the linear problem is the same) and a
@@ -92,11 +96,11 @@ def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(rpm):
     # within the spectral resolution (0.5 Hz) plus the nonlinear shift of saturated chatter (1 %).
     tool = replace(STEEL.tool, runout_m=(0.0, 0.0))
     cut = replace(STEEL.cut, spindle_rpm=rpm, feed_per_tooth_m=1e-4)
-    op = stability(LobeProblem(_structure(STEEL), tool, cut, STEEL.law), SemiDiscretization(m=40))
+    op = stability(LobeProblem(_structure(tx200_robot("basic"), STEEL), tool, cut, STEEL.law), SemiDiscretization(m=40))
     assert op.depth_limit_m < 0.01
     for factor, expect in ((0.8, "stable"), (1.25, "unstable")):
         case = replace(STEEL, tool=tool, cut=replace(cut, ap_m=factor * op.depth_limit_m))
-        s = _run(case).summary
+        s = _run(tx200_robot("basic"), case).summary
         assert s is not None
         assert s.verdict.status == expect, (rpm, factor, s.verdict.reason)
         if expect == "unstable":
@@ -112,12 +116,12 @@ def test_principal_period():
     assert principal_period(skip, STEEL.cut)[1] == "revolution"
 
 
-def test_aluminium_pass_is_stable_and_matches_the_paper_model_forces():
+def test_aluminium_pass_is_stable_and_matches_the_paper_model_forces(tx200_robot):
     # The paper's aluminium conditions (Tab. 7, 8), whole pass, 6-DOF basic model. Reference: the
     # paper's basic-model row of Tab. 10 (0.4-1.4 s), same model and coefficients: mean and RMS
     # within 2 %, extremes within 5 % (the paper's disc count, time step and feed ramp are not
     # stated; ours: 22 discs, 2 deg per step, 0.1 s jerk-limited ramp).
-    s = _alu_run("basic").summary  # the whole pass, shared with the verdict tests below
+    s = _alu_run(tx200_robot, "basic").summary  # the whole pass, shared with the verdict tests below
     assert s.verdict.status == "stable", s.verdict.reason
     fx_min, fy_min, fx_max, fy_max, fx_mean, fy_mean, fx_rms, fy_rms = PAPER["aluminium"]["tab10"]["basic"]
     fs = s.force_stats_paper_axes
@@ -127,22 +131,22 @@ def test_aluminium_pass_is_stable_and_matches_the_paper_model_forces():
     assert fs["y"]["max"] == 0.0  # the normal force never pulls: as the paper's 0 (Tab. 10)
 
 
-def test_truncation_equals_a_shorter_run():
+def test_truncation_equals_a_shorter_run(tx200_robot):
     # The issue's example: `simulate --case tx200-aluminium --variant basic --linearized
     # --duration 0.6` said unstable (trend -0.97 +- 0.75 1/s, decaying). Now: not unstable, and the
     # same verdict and rate as the first 0.6 s of the whole pass (causality: same steps, same
     # part), to round-off.
-    short = _run(ALU, t_end_s=0.6).summary
+    short = _run(tx200_robot("basic"), ALU, t_end_s=0.6).summary
     assert short is not None
     assert short.verdict.status != "unstable", short.verdict.reason
-    cut = _truncated(_alu_run("basic"), 0.6)
+    cut = _truncated(_alu_run(tx200_robot, "basic"), 0.6)
     assert short.verdict.status == cut["verdict"]
     if short.growth_rate_per_s is not None:
         assert_allclose(short.growth_rate_per_s, cut["growth_rate_per_s"], rtol=1e-6, atol=1e-9)
 
 
-def _check_variant(variant, linearized=True):
-    run = _alu_run(variant, linearized)
+def _check_variant(tx200_robot, variant, linearized=True):
+    run = _alu_run(tx200_robot, variant, linearized)
     for d in DURATIONS_S:
         s = _truncated(run, d)
         assert s["verdict"] != "unstable", (variant, d, s["verdict_reason"])
@@ -150,36 +154,36 @@ def _check_variant(variant, linearized=True):
     assert s.verdict.status == "stable", (variant, s.verdict.reason)
 
 
-def test_aluminium_basic_never_unstable_and_stable_over_the_pass():
+def test_aluminium_basic_never_unstable_and_stable_over_the_pass(tx200_robot):
     # Aluminium at the paper's conditions sits at margin +2.18 (lobes): at 0.3-1.0 s and over the
     # whole pass the time domain may say undetermined (a ringing robot), never unstable; over the
     # whole pass, stable.
-    _check_variant("basic")
+    _check_variant(tx200_robot, "basic")
 
 
 @pytest.mark.slow
 @pytest.mark.long
 @pytest.mark.parametrize("variant", ["gravity", "orthogonal", "backlash"])
-def test_aluminium_other_variants_never_unstable_and_stable_over_the_pass(variant):
-    _check_variant(variant)
+def test_aluminium_other_variants_never_unstable_and_stable_over_the_pass(tx200_robot, variant):
+    _check_variant(tx200_robot, variant)
 
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_aluminium_backlash_full_model_never_unstable():
+def test_aluminium_backlash_full_model_never_unstable(tx200_robot):
     # The full nonlinear path (backlash exact, gravity-compensated axes floating in their dead
     # zones) at 0.5 s and over the whole pass: not unstable; stable over the whole pass.
-    run = _alu_run("backlash", linearized=False)
+    run = _alu_run(tx200_robot, "backlash", linearized=False)
     assert _truncated(run, 0.5)["verdict"] != "unstable"
     assert run.summary.verdict.status == "stable", run.summary.verdict.reason
 
 
-def test_steel_is_unstable_from_full_engagement_on():
+def test_steel_is_unstable_from_full_engagement_on(tx200_robot):
     # Steel at the paper's conditions (basic, lobes: margin -0.60, flip at 51.7 Hz): every window
     # from full engagement that holds enough periods for a rate says unstable. Runout removed (it
     # changes neither the delays nor which teeth cut; the summary's companion run does the same).
     case = replace(STEEL, tool=replace(STEEL.tool, runout_m=(0.0, 0.0)))
-    run = _run(case, t_end_s=4.5)
+    run = _run(tx200_robot("basic"), case, t_end_s=4.5)
     t0 = run.steady_window_s[0]
     tp = principal_period(case.tool, case.cut)[0]
     shortest = max(38 * tp, beat_period_s(_poles(run.problem)))  # the rule's shortest window
@@ -188,7 +192,7 @@ def test_steel_is_unstable_from_full_engagement_on():
         assert s["verdict"] == "unstable", (length, s["verdict_reason"])
 
 
-def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
+def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes(tx200_robot):
     # Section 4.2: the steel cut is unstable with the nominal joint damping; the paper found x10
     # enough. The lobes at Tab. 7 (6-DOF) put the boundary between x12.34 and x12.5
     # (identify.study); the time domain must agree on both sides with a 20 % margin: unstable at
@@ -196,14 +200,14 @@ def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
     # 103.3 Hz tooth passing).
     runs = {}
     for scale in (1.0, 10.0, 15.0):
-        runs[scale] = _run(STEEL, damping_scale=scale, t_end_s=4.5).summary
+        runs[scale] = _run(_damped(tx200_robot, scale), STEEL, t_end_s=4.5).summary
     assert [runs[k].verdict.status for k in (1.0, 10.0, 15.0)] == ["unstable", "unstable", "stable"], \
         {k: r.verdict.reason for k, r in runs.items()}
     assert_allclose(runs[1.0].chatter_freq_hz, 3100 / 60, atol=0.5)
     assert runs[1.0].verdict_basis.startswith("companion run without runout")
     # the lobes agree: x10 unstable, x15 stable
     for scale, expect in ((10.0, "unstable"), (15.0, "stable")):
-        st = _structure(STEEL, damping_scale=scale)
+        st = _structure(_damped(tx200_robot, scale), STEEL)
         op = stability(LobeProblem(st, STEEL.tool, STEEL.cut, STEEL.law), SemiDiscretization(m=40))
         assert op.verdict.status == expect
 
@@ -216,12 +220,11 @@ def test_steel_is_unstable_and_the_damping_scale_brackets_the_lobes():
 ALU_LIMIT_M = 5.09e-3
 
 
-def _alu_near_limit(factor, helix=True, deg_per_step=2.0, n_discs=None):
+def _alu_near_limit(robot, factor, helix=True, deg_per_step=2.0, n_discs=None):
     tool = ALU.tool if helix else replace(ALU.tool, helix_rad=0.0)
     cut = replace(ALU.cut, feed_per_tooth_m=3e-5, ap_m=factor * ALU_LIMIT_M)
     case = replace(ALU, tool=tool, cut=cut, path=replace(ALU.path, part_length_m=0.045))
-    op = stability(LobeProblem(_structure(ALU), tool, cut, ALU.law), SemiDiscretization(m=80), adaptive=False)
-    robot = L.build_model(ALU.robot, "basic")
+    op = stability(LobeProblem(_structure(robot, ALU), tool, cut, ALU.law), SemiDiscretization(m=80), adaptive=False)
     run = simulate(SimulationProblem(robot, case), LinearizedNewmark(deg_per_step=deg_per_step, n_discs=n_discs))
     tp = principal_period(tool, cut)[0]
     g = growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=run.steady_window_s[0],
@@ -232,9 +235,9 @@ def _alu_near_limit(factor, helix=True, deg_per_step=2.0, n_discs=None):
 @pytest.mark.slow
 @pytest.mark.long
 @pytest.mark.parametrize("factor, expect", [(0.8, "stable"), (1.25, "unstable")])
-def test_aluminium_near_its_limit_agrees_with_the_lobes(factor, expect):
+def test_aluminium_near_its_limit_agrees_with_the_lobes(tx200_robot, factor, expect):
     # The real (helical) tool: verdicts agree. The rates: see the tests below.
-    op, run, g, ref = _alu_near_limit(factor)
+    op, run, g, ref = _alu_near_limit(tx200_robot("basic"), factor)
     assert op.verdict.status == expect
     assert run.summary is not None
     assert run.summary.verdict.status == expect, run.summary.verdict.reason
@@ -246,7 +249,7 @@ def test_aluminium_near_its_limit_agrees_with_the_lobes(factor, expect):
     "known shortfall, found when the long tests were first run together (2026-12-02): the time domain "
     "gives +0.238 +- 0.014 1/s against the SDM's +0.088 (the +0.044 below was observed before the "
     "entries were integrated exactly); cause not established")))])
-def test_straight_tool_growth_rate_equals_the_floquet_rate(factor):
+def test_straight_tool_growth_rate_equals_the_floquet_rate(tx200_robot, factor):
     # Numbers, not only verdicts: the measured growth rate of the non-synchronous motion against
     # ln|mu| / Tp of the SDM (m = 80, spectral radius at the operating point; converged: m = 40,
     # 80 and 64 axial slices agree to 5e-4 1/s; sdm and free-exact schemes agree). With a
@@ -255,7 +258,7 @@ def test_straight_tool_growth_rate_equals_the_floquet_rate(factor):
     # SDM): 0.3x -1.562 +- 0.020, -1.535; 1.1x +0.044 +- 0.014, +0.088. At 0.8x the time domain
     # now gives -0.185 +- 0.013 against -0.267 (not within 0.05; not asserted: see
     # test_helical_tool_growth_rate_does_not_depend_on_the_step_grid_or_the_disc_count).
-    op, run, g, ref = _alu_near_limit(factor, helix=False)
+    op, run, g, ref = _alu_near_limit(tx200_robot("basic"), factor, helix=False)
     tp = principal_period(run.problem.case.tool, run.problem.case.cut)[0]
     cmp = floquet_comparison(g, op.spectral_radius, tp)
     assert abs(cmp["difference_per_s"]) <= max(0.05, 3 * g.se_per_s), cmp
@@ -263,16 +266,17 @@ def test_straight_tool_growth_rate_equals_the_floquet_rate(factor):
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_time_step_convergence_above_the_limit():
+def test_time_step_convergence_above_the_limit(tx200_robot):
     # At 1.25x the limit the time domain's rate depends on the step (straight tool): +1.067 at
     # 2 deg of spindle rotation per step, +0.589 at 1 deg, +0.396 at 0.5 deg (SE 0.014), converging
     # towards the SDM's +0.175 (differences 0.48, 0.19: order ~1.3; extrapolated +0.20-0.26).
     # Asserted: the error against the SDM falls with every halving, and at 0.5 deg is < 0.3 1/s.
-    errors = [abs(_alu_near_limit(1.25, helix=False, deg_per_step=d)[2].rate_per_s - 0.1747) for d in (2.0, 1.0, 0.5)]
+    robot = tx200_robot("basic")
+    errors = [abs(_alu_near_limit(robot, 1.25, helix=False, deg_per_step=d)[2].rate_per_s - 0.1747) for d in (2.0, 1.0, 0.5)]
     assert errors[0] > errors[1] > errors[2] and errors[2] < 0.3, errors
 
 
-def test_helical_tool_growth_rate_does_not_depend_on_the_step_grid_or_the_disc_count():
+def test_helical_tool_growth_rate_does_not_depend_on_the_step_grid_or_the_disc_count(tx200_robot):
     # Each disc's entry into the part, the end of its entry ramp on the block edge and its exit are
     # integrated exactly inside the step (timedomain/entry_exit.py). Before, the rate at 0.8x
     # changed with where the step grid fell against the entries: -0.181 / -0.101 / -0.181 1/s at
@@ -289,8 +293,9 @@ def test_helical_tool_growth_rate_does_not_depend_on_the_step_grid_or_the_disc_c
     # The straight tool (one disc) has the same averaged dynamics (SDM: -0.2675 against -0.2668
     # 1/s): its eroded rate must equal the helical one within 0.01 1/s (measured -0.1850; with the
     # entries sampled on the grid it was -0.298, the helical -0.101).
-    _, _, g, _ = _alu_near_limit(0.8)
-    _, _, g16, _ = _alu_near_limit(0.8, deg_per_step=2.02, n_discs=16)
-    _, _, g1, _ = _alu_near_limit(0.8, helix=False)
+    robot = tx200_robot("basic")
+    _, _, g, _ = _alu_near_limit(robot, 0.8)
+    _, _, g16, _ = _alu_near_limit(robot, 0.8, deg_per_step=2.02, n_discs=16)
+    _, _, g1, _ = _alu_near_limit(robot, 0.8, helix=False)
     assert abs(g.rate_per_s - g16.rate_per_s) <= 0.005, (g.rate_per_s, g16.rate_per_s)
     assert abs(g.rate_per_s - g1.rate_per_s) <= 0.01, (g.rate_per_s, g1.rate_per_s)

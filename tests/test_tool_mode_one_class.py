@@ -95,9 +95,9 @@ def _close(a, b, what):
 
 
 @pytest.mark.parametrize("direction", [(1.0, 1.0, 0.0), OBLIQUE, (0.0, 0.0, 1.0)])
-def test_one_axis_matrices_equal_a_small_numpy_model(direction):
+def test_one_axis_matrices_equal_a_small_numpy_model(tx200_robot, direction):
     f0, zeta, k = 900.0, 0.03, 2.0e7
-    base = linearize(build_model(CASE.robot, "basic"), Q)
+    base = linearize(tx200_robot("basic"), Q)
     lin = linearize(build_model(CASE.robot, "basic", extra_elements=(TcpOscillator.one_axis(f0, zeta, k, direction),)), Q)
     for got, want, what in zip((lin.M, lin.C, lin.K, lin.J), _bordered(base, f0, zeta, k, direction), "MCKJ"):
         _close(got, want, what)
@@ -248,13 +248,13 @@ def test_model_writer_writes_a_one_axis_oscillator_table():
         dumps({"x": math.nan})
 
 
-def test_cut_frame_direction_turns_into_the_tcp_frame():
+def test_cut_frame_direction_turns_into_the_tcp_frame(tx200_robot):
     # a set read in the cut frame (x_c the feed, z_c = -TCP z: cases.milling.cut_frame) turned to the
     # TCP frame at a pose: z_c is -z, x_c the feed seen from the TCP, and an in-plane direction turns
     # like the planar oscillator's angle (exact up to round-off: 1e-12)
     from robolobes.lobes.tooltip import ToolSet
 
-    lin = linearize(build_model(CASE.robot, "basic"), Q)
+    lin = linearize(tx200_robot("basic"), Q)
     R = np.asarray(lin.R_tcp)
     feed = np.cross(R[:, 2], [0.2, 0.9, 0.1])
     feed /= np.linalg.norm(feed)                                   # normal to the tool axis

@@ -67,7 +67,7 @@ def test_one_oscillator_has_its_closed_form_on_a_rigid_base():
     assert_allclose(osc.freq_hz, np.sqrt([k1 / m, k2 / m]) / (2 * math.pi), rtol=1e-12)
 
 
-def test_orthogonal_chain_is_the_sum_of_its_modes():
+def test_orthogonal_chain_is_the_sum_of_its_modes(tx200_robot):
     # two one-axis oscillators (x: 40 g, y: 42 g, the masses of two measured holder modes), each
     # taking its mass from the one it sits on: the rigid-base receptance is the modal sum exactly
     x = TcpOscillator(0.040, 0.040 * (2 * math.pi * 922) ** 2, math.inf, 0.0, 0.011)
@@ -76,7 +76,7 @@ def test_orthogonal_chain_is_the_sum_of_its_modes():
     ref = _closed_form(0.040, x.k1_n_per_m, math.inf, 0.0, 0.011, 0.0, w) + \
         _closed_form(0.042, y.k1_n_per_m, math.inf, 0.5 * math.pi, 0.02, 0.0, w)
     assert_allclose(chain_receptance((x, y), w), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
-    robot = with_tool(build_model(CASE.robot, "basic"), (x, y))
+    robot = with_tool(tx200_robot("basic"), (x, y))
     assert_allclose(_rigid_base(robot, CASE.path.start_q_rad, w), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
 
 
@@ -95,7 +95,7 @@ def test_oscillator_on_the_robot_matches_the_independent_generator():
         assert np.abs(Hg - Hr).max() <= 1e-9 * np.abs(Hr).max(), k
 
 
-def test_identify_perturbation_equals_the_element():
+def test_identify_perturbation_equals_the_element(tx200_robot):
     from robolobes.identify.structural import pose_matrices
     from robolobes.identify.tool_effect import TcpModeXYEffect
 
@@ -104,7 +104,7 @@ def test_identify_perturbation_equals_the_element():
     params = {"mass_kg": osc.mass_kg, "freq1_hz": float(osc.freq_hz[0]), "freq2_hz": float(osc.freq_hz[1]),
               "angle_rad": osc.angle_rad, "zeta1": osc.zeta1, "zeta2": osc.zeta2}
     eff = TcpModeXYEffect()
-    got = eff.perturb(pose_matrices(build_model(CASE.robot, "basic"), theta), params)
+    got = eff.perturb(pose_matrices(tx200_robot("basic"), theta), params)
     want = pose_matrices(build_model(CASE.robot, "basic", extra_elements=(osc,)), theta)
 
     def H(pm):

@@ -14,7 +14,7 @@ def steel():
     return cases.load_case("tx200-steel")
 
 
-def test_default_map_is_refined_and_stores_the_estimate(steel):
+def test_default_map_is_refined_and_stores_the_estimate(steel, tx200_robot):
     # No truncation, so each pose is exactly lobes.solve with the map's refinement (same levels,
     # same search): limits and estimates equal to rtol 1e-12. The status codes are those of the
     # diagram; the summary's largest relative estimate is recomputed here from the stored arrays.
@@ -24,7 +24,7 @@ def test_default_map_is_refined_and_stores_the_estimate(steel):
                          speeds_rpm=np.array([3100.0, 6000.0]))
     res = solve_map(pr, meth, scheduler="serial")
     ds = res.dataset
-    robot = linearize.build_model(steel.robot, "basic")
+    robot = tx200_robot("basic")
     ref_method = RefinedSDM(SemiDiscretization(m=meth.m, prescan_m=meth.prescan_m), tol=0.01, m_max=320)
     rel = []
     for i in np.flatnonzero(ds["reachable"].values):
