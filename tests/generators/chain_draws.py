@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .draws import N_LINES, N_POSES, _covers, _either, _static_scale, run_identify
+from .draws import N_LINES, N_POSES, _covers, _either, _static_scale, chain_covered, run_identify
 from .tx200 import Effects, write_frf_set
 
 __all__ = ["CASES", "draw", "judge", "run_chain_case", "TOOL_MODE"]
@@ -39,8 +39,6 @@ DELAY_S = 50e-6
 ACCEL_KG = 0.020
 # the tool mode of the accelerometer case: 200 Hz, zeta 0.03, modal mass 0.2 kg, along TCP x
 TOOL_MODE = (200.0, 0.03, 0.2 * (2 * np.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
-# detection thresholds (identify/chain_effects.py), typed here: the judge's floor on the interval
-_DETECT = {"scale_x": 0.03, "scale_y": 0.03, "scale_z": 0.03, "delay_s": 5e-6, "mass_kg": 0.005}
 
 
 def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
@@ -72,14 +70,6 @@ def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
     return Effects(**kw), truth, noise
 
 
-def _chain_ok(name: str, true: dict, hit: list) -> str:
-    """'' when some identified ``hit`` covers the ``true`` parameters (module doc), else why not."""
-    for e in hit:
-        if all(abs(e["params"][k] - v) <= max(3 * e["uncertainty"][k], _DETECT[k]) for k, v in true.items()):
-            return ""
-    return f"{name} {true} not covered by {[(e['params'], e['uncertainty']) for e in hit]}"
-
-
 def judge(truth: dict, res: dict) -> tuple[bool, str]:
     """Whether ``res`` (the identify JSON) is right for a draw with ``truth`` (module doc), and why not."""
     ident = [e for e in res["effects"] if e["name"] in res["identified"]]
@@ -89,7 +79,7 @@ def judge(truth: dict, res: dict) -> tuple[bool, str]:
             continue
         hit = [e for e in ident if e["name"] == name]
         used |= {id(e) for e in hit}
-        bad = _chain_ok(name, truth[name], hit)
+        bad = chain_covered(name, truth[name], hit)
         if bad:
             why.append(bad)
     for axis, s in truth.get("axes", {}).items():
