@@ -47,6 +47,9 @@ KINDS = ("frf", "forces", "force_stats", "stability")
 
 # residual signatures diagnosis can report (an effect lists those it explains)
 SIGNATURES = {
+    "channel_ratio": "every pair of one response channel off by one real factor, at every line and pose "
+                     "(a sensor calibration)",
+    "phase_slope": "a phase residual linear in frequency, the same in every pair and pose (a delay)",
     "extra_peak": "a peak in the measurement the model lacks, at the same frequency in every pose",
     "peak_height": "peaks at the model's frequencies but with the wrong height (damping / modal mass)",
     "pose_shift": "peaks shifted in frequency, by an amount that depends on the pose",
@@ -275,7 +278,7 @@ def _load_library() -> None:
     import importlib
 
     for mod in ("robolobes.identify.structural", "robolobes.identify.cutting_effects",
-                "robolobes.identify.tool_effect"):
+                "robolobes.identify.tool_effect", "robolobes.identify.chain_effects"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as e:  # a library not written yet

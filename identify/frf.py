@@ -75,6 +75,9 @@ class PoseData:
     sigma : array (N,), m/N            noise standard deviation per line (``E|n|^2``)
     pair : array (N,) of int           which pair of the pose each line belongs to
     pair_out, pair_in : array (P, 3)   each pair's signed directions in base axes
+    pair_channel : array (P,) of int   each pair's response channel (0, 1, 2: the frame's x, y, z;
+                                       :attr:`~robolobes.linearize.frf_io.MeasuredPair.channel`); None:
+                                       one channel per response direction (the largest of ``pair_out``)
     """
 
     name: str
@@ -88,6 +91,11 @@ class PoseData:
     pair: np.ndarray
     pair_out: np.ndarray
     pair_in: np.ndarray
+    pair_channel: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.pair_channel is None:
+            object.__setattr__(self, "pair_channel", np.argmax(np.abs(self.pair_out), axis=1))
 
 
 def line_noise(H: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
@@ -163,12 +171,15 @@ def prepare(measurement: FRFSet, model: ModelState, progress: Callable[[str], No
             pair.append(np.full(n, k))
         out.append(PoseData(pf.pose, pm, omega, np.concatenate(idx), np.vstack(ov), np.vstack(iv),
                             np.concatenate(H), np.concatenate(sig), np.concatenate(pair),
-                            np.array([v[0] for v in ov]), np.array([v[0] for v in iv])))
+                            np.array([v[0] for v in ov]), np.array([v[0] for v in iv]),
+                            np.array([p.response_channel for p in pf.pairs])))
     return out
 
 
 def predict(pose: PoseData, effects: list) -> np.ndarray:
-    """Model receptance on the pose's lines (N,), m/N, with ``effects`` = [(effect, params), ...]."""
+    """Model receptance on the pose's lines (N,), m/N, with ``effects`` = [(effect, params), ...]:
+    the structural prediction with every effect's ``perturb``, then the measured() stage, the
+    measurement-chain effects (:mod:`identify.chain_effects`) in their ``order``, per response channel."""
     pm = pose.pm
     for eff, params in effects:
         pm = eff.perturb(pm, params)
@@ -182,7 +193,17 @@ def predict(pose: PoseData, effects: list) -> np.ndarray:
     in_r = W[:, n:] @ (Minv @ pm.J.T)          # (2n, 3)
     coef = (pose.pair_out @ out_r) * (in_r @ pose.pair_in.T).T        # (P, 2n)
     den = 1.0 / (1j * pose.omega[:, None] - lam[None, :])             # (F, 2n)
-    return (den @ coef.T)[pose.index, pose.pair]
+    H = (den @ coef.T)[pose.index, pose.pair]
+    return measured(pose, H, effects, lambda: np.einsum("ar,fr,rb->fab", out_r, den, in_r))
+
+
+def measured(pose: PoseData, H: np.ndarray, effects: list, point) -> np.ndarray:
+    """The measured() stage: ``H`` (N,) through the measurement-chain effects among ``effects`` (those
+    with a ``measured`` method), in their ``order``; ``point()`` the model's TCP receptance (F, 3, 3)."""
+    chain = sorted(((e, p) for e, p in effects if hasattr(e, "measured")), key=lambda ep: ep[0].order)
+    for eff, params in chain:
+        H = eff.measured(pose, H, params, point)
+    return H
 
 
 # ----------------------------------------------------------------------------------------------
@@ -532,6 +553,8 @@ def identify_frf(measurement: FRFSet, model: ModelState, *, alpha: float = 0.01,
                        f"got {len(measurement.poses)}")
     chosen = effects_for("frf", model) if effects is None else list(effects)
     candidates = [e for e in chosen if isinstance(e, StructuralEffect)]
+    from .chain_effects import check_driving_points
+    check_driving_points(measurement, candidates)
     poses = prepare(measurement, model, progress)
     from .evidence import accept
     from .selection import stepwise_select, z_threshold

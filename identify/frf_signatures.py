@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.stats import norm
 
+from .chain_signatures import channel_ratio, phase_slope
 from .signatures import ALPHA, EDGE_LINES, FRF_SIGNATURES, NOISE_CAL, QUASI_STATIC, Signature
 
 __all__ = ["PoseResidual", "frf_pose_residual", "frf_signatures"]
@@ -19,7 +20,8 @@ class PoseResidual:
     """What the FRF detectors need of one pose.
 
     f_hz : (L,) line frequencies;  measured, model : (P, L) complex receptances, m/N, per pair;
-    sigma : (P, L) noise per line (``E|n|^2 = sigma^2``), m/N;  modes : ((freq_hz, zeta), ...) of the model.
+    sigma : (P, L) noise per line (``E|n|^2 = sigma^2``), m/N;  modes : ((freq_hz, zeta), ...) of the model;
+    channels : (P,) the pairs' response channels (0, 1, 2), None: one channel for all.
     """
 
     name: str
@@ -28,6 +30,7 @@ class PoseResidual:
     model: np.ndarray
     sigma: np.ndarray
     modes: tuple
+    channels: np.ndarray | None = None
 
 
 def frf_pose_residual(pd, model_h: np.ndarray, modes) -> PoseResidual:
@@ -43,8 +46,9 @@ def frf_pose_residual(pd, model_h: np.ndarray, modes) -> PoseResidual:
     rows = lambda x: np.array([x[pd.pair == k][inner] for k in keep])
     fr, zr = modes
     in_band = tuple((float(a), float(b)) for a, b in zip(fr, zr) if f[0] < a < f[-1])
+    channel = getattr(pd, "pair_channel", None)
     return PoseResidual(name=pd.name, f_hz=f, measured=rows(pd.H), model=rows(model_h), sigma=rows(pd.sigma),
-                        modes=in_band)
+                        modes=in_band, channels=None if channel is None else np.asarray(channel)[keep])
 
 
 def _band_q(pr: PoseResidual, mask: np.ndarray) -> np.ndarray:
@@ -106,6 +110,11 @@ def frf_signatures(poses: list[PoseResidual], *, alpha: float = ALPHA, n_bands: 
     """FRF signatures over the poses (module docstring). Returns dict name -> :class:`Signature`."""
     s_det = alpha / len(FRF_SIGNATURES)
     out = {}
+    # the measurement chain first (identify.chain_signatures): a common factor found is removed; the
+    # delay before the scale (a delay's second order, 1 - (w tau)^2 / 2, is a real ratio; a scale has
+    # no phase)
+    out["phase_slope"], poses = phase_slope(poses, s_det)
+    out["channel_ratio"], poses = channel_ratio(poses, s_det)
     # static compliance: below QUASI_STATIC (a quarter) of the lowest model mode
     f_low = min(f for pr in poses for f, _ in pr.modes) if any(pr.modes for pr in poses) else None
     low = [pr.f_hz < QUASI_STATIC * f_low if f_low else pr.f_hz <= np.quantile(pr.f_hz, 0.1) for pr in poses]

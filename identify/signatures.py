@@ -42,6 +42,10 @@ FRFs (per pose, per pair, noise ``sigma`` per line, ``E|n|^2 = sigma^2``: ``q = 
     (z with variance ``4 / n``, :func:`_median_z`), not by the chi-square sum; the
     :data:`EDGE_LINES` first and last lines of each pair are left out. "chi-square" below means
     this band test.
+    * ``channel_ratio``, ``phase_slope`` (the measurement chain, tested first): a common real scale of
+      one response channel's pairs, a common delay of every pair, each significant and homogeneous
+      over the poses and runs of lines (:mod:`identify.chain_signatures`); a common factor found is
+      removed before the tests below.
     * ``static_offset``: chi-square of the residual on the quasi-static lines (below a quarter of the
       lowest model mode, where a mode's dynamic amplification is under 7 %);
       when present, its mean per pose and pair (a compliance offset) is removed before the tests below.
@@ -75,7 +79,8 @@ __all__ = ["Signature", "force_signatures", "ALPHA", "FORCE_SIGNATURES", "FRF_SI
 #: Family-wise rate of a false signature (per measurement).
 ALPHA = 0.01
 FORCE_SIGNATURES = ("mean_offset", "once_per_rev", "entry_ringing", "harmonic_rolloff")
-FRF_SIGNATURES = ("static_offset", "extra_peak", "peak_height", "pose_shift", "uniform_shift")
+FRF_SIGNATURES = ("channel_ratio", "phase_slope", "static_offset", "extra_peak", "peak_height", "pose_shift",
+                  "uniform_shift")
 #: How far (in variance) the FRF pipeline's per-line noise estimate (second differences,
 #: ``identify.frf.line_noise``) may be off in a band: on noise-only synthetic TX200 sets (4 poses,
 #: seeds 3 and 5) band means of ``2|r|^2 / sigma^2`` ranged 0.22-1.35 times their expected 2. A

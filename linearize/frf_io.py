@@ -21,7 +21,9 @@ to that pose whatever the file is called. Read by :func:`read_frf_set`:
 * directions ``rsp_dir`` / ``ref_dir`` = +-1, 2, 3 for the frame's x, y, z, sign kept; the frame
   from ``id2`` (``frame base`` or ``frame cut``), base by default;
 * CSV: the columns :func:`write_frf` writes (any subset of the pairs), frame from the header;
-* any subset of the pairs, and poses (even pairs) with different frequency axes.
+* any subset of the pairs, and poses (even pairs) with different frequency axes;
+* the response channel of each pair (:attr:`MeasuredPair.channel`): one channel per response
+  direction (the sensor along the frame's x, y or z), the default for both formats.
 
 Bad input raises :class:`~robolobes.core.errors.BadInput` naming the file and the value: NaN,
 a frequency axis not increasing, a pose not in ``poses.csv``, unknown ordinate types, units or
@@ -161,6 +163,11 @@ class MeasuredPair:
     omega : array (F,), rad/s, increasing
     H : complex array (F,), m/N: the receptance as measured along the signed directions, i.e.
         ``out_sign * in_sign * H_frame[out_axis, in_axis]``.
+    channel : int
+        The response channel (sensor) that measured it, 0, 1, 2 = the frame's x, y, z: what a
+        calibration scale of the measurement chain belongs to (``identify.chain_effects``). Default
+        (None): one channel per response direction, ``out_axis`` (a triaxial accelerometer, or one
+        sensor per axis); the readers set that default.
     """
 
     out_axis: int
@@ -169,6 +176,18 @@ class MeasuredPair:
     in_sign: int
     omega: np.ndarray
     H: np.ndarray
+    channel: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.channel is None:
+            object.__setattr__(self, "channel", int(self.out_axis))
+        elif isinstance(self.channel, bool) or not isinstance(self.channel, int) or not 0 <= self.channel <= 2:
+            raise BadInput(f"response channel {self.channel!r}; valid: 0, 1, 2 (the frame's x, y, z)")
+
+    @property
+    def response_channel(self) -> int:
+        """:attr:`channel` as an int (set by ``__post_init__``)."""
+        return int(self.out_axis if self.channel is None else self.channel)
 
 
 @dataclass(frozen=True)
@@ -340,7 +359,7 @@ def _uff_pair(s: dict, where: str) -> tuple[str | None, str, MeasuredPair]:
     i, si = _dir(s.get("ref_dir"), where, "ref_dir")
     m = _POSE_RE.search(str(s.get("id1", "")))
     pose = m.group(1) if m else None
-    return pose, _frame_of(str(s.get("id2", "")), where), MeasuredPair(o, so, i, si, 2 * math.pi * f, H)
+    return pose, _frame_of(str(s.get("id2", "")), where), MeasuredPair(o, so, i, si, 2 * math.pi * f, H, channel=o)
 
 
 _CSV_LABELS = {"x": 0, "y": 1, "z": 2, "feed": 0, "normal": 1, "axial": 2}
@@ -382,7 +401,8 @@ def _csv_pairs(path: Path) -> tuple[str, list[MeasuredPair]]:
         H = data[:, c] + 1j * data[:, c + 1]
         _check_axis(f, H, f"{path} column {names[c]}")
         pairs.append(MeasuredPair(_CSV_LABELS[m.group(2)], -1 if m.group(1) else 1, _CSV_LABELS[m.group(4)],
-                                  -1 if m.group(3) else 1, 2 * math.pi * f, H))
+                                  -1 if m.group(3) else 1, 2 * math.pi * f, H,
+                                  channel=_CSV_LABELS[m.group(2)]))
     return frame, pairs
 
 

@@ -24,6 +24,14 @@ Effects (``Effects``, all optional):
   prismatic joint under the base: a compliance outside the six joints, in no library element).
 * ``sensor_gain``: the force sensor's calibration error: measured force = true force x gain, so the
   measured receptance is ``H / gain``.
+* ``channel_gain``: (gx, gy, gz), the response channels' calibration errors (base axes): measured
+  response = true response x gain, row ``o`` of the receptance times ``g_o``.
+* ``delay_s``: the response sampled ``delay_s`` later than the force: ``H exp(-i w delay_s)``.
+* ``accel_mass_kg``: an accelerometer, a point mass (no rotary inertia) on the body that carries the
+  TCP, at the TCP: added to the payload's pinocchio inertia there, or to the tool mode's body when
+  there is one (the mass rides on the tool).
+* ``highpass_hz``: the DAQ's AC coupling on the response channels, a first-order high-pass
+  ``i w / (i w + 2 pi f_c)`` (in no library element: an effect outside the library).
 """
 
 from __future__ import annotations
@@ -92,6 +100,10 @@ class Effects:
     servo: tuple | None = None      # (axis, J kg m^2, kp N m/rad, kd N m s/rad)
     base_z: tuple | None = None     # (k N/m, c N s/m)
     sensor_gain: float = 1.0
+    channel_gain: tuple = (1.0, 1.0, 1.0)
+    delay_s: float = 0.0
+    accel_mass_kg: float = 0.0
+    highpass_hz: float = 0.0
 
 
 class TX200:
@@ -130,6 +142,8 @@ class TX200:
             if max(mode_mass) > min(mode_mass) * (1 + 1e-9):
                 raise ValueError(f"chained tool modes share one mass: k / w0^2 = {mode_mass} kg differ")
             payload = payload + pin.Inertia(-mode_mass[0], PAYLOAD_TCP, np.zeros((3, 3)))
+        elif e.accel_mass_kg:           # the accelerometer on the payload, at the TCP
+            payload = payload + pin.Inertia(e.accel_mass_kg, PAYLOAD_TCP, np.zeros((3, 3)))
         model.appendBodyToJoint(parent, payload, face)
         tcp = face * pin.SE3(tcp_rot, PAYLOAD_TCP)       # flange joint -> TCP
         for r, (_f, _z, _k, d) in enumerate(e.tool_modes):
@@ -137,7 +151,7 @@ class TX200:
             # mass, the others are massless links of the chain (the mass moves along every direction)
             d = np.asarray(d, float) / np.linalg.norm(d)
             parent = model.addJoint(parent, pin.JointModelPrismaticUnaligned(d), tcp, f"mode_{r}")
-            m = mode_mass[0] if r == len(e.tool_modes) - 1 else 0.0
+            m = mode_mass[0] + e.accel_mass_kg if r == len(e.tool_modes) - 1 else 0.0   # accelerometer on the tool
             model.appendBodyToJoint(parent, pin.Inertia(m, np.zeros(3), np.zeros((3, 3))), pin.SE3.Identity())
             tcp = pin.SE3.Identity()          # the next mode joint sits on this body, same point and axes
         frame = model.addFrame(pin.Frame("tcp", parent, tcp, pin.FrameType.OP_FRAME))
@@ -169,7 +183,7 @@ class TX200:
             K[0, 0], C[0, 0] = e.base_z
         for r, (f, z, km, _) in enumerate(e.tool_modes):
             i = self.n_base + 6 + r
-            m = km / (2 * math.pi * f) ** 2
+            m = km / (2 * math.pi * f) ** 2       # the mode's own mass (k / w0^2), without the accelerometer
             K[i, i] = km
             C[i, i] = 2 * z * math.sqrt(km * m)
         if e.servo is not None:     # rotor coordinate: spring k between link and rotor, PD to ground
@@ -194,13 +208,19 @@ class TX200:
         return np.array(self.data.oMf[self.tcp_frame].rotation)
 
     def frf(self, theta_deg, f_hz) -> np.ndarray:
-        """Tool-tip receptance (3, 3, F), m/N, base axes, at ``f_hz`` (F,), with the sensor's gain."""
+        """Tool-tip receptance (3, 3, F), m/N, base axes, at ``f_hz`` (F,), as measured: the sensors'
+        gains, the delay and the high-pass applied."""
+        e = self.effects
         M, C, K, J = self.matrices(theta_deg)
         w = 2 * math.pi * np.asarray(f_hz, float)
         Z = K[None] - w[:, None, None] ** 2 * M[None] + 1j * w[:, None, None] * C[None]
         X = np.linalg.solve(Z, np.broadcast_to(J.T, (len(w),) + J.T.shape))       # (F, n, 3)
         H = np.einsum("in,fnj->ijf", J, X)
-        return H / self.effects.sensor_gain
+        H = H * np.asarray(e.channel_gain, float)[:, None, None] / e.sensor_gain
+        chain = np.exp(-1j * w * e.delay_s)
+        if e.highpass_hz:
+            chain = chain * (1j * w) / (1j * w + 2 * math.pi * e.highpass_hz)
+        return H * chain[None, None, :]
 
 
 def write_frf_set(directory, effects: Effects = Effects(), *, n_poses: int = 6, f_hz=None, rel_noise: float = 0.02,
