@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .draws import N_LINES, N_POSES, _covers, _either, _static_scale, chain_covered, run_identify
+from .draws import N_LINES, N_POSES, _either, chain_covered, judge_axes, run_identify, verdict
 from .tx200 import Effects, write_frf_set
 
 __all__ = ["CASES", "draw", "judge", "run_chain_case", "TOOL_MODE"]
@@ -82,18 +82,8 @@ def judge(truth: dict, res: dict) -> tuple[bool, str]:
         bad = chain_covered(name, truth[name], hit)
         if bad:
             why.append(bad)
-    for axis, s in truth.get("axes", {}).items():
-        hit = [e for e in ident if e["name"] in (f"joint_correction_a{axis}", f"servo_a{axis}")]
-        scales = [sc for sc in map(_static_scale, hit) if sc is not None]
-        if not [sc for sc in scales if _covers(sc[0], sc[1], s)]:
-            why.append(f"axis {axis} static scale {s:.3f} not covered by {[(e['name'], _static_scale(e)) for e in hit]}")
-        used |= {id(e) for e in hit}
-    extra = [e["name"] for e in ident if id(e) not in used]
-    if extra:
-        why.append(f"also named {extra}")
-    if res["unexplained"]["unexplained"]:
-        why.append(f"residual unexplained ({res['unexplained']['ratio_to_noise_floor']:.3g}x the noise floor)")
-    return (not why), "; ".join(why)
+    used |= judge_axes(truth, ident, why)
+    return verdict(ident, used, res, why)
 
 
 def _model_with_tool_mode(path: Path) -> Path:

@@ -146,6 +146,30 @@ def chain_covered(name: str, true: dict, hit: list) -> str:
     return f"{name} {true} not covered by {[(e['params'], e['uncertainty']) for e in hit]}"
 
 
+def judge_axes(truth: dict, ident: list, why: list) -> set:
+    """The ids of the joint and servo effects of ``ident`` (JSON); appends to ``why`` each axis of
+    ``truth["axes"]`` whose static stiffness scale none of them covers (within 2 sigma or 3 %, `_covers`)."""
+    used = set()
+    for axis, s in truth.get("axes", {}).items():
+        hit = [e for e in ident if e["name"] in (f"joint_correction_a{axis}", f"servo_a{axis}")]
+        ok = [e for e in hit if (sc := _static_scale(e)) is not None and _covers(*sc, s)]
+        if not ok:
+            why.append(f"axis {axis} static scale {s:.3f} not covered by {[(e['name'], _static_scale(e)) for e in hit]}")
+        used |= {id(e) for e in hit}
+    return used
+
+
+def verdict(ident: list, used: set, res: dict, why: list) -> tuple[bool, str]:
+    """Right when ``why`` is empty, no effect of ``ident`` is left outside ``used`` and the residual is
+    explained; else the reasons."""
+    extra = [e["name"] for e in ident if id(e) not in used]
+    if extra:
+        why.append(f"also named {extra}")
+    if res["unexplained"]["unexplained"]:
+        why.append(f"residual unexplained ({res['unexplained']['ratio_to_noise_floor']:.3g}x the noise floor)")
+    return (not why), "; ".join(why)
+
+
 def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
     """Whether ``res`` (the identify JSON) is right for a draw of ``case`` (module doc), and why not."""
     ident = [e for e in res["effects"] if e["name"] in res["identified"]]
@@ -167,24 +191,14 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
         if not good or len(good) < len(modes):
             why.append(f"tool modes {[round(e['params']['freq_hz'], 1) for e in modes]} vs {truth['tool_modes_hz']}")
         used |= {id(e) for e in modes}
-    for axis, s in truth.get("axes", {}).items():
-        hit = [e for e in ident if e["name"] in (f"joint_correction_a{axis}", f"servo_a{axis}")]
-        ok = [e for e in hit if (sc := _static_scale(e)) is not None and _covers(*sc, s)]
-        if not ok:
-            why.append(f"axis {axis} static scale {s:.3f} not covered by {[(e['name'], _static_scale(e)) for e in hit]}")
-        used |= {id(e) for e in hit}
+    used |= judge_axes(truth, ident, why)
     if "payload_factor" in truth:
         hit = [e for e in ident if e["name"] == "payload_mass"]
         if not any(_covers(e["params"]["mass_scale"], e["uncertainty"]["mass_scale"], truth["payload_factor"])
                    for e in hit):
             why.append(f"payload x{truth['payload_factor']:.3f} not covered by {[e['params'] for e in hit]}")
         used |= {id(e) for e in hit}
-    extra = [e["name"] for e in ident if id(e) not in used]
-    if extra:
-        why.append(f"also named {extra}")
-    if res["unexplained"]["unexplained"]:
-        why.append(f"residual unexplained ({res['unexplained']['ratio_to_noise_floor']:.3g}x the noise floor)")
-    return (not why), "; ".join(why)
+    return verdict(ident, used, res, why)
 
 
 def run_case(case: str, seed: int, tmp: Path, n_poses: int = N_POSES, n_lines: int = N_LINES) -> dict:
