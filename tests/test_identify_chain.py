@@ -91,16 +91,13 @@ def test_accelerometer_mass_is_the_mass_loaded_oscillator():
     assert peak == pytest.approx(f_n, rel=1e-3) and f[np.argmax(np.abs(got))] < f[np.argmax(np.abs(H))]
 
 
-def test_accelerometer_mass_equals_the_generators_point_mass():
+def test_accelerometer_mass_equals_the_generators_point_mass(tx200_robot):
     # the measured() stage G (I - w^2 m G)^-1 on the library's TX200 against the generator's pinocchio
     # body (an inertia added at the TCP, nothing shared), driving points and cross FRFs; both linear
     # models are exact: 1e-9 of max |H|
-    from robolobes.cases import load_case
     from robolobes.identify.structural import pose_matrices
-    from robolobes.linearize import build_model
 
-    case = load_case("tx200-aluminium")
-    robot = build_model(case.robot, "basic")
+    robot = tx200_robot("basic")
     f = np.linspace(2.0, 300.0, 200)
     w = 2 * math.pi * f
     pairs = [(o, i) for o in range(3) for i in range(3)]
