@@ -24,9 +24,12 @@ Bounds and their reasons:
 * ``zeta1``, ``zeta2`` 0.003 to 0.3, plausible up to 0.15: holder and spindle modes have 1-10 %
   (Schmitz and Smith), as ``tcp_mode``.
 
-It is not a default candidate (``candidate = False``): name it with ``robolobes identify --effects
-tcp_mode_xy``. The one-axis ``tcp_mode`` stays the default tool-mode candidate; it adds the same
-class, :meth:`TcpOscillator.one_axis` (one axis along any TCP direction).
+A default candidate (since 2026-12-06), beside the one-axis ``tcp_mode`` (the same class,
+:meth:`TcpOscillator.one_axis`, one axis along any TCP direction). A holder's mode is nearly
+symmetric, two radial modes a few per cent apart: one one-axis mode cannot fit the pair (its fit ends
+on a damping bound, so it is not credible), and the greedy search then never reaches the second, which
+left every "tool mode in x and y plus a joint" draw of tests/generators/draws.py with nothing
+identified (docs/guide/identify-answers.md).
 """
 
 from __future__ import annotations
@@ -45,7 +48,6 @@ __all__ = ["TcpModeXYEffect"]
 class TcpModeXYEffect(StructuralEffect):
     name = "tcp_mode_xy"
     repeatable = True      # a holder mode and a spindle mode
-    candidate = False
     doc = ("A planar tool-holder / spindle oscillator at the TCP: one mass on two orthogonal springs in the "
            "TCP x-y plane (frequencies, angle of the first axis from TCP x, damping ratios).")
     parameters = (

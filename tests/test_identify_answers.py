@@ -246,10 +246,7 @@ def test_null_set_from_the_generator_is_clean(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "highpass", "mode_xy+payload", pytest.param(
-    "mode_xy+joint", marks=pytest.mark.xfail(strict=True, reason=(
-        "known shortfall (2026-12-02): seed 2 is wrong, nothing identified, the residual unexplained at 63.7x "
-        "the noise floor (seed 1 right); seeds 3-5 not run this round (docs/guide/identify-answers.md)")))])
+@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "highpass", "mode_xy+payload", "mode_xy+joint"])
 def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
     # the tool-mode cases take 30-100 s of CPU per draw (bench/bench_identify_answers.py runs the same
     # rule); --draws N: the first N seeds, ceil(4 N / 5) of N right (tests/draw_counts.py)

@@ -13,7 +13,8 @@ What "right" means (:func:`judge`):
 * a library pair: every added effect is matched by an identified effect (``identified`` in the
   JSON: credible, not a surrogate), and nothing else is identified:
   - the tool mode: every identified ``tcp_mode`` within 3 % of a generated mode's frequency, and at
-    least one identified;
+    least one identified; a ``tcp_mode_xy`` (the planar oscillator, a default candidate since
+    2026-12-06) counts as its two modes, ``freq1_hz`` and ``freq2_hz``, each judged the same way;
   - a joint's stiffness x s: ``joint_correction_aN`` or ``servo_aN`` of that axis whose static stiffness
     scale (``stiffness_scale``; ``kp_scale / (1 + kp_scale)`` for a servo) is within 2 sigma of s or 3 %;
   - the servo (J, kp, kd) of axis N: ``servo_aN`` or ``joint_correction_aN``, the same static
@@ -185,11 +186,12 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
         ok = not ident and not res["unexplained"]["unexplained"]
         return ok, "" if ok else f"named {[e['name'] for e in ident]}, unexplained {res['unexplained']['unexplained']}"
     used, why = set(), []
-    modes = [e for e in ident if e["name"] == "tcp_mode"]
+    modes = [e for e in ident if e["name"] in ("tcp_mode", "tcp_mode_xy")]
     if "tool_modes_hz" in truth:
-        good = [e for e in modes if min(abs(e["params"]["freq_hz"] / f - 1) for f in truth["tool_modes_hz"]) <= 0.03]
-        if not good or len(good) < len(modes):
-            why.append(f"tool modes {[round(e['params']['freq_hz'], 1) for e in modes]} vs {truth['tool_modes_hz']}")
+        freqs = [e["params"][k] for e in modes for k in ("freq_hz", "freq1_hz", "freq2_hz") if k in e["params"]]
+        good = [f for f in freqs if min(abs(f / g - 1) for g in truth["tool_modes_hz"]) <= 0.03]
+        if not good or len(good) < len(freqs):
+            why.append(f"tool modes {[round(f, 1) for f in freqs]} vs {truth['tool_modes_hz']}")
         used |= {id(e) for e in modes}
     used |= judge_axes(truth, ident, why)
     if "payload_factor" in truth:
