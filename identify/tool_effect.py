@@ -27,9 +27,9 @@ Bounds and their reasons:
 A default candidate (since 2026-12-06), beside the one-axis ``tcp_mode`` (the same class,
 :meth:`TcpOscillator.one_axis`, one axis along any TCP direction). A holder's mode is nearly
 symmetric, two radial modes a few per cent apart: one one-axis mode cannot fit the pair (its fit ends
-on a damping bound, so it is not credible), and the greedy search then never reaches the second, which
-left every "tool mode in x and y plus a joint" draw of tests/generators/draws.py with nothing
-identified (docs/guide/identify-answers.md).
+on a damping bound, so it is not credible), and the greedy search then never reaches the second: draws
+2 and 3 of "tool mode in x and y plus a joint" (tests/generators/draws.py) identified nothing
+(docs/guide/identify-answers.md).
 """
 
 from __future__ import annotations
