@@ -186,16 +186,23 @@ def test_determined_reports_the_combination_only():
     assert best["sd_units"] == pytest.approx(0.1) and not got["combinations"][1]["determined"]
 
 
+def _false_alarms(sigma: np.ndarray, runs: int, alpha: float, rng: np.random.Generator) -> int:
+    """Runs (of ``runs``) in which a model equal to the truth is called unexplained at ``alpha``, tolerance 0:
+    the FRF verdict's statistic sqrt(sum |r|^2 / sum sigma^2), r = sigma * complex unit normal, against margin()."""
+    m = margin(len(sigma), alpha, True, 0.0)
+    alarms = 0
+    for _ in range(runs):
+        r = sigma * (rng.standard_normal(len(sigma)) + 1j * rng.standard_normal(len(sigma))) / math.sqrt(2)
+        alarms += math.sqrt(np.sum(np.abs(r) ** 2) / np.sum(sigma ** 2)) > m
+    return alarms
+
+
 def test_unexplained_margin_false_alarm_rate():
     rng = np.random.default_rng(2)
     n, runs, alpha = 2000, 400, 0.05
     m = margin(n, alpha, True, 0.0)
     sigma = rng.uniform(0.5, 2.0, n)
-    alarms = 0
-    for _ in range(runs):
-        r = sigma * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2)
-        alarms += math.sqrt(np.mean(np.abs(r) ** 2) / np.mean(sigma ** 2)) > m
-    assert alarms <= binom.ppf(0.999, runs, alpha)
+    assert _false_alarms(sigma, runs, alpha, rng) <= binom.ppf(0.999, runs, alpha)
     assert margin(n, alpha, True, 0.2) == pytest.approx(m / 0.8)
 
 
@@ -221,16 +228,8 @@ def _resonant_sigma(n_lines: int = 400) -> np.ndarray:
     "of 2400 lines) a model equal to the truth is called unexplained in 153 of 400 runs at alpha 0.05, "
     "tolerance 0 (the binomial 99.9 % bound allows 35)"))
 def test_unexplained_margin_false_alarm_rate_on_a_resonant_noise_profile():
-    # the statistic the FRF verdict compares with the margin: held-out error / noise floor
-    # = sqrt(sum |r|^2 / sum sigma^2) with r = sigma * complex unit normal (a model equal to the truth)
-    rng = np.random.default_rng(3)
-    sigma = _resonant_sigma()
-    n, runs, alpha = len(sigma), 400, 0.05
-    m = margin(n, alpha, True, 0.0)
-    alarms = 0
-    for _ in range(runs):
-        r = sigma * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2)
-        alarms += math.sqrt(np.sum(np.abs(r) ** 2) / np.sum(sigma ** 2)) > m
+    runs, alpha = 400, 0.05
+    alarms = _false_alarms(_resonant_sigma(), runs, alpha, np.random.default_rng(3))
     assert alarms <= binom.ppf(0.999, runs, alpha), (alarms, runs)
 
 
