@@ -66,7 +66,13 @@ class ForceEffect(Effect):
     ``parameters`` carry the physical bounds and the detection threshold (``detect``) for a
     cutting-force set; ``observed_by`` names the kinds that observe the effect, with the threshold
     in words.
+
+    ``family_exact``: whether :meth:`family` equals the simulated model at every value. When False
+    (a superposition or an interpolation between runs), the force fit re-centres it on simulated
+    runs at the fitted values (:func:`identify.forces._fit_effect`).
     """
+
+    family_exact: bool = True
 
     @property
     def chain(self) -> bool:
@@ -131,8 +137,11 @@ class EdgeCoefficients(ForceEffect):
                    "force_stats": "means and RMS shifted (fitted with at most 3 parameters in all)"}
     signatures = ("mean_offset",)
     doc = "edge (ploughing) forces Kte db, Kre db of an engaged edge element (Altintas)"
-    #: Edge coefficients of the basis runs, N/m (any value works: the forces are linear in them).
+    #: Edge coefficients of the basis runs, N/m. The superposition is exact for the rigid tool; on the
+    #: flexible robot the edge forces deflect the tool and move its engagement, so it is first order
+    #: only (draws with Kte, Kre ~ 6e4 N/m fitted to twice the noise error): the fit re-centres it.
     BASIS = 2e4
+    family_exact = False
 
     def apply_values(self, state, values):
         kte, kre = (float(v) for v in values)
@@ -187,6 +196,8 @@ class Runout(ForceEffect):
     #: Grid of b = e sin phi, m, for tools where it enters: the change b makes is added to the cubic
     #: in a (separable, quadratic in b; b moves the teeth's common radius, a weak effect).
     GRID_B = (-3e-5, 0.0, 3e-5)
+    #: The spline through 5 runs 15 um apart interpolates; the fit re-centres it on simulated runs.
+    family_exact = False
 
     @staticmethod
     def identifiable(tool) -> str:
