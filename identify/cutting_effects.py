@@ -47,15 +47,40 @@ under the strict key check).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import Callable
 
 import numpy as np
 
 from .effects import Effect, ModelState, Parameter, check_params, register
 
-__all__ = ["ForceEffect", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
+__all__ = ["ForceEffect", "FitCoordinates", "EdgeCoefficients", "Runout", "Dynamometer", "Lowpass", "Backlash",
            "FORCE_EFFECTS", "chain_transfer", "process_damping_c", "DampingEffect", "JointDamping", "ProcessDamping",
            "KSP_RANGE_N_PER_M3", "FLANK_RANGE_M", "JOINT_DAMPING_CREDIBLE"]
+
+
+@dataclass(frozen=True)
+class FitCoordinates:
+    """The coordinates ``u`` (Q,) a force fit searches, and the effect's values (P,) they stand for.
+
+    ``lower``, ``upper`` : (Q,) bounds of ``u``;  ``to_values(u)`` -> (P,) values;  ``from_values(v)``
+    -> (Q,) ``u``;  ``jacobian(u)`` -> (P, Q), d values / d u;  ``unresolved_sd`` : (P,) standard
+    deviation of what ``u`` leaves open (0 where the values follow from ``u``), added to the values'
+    covariance. The identity (Q = P, nothing open) for every effect but those that say otherwise.
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    to_values: Callable[[np.ndarray], np.ndarray]
+    from_values: Callable[[np.ndarray], np.ndarray]
+    jacobian: Callable[[np.ndarray], np.ndarray]
+    unresolved_sd: np.ndarray
+
+
+def _identity_coordinates(lower, upper) -> FitCoordinates:
+    n = len(lower)
+    return FitCoordinates(np.array(lower, float), np.array(upper, float), lambda u: np.asarray(u, float),
+                          lambda v: np.asarray(v, float), lambda u: np.eye(n), np.zeros(n))
 
 
 class ForceEffect(Effect):
@@ -124,6 +149,10 @@ class ForceEffect(Effect):
         state's chain (the context applies the chain). Default: re-simulate the applied state."""
         return lambda v: ctx.raw_averages(self.apply_values(state, v))
 
+    def fit_coordinates(self, tool) -> FitCoordinates:
+        """The coordinates the force fit searches for this tool (default: the parameters themselves)."""
+        return _identity_coordinates(self.lower, self.upper)
+
     def as_dict(self, values) -> dict:
         return {k: float(v) for k, v in zip(self.params, values)}
 
@@ -170,8 +199,10 @@ class Runout(ForceEffect):
     the family is a cubic spline in ``a`` (5 runs) plus the change ``b`` makes at ``a = 0`` (quadratic,
     2 more runs): separable, exact without cross terms in ``(a, b)``, which are small while ``b`` only
     moves the teeth's common radius.
-    For an equal-pitch two-tooth tool ``sin theta_j = 0``: only ``a = e cos phi`` changes the forces
-    (:meth:`identifiable`), the grid is one-dimensional and the phase is reported as 0 or pi.
+    For a two-tooth tool the fit has one coordinate, the one the radius difference depends on
+    (:meth:`fit_coordinates`, :meth:`identifiable`): ``e cos phi`` at equal pitch (phase reported as 0
+    or pi), ``e sin(p - phi)`` otherwise (``p`` half the pitch from tooth 0 to 1), with the mean radius
+    set to zero.
 
     The phase is relative to tooth 0 of the model, whose angle at the start of the measured block is
     fixed by the force data's alignment (the fitted circular shift, ``phase_shift_rev``): the measured
@@ -201,9 +232,12 @@ class Runout(ForceEffect):
 
     @staticmethod
     def identifiable(tool) -> str:
-        """``"amplitude and phase"``, or ``"e cos(phi) only"`` for an equal-pitch two-tooth tool."""
+        """``"amplitude and phase"`` (three or more teeth); for two teeth the one coordinate fitted
+        (:meth:`fit_coordinates`): ``"e cos(phi) only"`` at equal pitch, else ``"e sin(p - phi) only"``."""
         if tool.teeth == 2 and abs(tool.pitch_rad[0] - np.pi) < 1e-9:
             return "e cos(phi) only"
+        if tool.teeth == 2:
+            return "e sin(p - phi) only"
         return "amplitude and phase"
 
     def apply_values(self, state, values):
@@ -222,10 +256,14 @@ class Runout(ForceEffect):
         from scipy.interpolate import CubicSpline
 
         g = np.array(self.GRID)
+        tool = state.case.tool
+        if tool.teeth == 2:  # one coordinate (fit_coordinates): a spline through 5 runs of it
+            fc = self.fit_coordinates(tool)
+            runs = [ctx.raw_averages(self.apply_values(state, fc.to_values(np.array([u])))) for u in g]
+            splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
+            return lambda v: [s(float(fc.from_values(v)[0])) for s in splines]
         runs = [ctx.raw_averages(self._apply_ab(state, a, 0.0)) for a in g]
         splines = [CubicSpline(g, np.stack([r[k] for r in runs]), axis=0) for k in range(len(runs[0]))]
-        if self.identifiable(state.case.tool) != "amplitude and phase":
-            return lambda v: [s(float(v[0]) * np.cos(float(v[1]))) for s in splines]
         # separable: cubic in a (5 runs, b = 0) plus the change b makes at a = 0 (quadratic, 2 more runs)
         b3 = np.array(self.GRID_B)
         base = runs[len(g) // 2]
@@ -239,6 +277,38 @@ class Runout(ForceEffect):
             a, b = float(v[0]) * np.cos(float(v[1])), float(v[0]) * np.sin(float(v[1]))
             return [s(a) + db(b, k) for k, s in enumerate(splines)]
         return f
+
+    @staticmethod
+    def _half_pitch(tool) -> float:
+        """Half the angle from tooth 0 to tooth 1 of a two-tooth tool, rad."""
+        return 0.5 * float(np.asarray(tool.tooth_angle_rad)[1] - np.asarray(tool.tooth_angle_rad)[0])
+
+    def fit_coordinates(self, tool) -> FitCoordinates:
+        """For a two-tooth tool, the one coordinate the forces determine: ``s = e sin(p - phi)`` (``p``
+        half the pitch from tooth 0 to 1), with ``r_1 - r_0 = -2 s sin p`` (:func:`cases.milling.eccentric_runout`:
+        ``cos(theta_1 - phi) - cos(phi) = -2 sin(p) sin(p - phi)``). The fit's values are the offset of
+        smallest amplitude with that difference, ``e = |s|``, ``phi = p - pi/2`` (``p + pi/2`` for
+        ``s < 0``): the one whose mean radius ``e cos(p) cos(phi - p)`` is zero. The mean radius is a
+        tool-diameter change that the forces hardly see (on the 170/190 deg aluminium tool the fit slid
+        along it to the amplitude bound); the phase is then left open (standard deviation of a uniform
+        phase, ``pi / sqrt(3)``). Three or more teeth: the amplitude and the phase."""
+        if tool.teeth != 2:
+            return super().fit_coordinates(tool)
+        p = self._half_pitch(tool)
+        emax = float(self.upper[0])
+
+        def to_values(u):
+            s = float(np.asarray(u, float)[0])
+            return np.array([abs(s), p - math.pi / 2 if s >= 0 else p + math.pi / 2])
+
+        def from_values(v):
+            return np.array([float(v[0]) * math.sin(p - float(v[1]))])
+
+        def jacobian(u):
+            return np.array([[1.0 if float(np.asarray(u, float)[0]) >= 0 else -1.0], [0.0]])
+
+        return FitCoordinates(np.array([-emax]), np.array([emax]), to_values, from_values, jacobian,
+                              np.array([0.0, math.pi / math.sqrt(3.0)]))
 
     def identified(self, tool, values) -> dict:
         """What the fit determines: the tooth-radius offsets it implies (m) and which parameters show."""

@@ -150,61 +150,65 @@ REFINE_STEP = 0.01
 REFINE_TOL = 1e-4
 
 
-def _least_squares_fit(ctx: ForceContext, effect, family, h, starts, shift0: float):
-    """Fit ``family`` (values -> raw averages) to the training average: the best ``least_squares``
-    result over ``starts`` (values), in the scaled variables ``x = (v - lower) / range`` plus the shift."""
+def _least_squares_fit(ctx: ForceContext, fc, model_u, h, starts_u, shift0: float):
+    """Fit ``model_u`` (fit coordinates ``u`` -> raw averages, :class:`identify.cutting_effects.FitCoordinates`
+    ``fc``) to the training average: the best ``least_squares`` result over ``starts_u``, in the scaled
+    variables ``x = (u - lower) / range`` plus the alignment shift."""
     from scipy.optimize import least_squares
 
-    lo, hi = np.array(effect.lower, float), np.array(effect.upper, float)
+    lo, hi = np.asarray(fc.lower, float), np.asarray(fc.upper, float)
     scale = hi - lo
     meas = ctx.train.mean[:, :2]
 
     def resid(x):
-        a = family(lo + x[:-1] * scale)[0]
+        a = model_u(lo + x[:-1] * scale)[0]
         a = ctx.filtered(a, h) if h is not None else a
         return (shift_average(a, x[-1])[:, :2] - meas).ravel()
 
     best = None
-    for v0 in starts:
-        x0 = np.append(np.clip((np.asarray(v0, float) - lo) / scale, 0, 1), shift0)
+    for u0 in starts_u:
+        x0 = np.append(np.clip((np.asarray(u0, float) - lo) / scale, 0, 1), shift0)
         r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift0 - 0.5),
                                              np.append(np.ones(len(lo)), shift0 + 0.5)), x_scale="jac")
         if best is None or r.cost < best.cost:
             best = r
-    assert best is not None, effect.name  # starts_for gives at least one start
+    assert best is not None  # starts_for gives at least one start
     return best
 
 
-def _local_family(ctx: ForceContext, effect, state: ModelState, center: np.ndarray):
-    """The affine family through simulated runs at ``center`` and at ``center + d_i e_i``
-    (``d_i = REFINE_STEP`` of parameter i's range, stepped inwards at an upper bound): exact at the
-    centre, first order around it."""
-    lo, hi = np.array(effect.lower, float), np.array(effect.upper, float)
-    base = ctx.raw_averages(effect.apply_values(state, center))
+def _local_family(ctx: ForceContext, effect, state: ModelState, fc, center: np.ndarray):
+    """The affine family in the fit coordinates through simulated runs at ``center`` and at
+    ``center + d_i e_i`` (``d_i = REFINE_STEP`` of coordinate i's range, stepped inwards at an upper
+    bound): exact at the centre, first order around it."""
+    lo, hi = np.asarray(fc.lower, float), np.asarray(fc.upper, float)
+    base = ctx.raw_averages(effect.apply_values(state, fc.to_values(center)))
     cols = []
     for i in range(len(center)):
         d = REFINE_STEP * (hi[i] - lo[i])
         d = -d if center[i] + d > hi[i] else d
-        v = center.copy()
-        v[i] += d
-        cols.append([(a - b) / d for a, b in zip(ctx.raw_averages(effect.apply_values(state, v)), base)])
+        u = center.copy()
+        u[i] += d
+        cols.append([(a - b) / d for a, b in zip(ctx.raw_averages(effect.apply_values(state, fc.to_values(u))), base)])
     c = center.copy()
-    return lambda v: [b + sum((float(v[i]) - c[i]) * col[k] for i, col in enumerate(cols))
+    return lambda u: [b + sum((float(u[i]) - c[i]) * col[k] for i, col in enumerate(cols))
                       for k, b in enumerate(base)]
 
 
 def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> _Fit:
     """Fit one effect's parameters and the alignment shift to the training average.
 
-    The effect's :meth:`family` gives the first fit. Where that family only approximates the simulated
+    The fit searches the effect's fit coordinates (:meth:`ForceEffect.fit_coordinates`: the
+    parameters, or for runout on a two-tooth tool the one combination the forces determine). The
+    effect's :meth:`family` gives the first fit. Where that family only approximates the simulated
     model (``family_exact`` False: the edge coefficients' superposition, the runout's spline, both
     ignoring how the robot's deflection changes the engagement), the fit is re-centred: an affine
     family from simulated runs at the current values (:func:`_local_family`) is fitted again, up to
     :data:`REFINE_STEPS` times (Gauss-Newton with a finite-difference Jacobian), and the model
     averages returned are the simulated ones at the final values, not the family's."""
     family = effect.family(ctx, state)
+    fc = effect.fit_coordinates(state.case.tool)
     h = chain_transfer(state.chain) if state.chain else None
-    lo, hi = np.array(effect.lower, float), np.array(effect.upper, float)
+    lo, hi = np.asarray(fc.lower, float), np.asarray(fc.upper, float)
     scale = hi - lo
     meas = ctx.train.mean[:, :2]
 
@@ -213,32 +217,36 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
         a = ctx.filtered(a, h) if h is not None else a
         return float(np.sum((shift_average(a, align_shift(a, ctx.train.mean))[:, :2] - meas) ** 2))
 
-    best = _least_squares_fit(ctx, effect, family, h, effect.starts_for(cost), shift0)
-    if not getattr(effect, "family_exact", True):
+    starts = [fc.from_values(np.asarray(v, float)) for v in effect.starts_for(cost)]
+    best = _least_squares_fit(ctx, fc, lambda u: family(fc.to_values(u)), h, starts, shift0)
+    if not effect.family_exact:
         for _ in range(REFINE_STEPS):
             center = lo + best.x[:-1] * scale
-            local = _local_family(ctx, effect, state, center)
-            new = _least_squares_fit(ctx, effect, local, h, [center], float(best.x[-1]))
+            local = _local_family(ctx, effect, state, fc, center)
+            new = _least_squares_fit(ctx, fc, local, h, [center], float(best.x[-1]))
             moved = float(np.max(np.abs(new.x[:-1] - best.x[:-1])))
             best = new
             if moved < REFINE_TOL:
                 break
     x = best.x
-    v = lo + x[:-1] * scale
+    u = lo + x[:-1] * scale
+    v = fc.to_values(u)
     n, p = best.fun.size, x.size
     try:
         cov = np.linalg.inv(best.jac.T @ best.jac) * (2 * best.cost / max(n - p, 1))
-        sig = np.sqrt(np.clip(np.diag(cov)[:-1], 0, None)) * scale
-        cov_v = cov[:-1, :-1] * np.outer(scale, scale)
+        J = fc.jacobian(u)
+        cov_v = J @ (cov[:-1, :-1] * np.outer(scale, scale)) @ J.T + np.diag(fc.unresolved_sd ** 2)
+        sig = np.sqrt(np.clip(np.diag(cov_v), 0, None))
     except np.linalg.LinAlgError:
         sig = np.full(len(v), np.inf)
         cov_v = np.full((len(v), len(v)), np.inf)
-    if getattr(effect, "family_exact", True):
+    if effect.family_exact:
         avgs = family(v)
     else:  # the simulated model at the fitted values (memoised when the last step did not move)
         avgs = ctx.raw_averages(effect.apply_values(state, v))
     avgs = [ctx.filtered(a, h) for a in avgs] if h is not None else avgs
-    on_bound = _on_bound(x[:-1], [effect], 1e-6)
+    plo, phi = np.array(effect.lower, float), np.array(effect.upper, float)
+    on_bound = _on_bound((v - plo) / (phi - plo), [effect], 1e-6)
     return _Fit(values=v, sigma=sig, shift=float(x[-1]), train=shift_average(avgs[0], x[-1]),
                 heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound, cov=cov_v)
 

@@ -182,11 +182,7 @@ def test_no_effect_twenty_seeds(base, tmp_path, capsys, draw_plan):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("name", ["dynamometer", "lowpass", "edge_coefficients", pytest.param("runout", marks=pytest.mark.xfail(
-    strict=True, reason="known shortfall (2026-12-06, fits re-centred on simulated runs): 2 of 5 right (draws 0, 2; "
-    "they were wrong before); in draws 1, 3, 4 (|delta| 3.4e-6, 9.9e-6, 6.5e-6 m) the runout fit reaches the "
-    "generating model's error (draws 1 and 3: 0.0131 vs 0.0131, 0.0069 vs 0.0069) but its amplitude ends on the 3e-5 m bound "
-    "along the direction the forces hardly see (the teeth's mean radius), so it is rejected as not credible"))])
+@pytest.mark.parametrize("name", ["dynamometer", "lowpass", "edge_coefficients", "runout"])
 def test_effect_five_draws(base, tx200_robot, tmp_path, capsys, name, draw_plan):
     plan = draw_plan(range(5), 4)  # --draws N: the first N seeds, ceil(4 N / 5) of N (tests/draw_counts.py)
     results = _run_draws(name, plan.seeds, base, tx200_robot("basic"), tmp_path, capsys)
