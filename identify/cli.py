@@ -172,8 +172,9 @@ def run_identify_cli(args) -> int:
           f"{result.error_before:.4g} -> {result.error_after:.4g} (noise floor {result.noise_floor:.3g})")
     u = result.unexplained or {}
     if u:
-        print(f"residual {'UNEXPLAINED' if u['unexplained'] else 'within the noise'}: held-out error "
-              f"{u['ratio_to_noise_floor']:.3g}x the noise floor (margin {u['margin']:.3g}x)")
+        print(f"residual {'UNEXPLAINED' if u['unexplained'] else 'within the noise'}: "
+              f"{u.get('statistic_meaning', 'held-out error over the noise floor')} {u.get('statistic', 0.0):.3g} "
+              f"(margin {u['margin']:.3g}); held-out error {u['ratio_to_noise_floor']:.3g}x the noise floor")
     for e in result.effects:
         ps = ", ".join(f"{k} = {v:.5g} +- {e.uncertainty.get(k, float('nan')):.2g}" for k, v in e.params.items())
         label = "not credible" if not e.credible else "surrogate" if e.surrogate else "identified"

@@ -93,6 +93,10 @@ def answer_sentences(result) -> list[str]:
     u = result.unexplained or {}
     if u:
         ratio, m = u.get("ratio_to_noise_floor", float("nan")), u.get("margin", float("nan"))
+        stat = u.get("statistic", ratio)
+        meaning = u.get("statistic_meaning", "held-out error over the noise floor")
+        versus = (f"the {meaning} is {stat:.3g}" if meaning != "held-out error over the noise floor"
+                  else f"the held-out error is {ratio:.3g}x the noise floor")
         if u.get("unexplained"):
             where = u.get("where", {})
             parts = []
@@ -105,13 +109,14 @@ def answer_sentences(result) -> list[str]:
                     parts.append(f"{label} {', '.join(names)}")
             if where.get("signatures"):
                 parts.append("signatures " + ", ".join(where["signatures"]))
-            out.append(f"The residual is **unexplained**: the held-out error is {ratio:.3g}x the noise floor, above "
-                       f"the margin {m:.3g}x. It stays above the noise in " + ("; ".join(parts) or "no single part")
+            out.append(f"The residual is **unexplained**: {versus}, above the margin {m:.3g}"
+                       + (f" (the held-out error is {ratio:.3g}x the noise floor)" if stat != ratio else "")
+                       + ". It stays above the noise in " + ("; ".join(parts) or "no single part")
                        + ". Every effect below lowers the error but is a **surrogate**: it is not shown to be the "
                          "physical cause.")
         else:
-            out.append(f"The model explains the data within the noise: the held-out error is {ratio:.3g}x the noise "
-                       f"floor (margin {m:.3g}x).")
+            out.append(f"The model explains the data within the noise: {versus} (margin {m:.3g})"
+                       + (f"; the held-out error is {ratio:.3g}x the noise floor." if stat != ratio else "."))
     for e in result.effects:
         if not e.credible:
             out.append(f"- {e.name} is **not credible** ({'; '.join(e.not_credible_because)}): not an identified "
