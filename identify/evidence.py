@@ -178,10 +178,10 @@ def unexplained(error: float, floor: float, n_values: int, alpha: float, complex
 #: Stated accuracy of the FRF line-noise estimator on the whitened residual: a model equal to the
 #: truth has ``W`` (:func:`whitened_ratio`) at most this fraction above the mean of its Monte-Carlo null
 #: draws. Measured on 42 noise-only sets of the independent generator (tests/generators/tx200.py,
-#: 6 poses x 4 pairs x 400 lines, 1-3 % relative noise; 2026-12-06, before any identification outcome
-#: was looked at with this rule): 0.0-3.3 % above, mean 1.3 % (the null draws reproduce the
-#: estimator's own scatter, not the shape of the FRF under the noise).
-WHITENED_TOL = 0.05
+#: 6 poses x 4 pairs x 400 lines, 1-3 % relative noise, seeds 100-111 and 200-229; 2026-12-06, before
+#: any identification outcome was looked at with this rule): from 1.4 % below to 1.8 % above (mean
+#: 0.1 % above). The tolerance is about 1.7 times the largest excess seen.
+WHITENED_TOL = 0.03
 
 
 def whitened_ratio(residual: np.ndarray, sigma: np.ndarray) -> float:

@@ -12,8 +12,10 @@ smooth FRF, the fourth difference ``d = (H_(f-2) - 4 H_(f-1) + 6 H_f - 4 H_(f+1)
 has ``E|d|^2 = sigma^2`` and is blind to any cubic trend of the FRF; the noise relative to ``|H|``
 is the running median (41 lines) of ``|d|^2 / |H|^2`` divided by ``ln 2`` (the median of an
 exponential variable, ``|d|^2`` of complex Gaussian noise, is ``ln 2`` times its mean), times
-``|H|^2`` interpolated from the 4 neighbouring lines (a quadratic, not the line's own value, which
-carries its noise; windows at the ends mirrored, never padded with the end line). Lines
+``|H|^2`` of the 4 neighbouring lines (not the line's own value, which carries its noise): the
+weights of the fits and signatures. The noise of a residual (noise floor, verdict) differences the
+residual and scales by the 5-line mean of ``|H|^2``. Median windows are mirrored at the ends, never
+padded with the end line. Lines
 near a sharp peak, where the FRF's own curvature enters ``d``, are a minority of every window, so
 the median ignores them; any bias left makes ``sigma`` larger, i.e. the selection more cautious.
 
@@ -36,7 +38,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import median_filter, uniform_filter1d
 from scipy.optimize import least_squares
 
 from robolobes.linearize.frf_io import FRFSet
@@ -107,28 +109,37 @@ def line_noise(H: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
     noise-floor estimator, :func:`noise_floor`). The noise is still judged relative to ``|H|``.
     """
     H = np.asarray(H)
-    x = H if residual is None else np.asarray(residual)
     if len(H) < 5:
         return np.full(len(H), np.inf)
+    size = min(_NOISE_WINDOW, len(H) | 1)
+    # "mirror" median windows: each window near an end holds distinct lines; "nearest" would repeat the
+    # end line's ratio over half the window, so that the median *is* that one line's chi2(2) draw (1 % of
+    # them below 0.01 of their mean: a 100x weight on the lines where the FRF is largest, the static end)
+    a2 = np.abs(H) ** 2
+    if residual is None:
+        d = _fourth_difference(H)
+        # weights of the fits and signatures: |H|^2 of the 4 neighbouring lines (2 on each side), not the
+        # line's own, which carries its noise: a weight from it would down-weight the lines whose noise
+        # happened to raise |H| and bias the fit (peaks too low) and the measurement chain's scale
+        # (identify.chain_signatures: z -0.8 on average on noise alone)
+        mag2 = (5 * uniform_filter1d(a2, size=5, mode="mirror") - a2) / 4
+    else:
+        # the noise of a residual (floor, verdict): the residual's differences over the 5-line mean of
+        # |H|^2 (the residual is the noise; a weight is not formed from it)
+        d = _fourth_difference(np.asarray(residual))
+        mag2 = uniform_filter1d(a2, size=5, mode="mirror")
+    mag2 = np.maximum(mag2, 1e-300)
+    rel = median_filter(np.abs(d) ** 2 / mag2, size=size, mode="mirror")
+    return np.sqrt(rel * mag2 / math.log(2))
+
+
+def _fourth_difference(x: np.ndarray) -> np.ndarray:
+    """``(x_(f-2) - 4 x_(f-1) + 6 x_f - 4 x_(f+1) + x_(f+2)) / sqrt(70)`` (F,), the two end lines copying
+    their neighbour's (module doc): ``E|d|^2 = sigma^2`` for white noise, 0 for a cubic."""
     d = np.zeros(len(x), dtype=complex)
     d[2:-2] = (x[:-4] - 4 * x[1:-3] + 6 * x[2:-2] - 4 * x[3:-1] + x[4:]) / math.sqrt(70.0)
     d[:2], d[-2:] = d[2], d[-3]
-    # |H|^2 at the line from its 4 neighbours (2 on each side), not from the line's own: a weight from the
-    # line's own |H| would down-weight the lines whose noise happened to raise |H| and bias the fit (peaks
-    # too low) and the measurement chain's scale (identify.chain_signatures: z -0.8 on average on noise
-    # alone). The least-squares quadratic through the neighbours at offsets -2, -1, 1, 2, evaluated at 0,
-    # (-y_-2 + 4 y_-1 + 4 y_1 - y_2) / 6, is exact for a cubic |H|^2, so a peak's top is not averaged down
-    # (a plain mean of the neighbours put the noise 2 % low there: whitened residual of a model equal to
-    # the truth 1.042 on average, 1.025 with the quadratic); never below the smaller adjacent line.
-    a2 = np.abs(H) ** 2
-    p = np.pad(a2, 2, mode="reflect")
-    mag2 = np.maximum((-p[:-4] + 4 * p[1:-3] + 4 * p[3:-1] - p[4:]) / 6, np.minimum(p[1:-3], p[3:-1]))
-    mag2 = np.maximum(mag2, 1e-300)
-    # "mirror": each window near an end holds distinct lines; "nearest" would repeat the end line's
-    # ratio over half the window, so that the median *is* that one line's chi2(2) draw (1 % of them
-    # below 0.01 of their mean: a 100x weight on the lines where the FRF is largest, the static end)
-    rel = median_filter(np.abs(d) ** 2 / mag2, size=min(_NOISE_WINDOW, len(H) | 1), mode="mirror")
-    return np.sqrt(rel * mag2 / math.log(2))
+    return d
 
 
 def residual_sigma(poses: list[PoseData], residual: np.ndarray) -> np.ndarray:
@@ -149,7 +160,8 @@ def noise_floor(poses: list[PoseData], residual: np.ndarray) -> tuple[float, np.
 
     Estimator: ``sqrt(mean sigma_r^2) / RMS |H|`` over every line, ``sigma_r`` from the fourth
     differences of the held-out residual of the final model (:func:`residual_sigma`; running median
-    over 41 lines of ``|d|^2 / |H|^2``, divided by ln 2). Returns the floor and ``sigma_r`` (N,)."""
+    over 41 lines of ``|d|^2 / |H|^2``, divided by ln 2, times the 5-line mean of ``|H|^2``). Returns the
+    floor and ``sigma_r`` (N,)."""
     sig = residual_sigma(poses, residual)
     H = np.concatenate([pd.H for pd in poses])
     return float(np.sqrt(np.mean(sig ** 2)) / np.sqrt(np.mean(np.abs(H) ** 2))), sig

@@ -160,9 +160,11 @@ class Identification:
     extra : dict
         Kind-specific numbers (per-pose errors, FRAC, poles...).
     unexplained : dict
-        ``unexplained`` (bool): the final held-out error exceeds the noise floor by more than
-        ``margin`` (the rule in ``rule``); ``ratio_to_noise_floor``; ``where``: the poses, pairs or
-        axes, frequency bands and signatures where the residual stays above the noise.
+        ``unexplained`` (bool): ``statistic`` exceeds ``margin`` (the rule in ``rule``, the statistic's
+        meaning in ``statistic_meaning``: for FRF sets the RMS of the held-out residual over each line's
+        noise, for force series the held-out error over the noise floor); ``ratio_to_noise_floor``;
+        ``where``: the poses, pairs or axes, frequency bands and signatures where the residual stays
+        above the noise.
     arrays : dict
         Arrays for ``--report``, not written to the JSON. Force series: ``heldout_measured_n``,
         ``model_before_n``, ``model_after_n`` (M, 3) N, the held-out synchronous average and the model's

@@ -251,10 +251,10 @@ def test_whitened_verdict_false_alarm_rate_on_a_resonant_noise_profile():
 
 
 def test_whitened_estimator_accuracy_on_fresh_generator_sets(tmp_path):
-    """WHITENED_TOL (5 %) was measured on 42 noise-only sets of the independent generator (seeds 100-111,
+    """WHITENED_TOL (3 %) was set from 42 noise-only sets of the independent generator (seeds 100-111,
     200-229). On 8 other seeds: W of a model equal to the truth, with the pipeline's noise estimator
-    (line_noise of the residual), at most 5 % above the mean of 40 draws of pure noise through the same
-    estimator (written out here, not identify's own loop)."""
+    (line_noise of the residual), at most WHITENED_TOL above the mean of 40 draws of pure noise through
+    the same estimator (written out here, not identify's own loop)."""
     f = np.linspace(2.0, 300.0, 400)
     for seed in range(300, 308):
         rel = np.random.default_rng(seed).uniform(0.01, 0.03)
