@@ -94,9 +94,7 @@ def answer_sentences(result) -> list[str]:
     if u:
         ratio, m = u.get("ratio_to_noise_floor", float("nan")), u.get("margin", float("nan"))
         stat = u.get("statistic", ratio)
-        meaning = u.get("statistic_meaning", "held-out error over the noise floor")
-        versus = (f"the {meaning} is {stat:.3g}" if meaning != "held-out error over the noise floor"
-                  else f"the held-out error is {ratio:.3g}x the noise floor")
+        versus = f"the {u.get('statistic_meaning', 'held-out error over the noise floor')} is {stat:.3g}"
         if u.get("unexplained"):
             where = u.get("where", {})
             parts = []
