@@ -38,9 +38,9 @@ from robolobes.identify import IdentifyProblem, StepwiseSelection, identify, mod
 OLD = "0d38036"
 
 
-def old_package(tmp: Path):
-    """identify/ at ``OLD`` as the package ``identify_old`` (its own effect registry)."""
-    arch = subprocess.run(["git", "-C", str(ROOT), "archive", OLD, "identify"], check=True, capture_output=True).stdout
+def old_package(tmp: Path, ref: str):
+    """identify/ at commit ``ref`` as the package ``identify_old`` (its own effect registry)."""
+    arch = subprocess.run(["git", "-C", str(ROOT), "archive", ref, "identify"], check=True, capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(tmp)], input=arch, check=True)
     (tmp / "identify").rename(tmp / "identify_old")
     (tmp / "identify_old" / "__init__.py").write_text("")   # its guard refuses any name but robolobes.identify
@@ -56,7 +56,7 @@ def cpu(fn):
     return out, time.process_time() - t0
 
 
-def frf_bench(tmp: Path, old_frf) -> None:
+def frf_bench(tmp: Path, old_frf, ref: str) -> None:
     f0, m = 230.0, 0.3
     eff = Effects(tool_modes=((f0, 0.025, m * (2 * math.pi * f0) ** 2, (1.0, 0.0, 0.0)),), joint_scale={3: (0.75, 1.0)})
     d = tmp / "frf"
@@ -69,14 +69,14 @@ def frf_bench(tmp: Path, old_frf) -> None:
     new, t_new = cpu(lambda: identify(IdentifyProblem(meas, state), StepwiseSelection(poles=False)))
     old, t_old = cpu(lambda: old_frf.identify_frf(meas, state, poles=False))
     print(f"FRF set, 6 poses x 4 pairs x 400 lines, tool mode + axis-3 stiffness (noise error {truth['noise_error']:.4f}):")
-    for lab, r, t in (("now", new, t_new), (OLD, old, t_old)):
+    for lab, r, t in (("now", new, t_new), (ref, old, t_old)):
         print(f"  {lab:8s} CPU {t:7.1f} s (target < 120 s: {'met' if t < 120 else 'NOT met'}); effects "
               f"{[e.name for e in r.effects]}; held-out error {r.error_before:.4f} -> {r.error_after:.4f}, "
               f"noise floor {r.noise_floor:.4f}")
-    print(f"  CPU ratio now / {OLD}: {t_new / t_old:.3f}")
+    print(f"  CPU ratio now / {ref}: {t_new / t_old:.3f}")
 
 
-def forces_bench(tmp: Path, old_forces) -> None:
+def forces_bench(tmp: Path, old_forces, ref: str) -> None:
     from generators.forces import ForceEffects, write_force_set
 
     d = tmp / "forces"
@@ -94,24 +94,23 @@ def forces_bench(tmp: Path, old_forces) -> None:
     old_cache.clear()
     old, t_old = cpu(lambda: old_forces.identify_forces(meas, state))
     print("force set, 0.15 s at 56.1 kHz, edge coefficients + dynamometer 2.5 kHz, 2 N noise:")
-    for lab, r, t in (("now", new, t_new), (OLD, old, t_old)):
+    for lab, r, t in (("now", new, t_new), (ref, old, t_old)):
         print(f"  {lab:8s} CPU {t:7.1f} s (target < 120 s: {'met' if t < 120 else 'NOT met'}); effects "
               f"{[e.name for e in r.effects]}; held-out error {r.error_before:.4f} -> {r.error_after:.4f}")
-    print(f"  CPU ratio now / {OLD}: {t_new / t_old:.3f}")
+    print(f"  CPU ratio now / {ref}: {t_new / t_old:.3f}")
 
 
 def main(argv=None) -> int:
-    global OLD   # the reference commit, printed by the benches
     ap = argparse.ArgumentParser()
     ap.add_argument("--forces", action="store_true", help="also the force set")
     ap.add_argument("--reference", default=OLD, help=f"commit whose identify/ is the reference (default {OLD})")
     args = ap.parse_args(argv)
-    OLD = args.reference
+    ref = args.reference
     with tempfile.TemporaryDirectory() as tmp:
-        old_frf, old_forces = old_package(Path(tmp))
-        frf_bench(Path(tmp), old_frf)
+        old_frf, old_forces = old_package(Path(tmp), ref)
+        frf_bench(Path(tmp), old_frf, ref)
         if args.forces:
-            forces_bench(Path(tmp), old_forces)
+            forces_bench(Path(tmp), old_forces, ref)
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     return 0
 
