@@ -50,7 +50,7 @@ __all__ = ["CASES", "draw", "run_identify", "judge", "run_case"]
 CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "highpass", "null")
 # detection thresholds of the chain effects (identify/chain_effects.py), typed here: the floor of the
 # interval a chain parameter is judged with
-CHAIN_DETECT = {"scale_x": 0.03, "scale_y": 0.03, "scale_z": 0.03, "delay_s": 5e-6, "mass_kg": 0.005}
+CHAIN_DETECT = {"scale_x": 0.01, "scale_y": 0.01, "scale_z": 0.01, "delay_s": 5e-6, "mass_kg": 0.005}
 N_POSES, N_LINES = 6, 400
 ROBOT_MASS_KG = 226 + 364 + 256 + 99 + 41 + 14 + 0.6 + 44.4
 
