@@ -12,11 +12,13 @@ input is the one of ``bench_timedomain_convergence.py --case alu-straight`` (bas
 linearized at the pass start, 18 700 rpm, 40 % immersion down-milling, ap = factor x 5.09 mm).
 
     python bench/bench_timedomain_entry_feed.py [--feed 0.0075,0.015,0.03,0.06] [--factor 0.8] [--helix]
+        [--scaled-gate] [--ae-mm 3] [--dx-um 0.5] [--no-delay]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
 import warnings
 from dataclasses import replace
@@ -25,7 +27,7 @@ import numpy as np
 import robolobes.linearize as L
 from robolobes import cases
 from robolobes.cases.milling import principal_period
-from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization
+from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
 from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.lobes.exponent import floquet_exponent
 from robolobes.timedomain import DelayNewmark, LinearizedNewmark, SimulationProblem, simulate
@@ -43,6 +45,8 @@ def main(argv=None) -> int:
     ap.add_argument("--helix", action="store_true", help="the helical tool (default: straight, one disc)")
     ap.add_argument("--deg", type=float, default=2.0, help="spindle degrees per step")
     ap.add_argument("--no-delay", action="store_true")
+    ap.add_argument("--ae-mm", type=float, default=None,
+                    help="radial depth, mm (default the case's 4 mm); the depth is then factor x the SDM limit at it")
     ap.add_argument("--dx-um", type=float, default=1.0, help="workpiece column spacing, um (default 1)")
     ap.add_argument("--scaled-gate", action="store_true",
                     help="scale the rate gate's resolution (2 nm) with fz / 0.03 mm: the eroded part has no kick, "
@@ -54,11 +58,20 @@ def main(argv=None) -> int:
     robot = L.build_model(base.robot, "basic")
     structure = PhysicalStructure.from_linear(L.linearize(robot, base.path.start_q_rad), base.cut.feed_direction)
     sdm = SemiDiscretization(m=40, axial_slices=32)
+    limit = ALU_LIMIT_M
+    if a.ae_mm is not None:
+        base = replace(base, cut=replace(base.cut, ae_m=a.ae_mm * 1e-3))
+        p = LobeProblem(structure, tool, base.cut, base.law)
+        limit = float(solve(p, replace(sdm, richardson=True), [base.cut.spindle_rpm]).depth_limit_m[0])
+        print(f"ae {a.ae_mm:g} mm: SDM limit {limit * 1e3:.4f} mm", flush=True)
+        if not math.isfinite(limit):
+            print("no finite limit at this radial depth: nothing to scale the depth by", flush=True)
+            return 1
     print(f"tool {'helical' if a.helix else 'straight'}, factor {a.factor:g}, {a.deg:g} deg per step, "
           f"columns {a.dx_um:g} um", flush=True)
     for fz_mm in (float(x) for x in a.feed.split(",")):
         fz = fz_mm * 1e-3
-        cut = replace(base.cut, feed_per_tooth_m=fz, ap_m=a.factor * ALU_LIMIT_M)
+        cut = replace(base.cut, feed_per_tooth_m=fz, ap_m=a.factor * limit)
         v = fz * tool.teeth * cut.spindle_rpm / 60.0
         length = 0.010 + WINDOW_S * v
         case = replace(base, tool=tool, cut=cut, path=replace(base.path, part_length_m=length))
