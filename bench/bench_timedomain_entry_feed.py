@@ -26,9 +26,9 @@ from dataclasses import replace
 import numpy as np
 import robolobes.linearize as L
 from robolobes import cases
-from robolobes.cases.milling import principal_period
+from robolobes.cases.milling import engagement_rad, principal_period
 from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
-from robolobes.lobes.entry_shift import entry_shift_exponent
+from robolobes.lobes.entry_shift import entry_shift_exponent, entry_shift_impulses
 from robolobes.lobes.exponent import floquet_exponent
 from robolobes.timedomain import DelayNewmark, LinearizedNewmark, SimulationProblem, simulate
 from robolobes.timedomain.rate import gated_growth_rate
@@ -94,6 +94,20 @@ def main(argv=None) -> int:
                 f"dy {dy * 1e6:.2f} um, SDM nominal {s_nom:+.4f}, SDM at ae - dy {s_dy:+.4f}, "
                 f"eroded - SDM(ae - dy) {g.rate_per_s - s_dy:+.4f}, SDM with the entry shift at ae - dy {s_en:+.4f}, "
                 f"eroded - that {g.rate_per_s - s_en:+.4f}, CPU {cpu:.0f} s")
+        # the normal deflection at the instants the teeth meet the block edge, against its mean
+        st, ex = engagement_rad(tool, narrow)
+        edge = st if cut.mode == "down" else ex
+        ang, y = run.spindle_angle_rad, run.tcp_deviation_m[:, 1]
+        at_edge = []
+        for th in tool.tooth_angle_rad:
+            k = np.arange(math.ceil((ang[sel][0] + th - edge) / (2 * math.pi)),
+                          math.floor((ang[sel][-1] + th - edge) / (2 * math.pi)) + 1)
+            at_edge.append(float(np.mean(np.interp(edge - th + 2 * math.pi * k, ang, y))) - dy)
+        imp = entry_shift_impulses(LobeProblem(structure, tool, narrow, base.law), 360, 32, 2 * math.pi)
+        k_entry = -sum(E[1, 1] for _, E in imp) / cut.spindle_period_s
+        line += (f"; normal deflection RMS {np.std(y[sel]) * 1e6:.2f} um, at the edge instants minus dy "
+                 f"{', '.join(f'{v * 1e6:+.3f}' for v in at_edge)} um; entry-shift stiffness, mean, normal "
+                 f"{k_entry:.0f} N/m")
         if not a.no_delay:
             d = simulate(SimulationProblem(robot, replace(case, cut=narrow)), DelayNewmark(deg_per_step=a.deg))
             line += f"; delay at ae - dy {d.rate.rate_per_s:+.4f} +- {d.rate.se_per_s:.4f}"

@@ -300,7 +300,7 @@ def test_eroded_excess_over_the_lobes_scales_with_the_feed(tx200_robot):
     # of excesses of 0.06 and 0.12 is known to about +-0.4); (2) the entry-shift term
     # (lobes/entry_shift.py, closed form) moves the SDM towards the eroded rate without
     # overshooting it, and by an amount that doubles too (it is linear in the feed: ratio within
-    # 5 %, the SDM's own second-order part). What it does not explain (about 55 %) is not asserted.
+    # 5 %, the SDM's own second-order part). What it does not explain (about 60 %) is not asserted.
     robot = tx200_robot("basic")
     excess, entry = [], []
     for fz in (3e-5, 6e-5):
