@@ -402,8 +402,12 @@ class SDMEngine:
         E = expm(Z)
         return E[:ns, :ns], E[:ns, ns:ns + k] - E[:ns, ns + k:], E[:ns, ns + k:]
 
-    def monodromy_dense(self, rpm: float, depth_m: float) -> np.ndarray:
-        """The plain SDM monodromy: all ``m`` steps, one scipy expm each, full history, dense products."""
+    def monodromy_dense(self, rpm: float, depth_m: float, impulses=None) -> np.ndarray:
+        """The plain SDM monodromy: all ``m`` steps, one scipy expm each, full history, dense products.
+
+        ``impulses`` (optional): pairs ``(i, E)``, node ``i`` in ``[0, m)`` and ``E`` (k, 2) in N s/m:
+        a non-delayed impulsive force ``-E r(t_i)`` on the tool at node ``i`` (the state jumps by
+        ``-B E S2 y``), applied before step ``i``. :mod:`lobes.entry_shift` builds them."""
         plan, ns = self.plan, self.ns
         m = plan.m
         dt = float(self.period_s(rpm)) / m
@@ -411,7 +415,14 @@ class SDMEngine:
         h = int(max(r + (1 if f > 0 else 0) for r, f in zip(plan.group_r, plan.group_f)))
         Ns = ns + 2 * h
         U = np.eye(Ns)
+        jumps: dict[int, np.ndarray] = {}
+        for i, E in impulses or ():
+            jumps[int(i)] = jumps.get(int(i), 0.0) + np.asarray(E, dtype=float)[:self.k]
         for i in range(m):
+            if i in jumps:
+                J = np.eye(Ns)
+                J[:ns, :ns] -= self.Bk @ jumps[i] @ self.S2
+                U = J @ U
             wsum = W[i].sum(axis=0)
             wexp = np.zeros_like(wsum) if self.method.scheme == "free-exact" else wsum
             Phi, G0, G1 = self._van_loan(dt, wexp)
