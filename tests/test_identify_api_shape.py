@@ -154,8 +154,9 @@ def test_force_series(tmp_path):
     assert isinstance(problem.measurement, ForceSeries)
     res = identify(problem, ForwardSelection(max_effects=1))
     assert res.kind == "forces" and [e.name for e in res.effects] == ["edge_coefficients"]
-    # observed: Kte 19.30, Kre 9.86 N/mm; the residual stays 1.43x the noise floor (the generator's tool sits on
-    # the independent TX200, not on the model: "unexplained", so the effect is reported as a surrogate).
+    # observed (generator with the exact trochoidal chip): Kte 19.85, Kre 9.93 N/mm; the residual stays 1.10x the
+    # noise floor and is called unexplained (the generator's tool sits on the independent TX200, not on the
+    # model, and robolobes has 22 discs: "unexplained", so the effect is reported as a surrogate).
     # tol 10 %: the model-structure mismatch, not the 2 N noise, limits the fit
     assert res.effects[0].params["kte_n_per_m"] == pytest.approx(2e4, rel=0.10)
     assert res.effects[0].params["kre_n_per_m"] == pytest.approx(1e4, rel=0.10)

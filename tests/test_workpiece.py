@@ -143,6 +143,36 @@ def test_chip_matches_exact_trochoid(name):
     assert not bad.any(), (np.flatnonzero(bad), got[bad], ref[bad], tol[bad])
 
 
+def test_chip_on_the_own_fresh_cut_matches_exact_trochoid():
+    # In a run the chip of a state is evaluated after the removal of the step that reached it: the tip
+    # sits on the path it has just cut, with that cut in the column behind it. Near the down-milling
+    # exit the ray crosses less than a column (h |sin(phi)| < dx, the last ~4 deg here) and the chip
+    # must still be the exact one: interpolating across the tip's own cut hid up to 80 % of it
+    # (0.33 um against 1.55 um at 179.8 deg), and all of the chip past 180 deg (1.1 um at 180.0 deg).
+    # Tolerance per element from exact_chip (2 nm, more next to a corner of the boundary).
+    tool, cut = CASES["down pitch 170/190"]
+    wp, model, t_now, x_start = steady_part(tool, cut)
+    y_edge = wp.edge_y_m
+    steps = 720                                  # 0.5 deg steps over one revolution, all committed
+    ts = t_now + np.arange(steps + 1) * (cut.spindle_period_s / steps)
+    c, ang = straight_path(tool, cut, ts, x_start)
+    got, ref, tol, late = [], [], [], []
+    for i in range(1, steps + 1):
+        model.commit(ang[i - 1], c[i - 1], ang[i], c[i])
+        phi = model.immersion_rad(ang[i])
+        h, _ = wp.chip(c[i], phi, model.tooth_radius_m)
+        for j in range(tool.teeth):
+            hr, tl = exact_chip(tool, cut, ts[i], j, 0.0, x_start, y_edge)
+            got.append(h[j, 0])
+            ref.append(hr)
+            tol.append(tl)
+            late.append(hr > 0 and math.sin(phi[j, 0]) * hr < wp.dx_m)
+    got, ref, tol, late = map(np.array, (got, ref, tol, late))
+    assert np.count_nonzero(late) >= 10          # the exit's last degrees are sampled
+    bad = np.abs(got - ref) > tol
+    assert not bad.any(), (np.flatnonzero(bad), got[bad], ref[bad], tol[bad])
+
+
 def test_chip_derivative_matches_finite_difference():
     tool, cut = CASES["down pitch 170/190"]
     wp, model, t_now, x_start = steady_part(tool, cut)

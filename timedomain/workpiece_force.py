@@ -279,8 +279,12 @@ class PrescribedRun:
 def run_prescribed(model: MillingForce, t_s, center_m, spindle_angle_rad) -> PrescribedRun:
     """Cut along a prescribed tool-centre motion (no dynamics): evaluate, then commit, each step.
 
-    The force at ``t_i`` is evaluated on the part left by the steps before it, then the step
-    ``t_i -> t_{i+1}`` is committed: the same order as in the dynamic simulation.
+    The force at ``t_i`` is evaluated on the part left by the steps up to ``t_i`` (the tips sit on the
+    path they have just cut), then the step ``t_i -> t_{i+1}`` is committed. The dynamic simulation
+    evaluates the force of ``t_i`` before committing the step that reached it; the chip is the same
+    either way (the tooth's own sweep up to ``t_i`` is not on its edge line; the workpiece takes the
+    boundary in the tip's column interval from the unswept side, see
+    :mod:`~timedomain.workpiece`).
 
     Parameters
     ----------
