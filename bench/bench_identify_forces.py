@@ -23,13 +23,15 @@ from scipy import signal
 from robolobes.cases import load_case
 from robolobes.identify import IdentifyProblem, identify, model_state, read_measurement
 from robolobes.linearize import build_model
+from robolobes.identify.force_model import model_disc_count
 from robolobes.timedomain import NonlinearNewmark, SimulationProblem, simulate
 
 
 def main(rate_hz: float = 50e3, t0: float = 0.25, t1: float = 0.55):
     case = load_case("tx200-aluminium")
     w0 = time.perf_counter()
-    run = simulate(SimulationProblem(build_model(case.robot, "basic"), case, t_end_s=t1 + 1e-3), NonlinearNewmark(),
+    run = simulate(SimulationProblem(build_model(case.robot, "basic"), case, t_end_s=t1 + 1e-3),
+                   NonlinearNewmark(n_discs=model_disc_count(case)),
                    verdict_companion=False)
     t, f = np.asarray(run.t_s), np.asarray(run.force_workpiece_n)
     w = 2 * np.pi * 2500.0

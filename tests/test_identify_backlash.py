@@ -29,6 +29,7 @@ from robolobes.cases import load_case
 from robolobes.linearize import build_model
 from robolobes.linearize.extra_elements import GearBacklash
 from robolobes.main import main
+from robolobes.identify.force_model import model_disc_count
 from robolobes.timedomain import NonlinearNewmark, SimulationProblem, simulate
 
 T_START, T_END = 0.25, 0.40   # steady cut from 0.228 s; 46 revolutions at 18 700 rpm
@@ -39,7 +40,8 @@ S_LOW, S_HIGH = 3e-5, 3e-4    # draw bounds, rad: detection threshold .. the eff
 def _full_forces(case, half_width_rad):
     extra = (GearBacklash(half_width_rad),) if half_width_rad > 0 else ()
     robot = build_model(case.robot, "basic", extra_elements=extra)
-    run = simulate(SimulationProblem(robot, case, t_end_s=T_END), NonlinearNewmark(), verdict_companion=False)
+    run = simulate(SimulationProblem(robot, case, t_end_s=T_END), NonlinearNewmark(n_discs=model_disc_count(case)),
+                   verdict_companion=False)
     return np.asarray(run.t_s), np.asarray(run.force_workpiece_n)
 
 

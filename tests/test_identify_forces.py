@@ -23,6 +23,7 @@ import pytest
 from scipy import signal
 
 from robolobes.main import main
+from robolobes.identify.force_model import model_disc_count
 from robolobes.timedomain import NonlinearNewmark, SimulationProblem, simulate
 
 T_START, T_END = 0.25, 0.40   # steady cut from 0.228 s; 46 revolutions at 18 700 rpm
@@ -30,7 +31,7 @@ PER_REV = 180                 # simulation samples per revolution (2 deg steps)
 
 
 def _full_forces(case, robot):
-    run = simulate(SimulationProblem(robot, case, t_end_s=T_END), NonlinearNewmark(),
+    run = simulate(SimulationProblem(robot, case, t_end_s=T_END), NonlinearNewmark(n_discs=model_disc_count(case)),
                    verdict_companion=False)
     return np.asarray(run.t_s), np.asarray(run.force_workpiece_n)
 
