@@ -8,16 +8,19 @@
    trains, the second is held out. Each block's time-synchronous average (TSA) is compared with the
    model's average over the same pass times (the linearized pass, :mod:`identify.force_model`),
    after a circular shift that aligns the unknown spindle phase (fitted on the training block).
-3. Forward selection over the force-side library (:mod:`identify.cutting_effects`) by
-   :func:`identify.selection.forward_select`: each candidate is fitted on the training TSA (bounded
-   least squares, the phase shift a nuisance parameter), the effects already chosen kept at their
-   values (no joint refit and no backward step for force series), and scored on the held-out TSA;
-   a candidate that is not credible or below its own detection threshold cannot be chosen
-   (:func:`identify.evidence.accept`). The
+3. Forward-backward selection over the force-side library (:mod:`identify.cutting_effects`) by
+   :func:`identify.selection.stepwise_select`: each candidate is fitted on the training TSA (bounded
+   least squares, the phase shift a nuisance parameter) on top of the effects already chosen, then
+   every selected effect and the new one are refitted jointly (:func:`_joint_fit`), and the model is
+   scored on the held-out TSA; after each step an earlier effect that is no longer significant
+   given the others is removed (the others refitted jointly). A candidate that is not credible or
+   below its own detection threshold cannot be chosen (:func:`identify.evidence.accept`). The
    significance rule is the framework's (gain of squared held-out residual against the noise of
-   the held-out average, Bonferroni over ``2 max_effects`` steps x the candidates, family-wise
-   1 %); the noise per bin and
-   axis is ``sigma / sqrt(N)`` from the scatter of the held-out revolutions about their average.
+   the held-out average, Bonferroni over the ``2 max_effects`` forward steps the search can make x
+   the candidates, family-wise 1 %); the noise per bin and axis is ``sigma / sqrt(N)`` from the
+   scatter of the held-out revolutions about their average. Values, uncertainties (covariance),
+   ``determined`` combinations, ``on_bound`` and credibility of each effect come from the final
+   joint fit.
 4. Diagnosis (:mod:`identify.signatures`): the named signatures of the starting model's held-out
    residual (mean offset, once-per-revolution lines, ringing, roll-off), each against the noise of
    the average, and the candidates ranked by the signatures they explain (``signatures``,
@@ -55,7 +58,7 @@ from .force_signals import (ERROR_METRIC, align_shift, apply_transfer, estimate_
 from .model_toml import model_toml
 from .result import EffectFit, Identification
 from .evidence import accept, credibility, determined
-from .selection import Trial, forward_select
+from .selection import Selection, Trial, stepwise_select
 from .ranking import annotate
 from .signatures import force_signatures
 
@@ -251,6 +254,263 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
                 heldout=shift_average(avgs[1], x[-1]), on_bound=on_bound, cov=cov_v)
 
 
+# ---------------------------------------------------------------------------------------------
+# joint refit of the selected effects (forward-backward selection)
+# ---------------------------------------------------------------------------------------------
+
+#: Joint Gauss-Newton iterations of a force refit at most.
+JOINT_STEPS = REFINE_STEPS
+
+
+@dataclass(frozen=True, eq=False)
+class _Joint:
+    """A force model of the selection: the starting state ``base``, the selected effects and their
+    values (in the order they entered), the alignment shift, the aligned model averages of the training
+    and held-out blocks (bins, 3), the covariance of all values (concatenated in effect order, SI) and,
+    per effect, whether a value sits on a physical bound."""
+
+    base: ModelState
+    effects: tuple = ()
+    values: tuple = ()
+    shift: float = 0.0
+    train: np.ndarray | None = None
+    heldout: np.ndarray | None = None
+    cov: np.ndarray | None = None
+    on_bound: tuple = ()
+
+    @property
+    def model(self) -> ModelState:
+        return _compose(self.base, self.effects, self.values)
+
+    def block(self, k: int) -> np.ndarray | None:
+        """The covariance of the ``k``-th effect's values."""
+        if self.cov is None:
+            return None
+        i = sum(len(e.parameters) for e in self.effects[:k])
+        n = len(self.effects[k].parameters)
+        return self.cov[i:i + n, i:i + n]
+
+
+def _compose(base: ModelState, effects, values) -> ModelState:
+    """``base`` with every effect applied at its values, in order (the force effects commute: edge
+    coefficients and runout add to the law and the tool, chain stages multiply, backlash replaces)."""
+    st = base
+    for e, v in zip(effects, values):
+        st = e.apply_values(st, v)
+    return st
+
+
+def _chain_of(base: ModelState, effects, values):
+    """The transfer of ``base``'s chain and of the chain effects at ``values`` (None: no chain)."""
+    hs = [e.transfer(v) for e, v in zip(effects, values) if e.chain]
+    if base.chain:
+        hs.append(chain_transfer(base.chain))
+    if not hs:
+        return None
+
+    def h(f):
+        out = np.ones(np.shape(f), dtype=complex)
+        for g in hs:
+            out = out * g(f)
+        return out
+    return h
+
+
+def _joint_fit(ctx: ForceContext, base: ModelState, effects, values, shift0: float) -> _Joint:
+    """Refit every effect of ``effects`` jointly, from ``values`` and the alignment ``shift0``, on the
+    training average: Gauss-Newton over the concatenated fit coordinates (:meth:`ForceEffect.fit_coordinates`)
+    and the shift, on simulated runs.
+
+    Why Gauss-Newton and not block coordinate descent: the force effects are correlated in the
+    averages (edge coefficients and runout both move the tooth-passing harmonics' levels, a low-pass
+    and backlash both roll them off), and descent along one block at a time crawls along such a
+    valley, each sweep re-building every effect's family (16 runs for a backlash scan); one
+    Gauss-Newton step solves the coupled linear problem at once. Each iteration is
+    :func:`_local_family` over all coordinates: the model's raw averages are affine in the
+    coordinates of the cutting-law and element effects, through a simulated run at the centre (the
+    one evaluated at the end of the iteration before, memoised) and one run per coordinate at
+    ``REFINE_STEP`` of its range; the chain effects filter that exactly. The least-squares solution
+    is then simulated; it is kept only if its simulated training cost is lower than the centre's
+    (a step that does not pay stops the refit at the centre, so the refit never ends worse than its
+    start, the conditional fit). The refit stops after :data:`JOINT_STEPS` iterations, or when no
+    coordinate moved by more than :data:`REFINE_TOL` of its range, or when the simulated training
+    cost fell by less than one noise variance of the training average (a change of the training
+    chi-square below 1, inside the fit's one-sigma region). The covariance is that of the last
+    local problem at the values kept (``(J^T J)^-1 RSS / (n - p)``, mapped to the values)."""
+    from scipy.optimize import least_squares
+
+    tool = base.case.tool
+    fcs = [e.fit_coordinates(tool) for e in effects]
+    offs = np.cumsum([0] + [len(fc.lower) for fc in fcs])
+    lo = np.concatenate([np.asarray(fc.lower, float) for fc in fcs])
+    hi = np.concatenate([np.asarray(fc.upper, float) for fc in fcs])
+    scale = hi - lo
+    cut = np.concatenate([np.full(len(fc.lower), not e.chain) for e, fc in zip(effects, fcs)])
+    meas = ctx.train.mean[:, :2]
+    var = float(np.mean(ctx.train.noise[:, :2] ** 2))
+
+    def vals(u):
+        return [fc.to_values(u[offs[k]:offs[k + 1]]) for k, fc in enumerate(fcs)]
+
+    def filt(avgs, v):
+        h = _chain_of(base, effects, v)
+        return [ctx.filtered(a, h) for a in avgs] if h is not None else list(avgs)
+
+    def simulated(v):
+        return filt(ctx.raw_averages(_compose(base, effects, v)), v)
+
+    def cost_of(avgs, shift):
+        return float(np.sum((shift_average(avgs[0], shift)[:, :2] - meas) ** 2))
+
+    v = [np.asarray(x, float) for x in values]
+    u = np.clip(np.concatenate([fc.from_values(x) for fc, x in zip(fcs, v)]), lo, hi)
+    shift = float(shift0)
+    sim = simulated(v)     # the start's run (memoised: the conditional fit simulated it)
+    cost = cost_of(sim, shift)
+    def local(c, cols, raw0):  # the training residual of the affine model through the runs at c
+        def resid(x):
+            uu = lo + x[:-1] * scale
+            raw = [b + sum((uu[i] - c[i]) * col[k] for i, col in cols.items()) for k, b in enumerate(raw0)]
+            return (shift_average(filt(raw[:1], vals(uu))[0], x[-1])[:, :2] - meas).ravel()
+        return resid
+
+    resid = None
+    for _ in range(JOINT_STEPS):
+        raw0 = ctx.raw_averages(_compose(base, effects, v))
+        cols = {}
+        for i in np.flatnonzero(cut):
+            d = REFINE_STEP * scale[i]
+            d = -d if u[i] + d > hi[i] else d
+            ui = u.copy()
+            ui[i] += d
+            cols[int(i)] = [(a - b) / d for a, b in zip(ctx.raw_averages(_compose(base, effects, vals(ui))), raw0)]
+        resid = local(u.copy(), cols, raw0)
+        x0 = np.append((u - lo) / scale, shift)
+        r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift - 0.5),
+                                             np.append(np.ones(len(lo)), shift + 0.5)), x_scale="jac")
+        u_new, shift_new = lo + r.x[:-1] * scale, float(r.x[-1])
+        v_new = vals(u_new)
+        sim_new = simulated(v_new)
+        cost_new = cost_of(sim_new, shift_new)
+        if not cost_new < cost:
+            break
+        moved = float(np.max(np.abs(r.x - x0)[:-1])) if len(lo) else 0.0
+        fell = cost - cost_new
+        u, v, shift, sim, cost = u_new, v_new, shift_new, sim_new, cost_new
+        if moved < REFINE_TOL or fell < var:
+            break
+    x = np.append((u - lo) / scale, shift)
+    n, p = meas.size, x.size
+    try:
+        assert resid is not None
+        h = 1e-6
+        J = np.column_stack([(resid(x + h * e) - resid(x - h * e)) / (2 * h) for e in np.eye(p)])
+        cov = np.linalg.inv(J.T @ J) * (cost / max(n - p, 1))
+        Jv = np.zeros((sum(len(e.parameters) for e in effects), len(lo)))
+        row = 0
+        for k, fc in enumerate(fcs):
+            jk = np.asarray(fc.jacobian(u[offs[k]:offs[k + 1]]), float)
+            Jv[row:row + jk.shape[0], offs[k]:offs[k + 1]] = jk
+            row += jk.shape[0]
+        cov_v = Jv @ (cov[:-1, :-1] * np.outer(scale, scale)) @ Jv.T + np.diag(
+            np.concatenate([np.asarray(fc.unresolved_sd, float) for fc in fcs]) ** 2)
+    except (np.linalg.LinAlgError, AssertionError):
+        P = sum(len(e.parameters) for e in effects)
+        cov_v = np.full((P, P), np.inf)
+    on_bound = tuple(_on_bound((np.asarray(vk) - np.array(e.lower, float)) / (np.array(e.upper, float)
+                                                                              - np.array(e.lower, float)), [e], 1e-6)
+                     for e, vk in zip(effects, v))
+    return _Joint(base, tuple(effects), tuple(v), shift, shift_average(sim[0], shift), shift_average(sim[1], shift),
+                  cov_v, on_bound)
+
+
+class _ForceSearch:
+    """``trial`` and ``drop`` of :func:`identify.selection.stepwise_select` for a force series.
+
+    ``trial(state, effect)``: the effect fitted alone on top of ``state`` (:func:`_fit_effect`, its
+    family, scan and starts), then every effect of ``state`` and the new one refitted jointly from
+    there (:func:`_joint_fit`); scored on the held-out average. ``drop(state, k)``: ``state`` without
+    its ``k``-th effect, the others refitted jointly. ``joint=False``: the forward-only search of
+    before, each effect fitted alone with the earlier ones frozen (kept for comparison, tests)."""
+
+    def __init__(self, ctx: ForceContext, base: ModelState, meas: np.ndarray, sigma: np.ndarray, start: _Joint,
+                 joint: bool = True):
+        self.ctx, self.base, self.meas, self.sigma, self.start = ctx, base, meas, sigma, start
+        self.joint = joint
+
+    def __call__(self, st: _Joint, eff) -> Trial:
+        if eff is None:
+            assert st.heldout is not None
+            return Trial(residual=st.heldout[:, :2].ravel() - self.meas, measured=self.meas, sigma=self.sigma,
+                         state=st)
+        fit = _fit_effect(self.ctx, eff, st.model, st.shift)
+        if st.effects and self.joint:
+            new = _joint_fit(self.ctx, self.base, st.effects + (eff,), st.values + (fit.values,), fit.shift)
+        elif st.effects:   # forward only: the earlier effects frozen, the covariance of the new one alone
+            P = sum(len(e.parameters) for e in st.effects)
+            cov = np.full((P + len(fit.values),) * 2, np.nan)
+            cov[P:, P:] = fit.cov if fit.cov is not None else np.inf
+            new = _Joint(self.base, st.effects + (eff,), st.values + (fit.values,), fit.shift, fit.train, fit.heldout,
+                         cov, st.on_bound + (fit.on_bound,))
+        else:
+            new = _Joint(self.base, (eff,), (fit.values,), fit.shift, fit.train, fit.heldout, fit.cov,
+                         (fit.on_bound,))
+        assert new.heldout is not None
+        k = len(new.effects) - 1
+        return Trial(residual=new.heldout[:, :2].ravel() - self.meas, measured=self.meas, sigma=self.sigma,
+                     state=new, params=eff.as_dict(new.values[k]), uncertainty=eff.as_dict(_sd(new.block(k))),
+                     evidence=_evidence(eff, new, k))
+
+    def drop(self, st: _Joint, k: int) -> _Joint:
+        rest = [j for j in range(len(st.effects)) if j != k]
+        if not rest:
+            return self.start
+        return _joint_fit(self.ctx, self.base, tuple(st.effects[j] for j in rest), tuple(st.values[j] for j in rest),
+                          st.shift)
+
+    @staticmethod
+    def params_of(st: _Joint, k: int) -> dict:
+        return st.effects[k].as_dict(st.values[k])
+
+
+def _sd(cov) -> np.ndarray:
+    return np.sqrt(np.clip(np.diag(cov), 0, None)) if cov is not None else np.array([])
+
+
+def _evidence(eff, st: _Joint, k: int) -> dict:
+    """What a force fit of the ``k``-th effect of ``st`` reports (at ``st``'s joint fit)."""
+    tool = st.base.case.tool
+    return {"signature": [SIGNATURES[s] for s in eff.signatures], "on_bound": bool(st.on_bound[k]),
+            "detection_threshold": dict(eff.threshold), "phase_shift_rev": st.shift,
+            "determined": force_determined(eff, tool, st.values[k], st.block(k)),
+            **(eff.identified(tool, st.values[k]) if hasattr(eff, "identified") else {})}
+
+
+def _select_forces(ctx: ForceContext, state: ModelState, library, *, alpha: float, max_effects: int,
+                   progress=None, joint: bool = True) -> Selection:
+    """The forward-backward search over ``library`` (module docstring, step 3); ``Selection.state`` is
+    the final :class:`_Joint` and ``Selection.effects`` are reported at its joint fit. ``joint=False``:
+    the forward-only search with frozen values (:class:`_ForceSearch`), for comparison."""
+    tr, ho = ctx.averages(state)
+    shift0 = align_shift(tr, ctx.train.mean)
+    start = _Joint(state, shift=shift0, train=shift_average(tr, shift0), heldout=shift_average(ho, shift0))
+    search = _ForceSearch(ctx, state, ctx.heldout.mean[:, :2].ravel(), ctx.heldout.noise[:, :2].ravel(), start,
+                          joint)
+    sel = stepwise_select(start, library, search, alpha=alpha, max_effects=max_effects, progress=progress,
+                          drop=search.drop if joint else None, accept=accept,
+                          params_of=search.params_of if joint else None)
+    if not joint:   # each effect as fitted at its step (its values frozen since)
+        return sel
+    final: _Joint = sel.state
+    fits = []
+    for k, f in enumerate(sel.effects):
+        eff = final.effects[k]
+        assert eff.name == f.name
+        fits.append(replace(f, params=eff.as_dict(final.values[k]), uncertainty=eff.as_dict(_sd(final.block(k))),
+                            evidence={**f.evidence, **_evidence(eff, final, k)}))
+    return replace(sel, effects=tuple(fits))
+
+
 def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float = 0.01, max_effects: int = 3,
                     progress=None, effects=None) -> Identification:
     """Identify the force-side effects in a cutting-force series (module docstring).
@@ -261,7 +521,7 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
     model : ModelState
         The starting model (its case's commanded spindle speed is replaced by the measured one).
     alpha : float
-        Family-wise false-positive rate of the selection (:func:`identify.selection.forward_select`).
+        Family-wise false-positive rate of the selection (:func:`identify.selection.stepwise_select`).
     max_effects : int
     progress : callable ``(message)``, optional
     effects : sequence of ForceEffect, optional
@@ -271,50 +531,31 @@ def identify_forces(measurement: ForceSeries, model: ModelState, *, alpha: float
     check_window(measurement.path, measurement.window_s, case)
     ctx = ForceContext(measurement, case)
     state = replace(model, case=with_spindle_hz(case, ctx.spindle_hz))
-    tr, ho = ctx.averages(state)
-    shift0 = align_shift(tr, ctx.train.mean)
-    meas = ctx.heldout.mean[:, :2].ravel()
-    sigma = ctx.heldout.noise[:, :2].ravel()
-    shifts = {id(state): shift0}
-    aligned = {id(state): shift_average(ho, shift0)}
-
-    def trial(st, eff):
-        if eff is None:
-            return Trial(residual=aligned[id(st)][:, :2].ravel() - meas, measured=meas, sigma=sigma, state=st)
-        fit = _fit_effect(ctx, eff, st, shifts[id(st)])
-        new = eff.apply_values(st, fit.values)
-        shifts[id(new)], aligned[id(new)] = fit.shift, fit.heldout
-        return Trial(residual=fit.heldout[:, :2].ravel() - meas, measured=meas, sigma=sigma, state=new,
-                     params=eff.as_dict(fit.values), uncertainty=eff.as_dict(fit.sigma),
-                     evidence={"signature": [SIGNATURES[k] for k in eff.signatures], "on_bound": fit.on_bound,
-                               "detection_threshold": dict(eff.threshold), "phase_shift_rev": fit.shift,
-                               "determined": force_determined(eff, st.case.tool, fit.values, fit.cov),
-                               **(eff.identified(st.case.tool, fit.values) if hasattr(eff, "identified")
-                                  else {})})
-
     library = [e for e in (effects if effects is not None else effects_for("forces", state))
                if hasattr(e, "family") and e.applicable(state)]
-    sel = forward_select(state, library, trial, alpha=alpha, max_effects=max_effects, progress=progress,
-                         accept=accept)
-    _, floor = heldout_error(aligned[id(state)], ctx.heldout)
-    final_ho = aligned[id(sel.state)]
+    sel = _select_forces(ctx, state, library, alpha=alpha, max_effects=max_effects, progress=progress)
+    start, final = sel.base.state, sel.state
+    _, floor = heldout_error(start.heldout, ctx.heldout)
+    final_ho = final.heldout
     verdict = _force_unexplained(ctx, final_ho, sel.error_after, floor, alpha, case.tool.teeth)
     fits = tuple(_finished(f, library, verdict["unexplained"]) for f in sel.effects)
     extra = {"spindle_hz": ctx.spindle_hz, "spindle_rpm": ctx.spindle_hz * 60.0,
-             "phase_shift_rev": shifts[id(sel.state)], "bins_per_rev": ctx.bins,
+             "phase_shift_rev": final.shift, "bins_per_rev": ctx.bins,
              "revolutions": {"train": ctx.train.n, "heldout": ctx.heldout.n},
              "heldout_span_s": list(ctx.heldout.t_span_s),
-             "signatures_before": spectrum_lines(ctx.heldout.mean - aligned[id(state)], case.tool.teeth),
+             "signatures_before": spectrum_lines(ctx.heldout.mean - start.heldout, case.tool.teeth),
              "signatures_after": spectrum_lines(ctx.heldout.mean - final_ho, case.tool.teeth),
              "not_applicable": {e.name: e.reason_not_applicable(state) for e in FORCE_EFFECTS
                                 if not e.applicable(state)},
-             "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average"}
+             "noise_floor_meaning": "RMS sigma/sqrt(N) of the held-out average over RMS of the measured average",
+             "selection": {"rule": "forward-backward, joint refit, Bonferroni over 2 max_effects x candidates",
+                           "n_tests": sel.n_tests, "z_threshold": sel.threshold}}
     res = Identification(kind="forces", effects=fits, error_before=sel.error_before,
                          error_after=sel.error_after, metric=ERROR_METRIC, noise_floor=floor, steps=sel.steps,
-                         model_toml=model_toml(sel.state), extra=extra, unexplained=verdict,
-                         arrays={"heldout_measured_n": ctx.heldout.mean, "model_before_n": aligned[id(state)],
+                         model_toml=model_toml(final.model), extra=extra, unexplained=verdict,
+                         arrays={"heldout_measured_n": ctx.heldout.mean, "model_before_n": start.heldout,
                                  "model_after_n": final_ho, "heldout_noise_n": ctx.heldout.noise})
-    detected = force_signatures(ctx.heldout.mean, aligned[id(state)], ctx.heldout.noise, case.tool.teeth, alpha=alpha)
+    detected = force_signatures(ctx.heldout.mean, start.heldout, ctx.heldout.noise, case.tool.teeth, alpha=alpha)
     return annotate(res, detected, library)
 
 

@@ -79,7 +79,9 @@ class StepwiseSelection(_Method):
 
 @dataclass(frozen=True)
 class ForwardSelection(_Method):
-    """Force series: forward selection on the held-out revolutions (:func:`identify.selection.forward_select`).
+    """Force series: forward-backward selection with a joint refit of the selected effects at every step,
+    on the held-out revolutions (:func:`identify.selection.stepwise_select`, :mod:`identify.forces`; the
+    class keeps its name, part of the API).
 
     Attributes: ``alpha`` (family-wise false-positive rate, in (0, 1)), ``max_effects`` (0..10).
     """

@@ -209,3 +209,68 @@ def test_report_for_a_force_series(base, tmp_path, capsys):
     assert f"error before: {js['error_before']:.4g}; after: {js['error_after']:.4g}" in text
     assert js["effects"] and f"| {js['effects'][0]['name']} |" in text
     assert "![forces](forces.png)" in text and (rep / "forces.png").stat().st_size > 10_000
+
+
+def _both_searches(d: Path):
+    """The forward-backward search with joint refits and the forward-only one with frozen values (the
+    search before it) on the set in ``d``, same context and library: ``(joint, forward)`` Selections."""
+    from robolobes.identify import model_state, read_measurement
+    from robolobes.identify.effects import effects_for
+    from robolobes.identify.force_data import ForceSeries
+    from robolobes.identify.force_model import with_spindle_hz
+    from robolobes.identify.forces import ForceContext, _select_forces
+
+    meas = read_measurement(d)
+    assert isinstance(meas, ForceSeries)
+    model, _ = model_state(meas)
+    ctx = ForceContext(meas, model.case)
+    state = replace(model, case=with_spindle_hz(model.case, ctx.spindle_hz))
+    lib = [e for e in effects_for("forces", state) if hasattr(e, "family") and e.applicable(state)]
+    joint, forward = (_select_forces(ctx, state, lib, alpha=0.01, max_effects=3, joint=j) for j in (True, False))
+    return joint, forward
+
+
+def _no_worse(joint, forward) -> float:
+    """The forward-only model's held-out gain over the joint one, by the selection's own statistic; the
+    joint answer is no worse when it does not pass the selection's threshold."""
+    from robolobes.identify.selection import significance
+
+    return significance(joint.final.residual, forward.final.residual, joint.final.sigma)
+
+
+def test_joint_search_answers_a_one_effect_draw_as_before(base, tmp_path):
+    """The dynamometer draw 0 of :func:`test_dynamometer_one_draw` (its model runs are memoised in this
+    process) and null seed 0: the forward-backward search finds what the forward-only search found,
+    the same values within one sigma, and its held-out error is not significantly worse."""
+    case, t, f = base
+    rng = np.random.default_rng(1000)
+    p = _draw("dynamometer", rng)
+    for name, data in (("dynamometer", _dynamometer(t, f, p["fn"], p["zeta"])), ("null", f)):
+        d = tmp_path / name
+        _write(d, t, data, 0)
+        joint, forward = _both_searches(d)
+        assert [e.name for e in joint.effects] == [e.name for e in forward.effects], (joint.steps, forward.steps)
+        assert not any(s.action == "drop" for s in joint.steps)
+        for a, b in zip(joint.effects, forward.effects):
+            for k, v in a.params.items():
+                assert abs(v - b.params[k]) <= a.uncertainty[k], (name, k, v, b.params[k], a.uncertainty[k])
+        assert _no_worse(joint, forward) <= joint.threshold, name
+        assert joint.error_after <= forward.error_after * 1.01, (name, joint.error_after, forward.error_after)
+
+
+@pytest.mark.slow
+@pytest.mark.long
+def test_joint_search_on_edge_coefficients_and_a_dynamometer(base, tx200_robot, tmp_path):
+    """Two effects (Kte 30, Kre 20 N/mm from the full pass, a 2.5 kHz dynamometer by lsim, noise seed 0):
+    the joint search finds both, and its held-out error is not significantly worse than the
+    forward-only search's (printed: both, for the record)."""
+    case, t, f = base
+    fe = _data_with("edge_coefficients", {"kte": 3e4, "kre": 2e4}, case, t, f, tx200_robot("basic"))
+    d = tmp_path / "edge-dyn"
+    _write(d, t, _dynamometer(t, fe, 2500.0, 0.04), 0)
+    joint, forward = _both_searches(d)
+    print("joint:", [(e.name, e.params) for e in joint.effects], joint.error_after,
+          [(s.action, s.kept, s.removed) for s in joint.steps])
+    print("forward:", [(e.name, e.params) for e in forward.effects], forward.error_after)
+    assert {"edge_coefficients", "dynamometer"} <= {e.name for e in joint.effects}, joint.steps
+    assert _no_worse(joint, forward) <= joint.threshold
