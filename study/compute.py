@@ -6,8 +6,9 @@ For the two built-in cases (``tx200-aluminium``, ``tx200-steel``):
 2. each cut against the stability lobes at those poses (margin, limit, bifurcation, chatter
    frequency, the mode that chatters), lobe diagrams and the absolute (ZOA) limits;
 3. time-domain passes of both cases in the four variants;
-4. the smallest joint-damping scale that stabilizes steel (the paper says x10) by the lobes and by
-   the time domain, each as a bracket [largest unstable, smallest stable];
+4. the smallest joint-damping scale that stabilizes steel (the paper says x10) by the lobes, by the
+   eroded-part time domain and by the delay-based time domain (the lobes' linear problem), each as
+   a bracket [largest unstable, smallest stable];
 5. the paper's Tab. 10 (forces) and Tab. 11/12 (roughness) beside ours;
 6. (full study) the seed's facts confronted with identification: (a) Tab. 10 identified by force
    statistics, (b) the steel cut observed stable (:mod:`robolobes.study.force_facts`).
@@ -39,7 +40,7 @@ from .settings import LOBE_RANGES_RPM, MATERIALS, PAPER, POSES, StudySettings
 
 __all__ = ["compute_study", "load_inputs", "study_poses", "compute_modes", "compute_operating_points",
            "compute_diagrams", "compute_absolute_limits", "bracket_search", "damping_by_lobes",
-           "damping_by_time_domain", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
+           "damping_by_time_domain", "damping_by_delay", "lobes_tool", "eroded_deflection", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
 
 Progress = Callable[[float], None]
 
@@ -219,22 +220,38 @@ def bracket_search(check: Callable[[float], DampingProbe], scales, tol: float, m
     return DampingSearch(method, variant, tuple(probes[k] for k in sorted(probes)), lo, hi, tol)
 
 
-def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic") -> DampingSearch:
+def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic", dy_m: float | None = None,
+                     seed: tuple = ()) -> DampingSearch:
     """Damping bracket by the lobes: stable when the SDM limit at the cut speed exceeds the cut
-    depth beyond its discretization error bound (Tab. 7 pose)."""
+    depth beyond its discretization error bound (Tab. 7 pose).
+
+    ``dy_m``: the SDM at the radial depth ``ae - dy_m`` instead of the nominal ``ae`` (the eroded
+    part's engagement: its tool cuts deflected by its mean normal deflection ``dy``; method
+    "lobes at ae - dy"). ``seed``: scales tried besides ``settings.damping_scales``."""
     from robolobes.lobes.sdm import SemiDiscretization
     from robolobes.lobes.solver import stability
     method = SemiDiscretization(m=settings.sdm_m)
+    case = steel if dy_m is None else replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_m))
 
     def check(scale):
         lin, st = lins.structure(steel, variant, "start", theta_start, damping_scale=scale)
-        op = stability(_lobe_problem(st, steel), method)
+        op = stability(_lobe_problem(st, case), method)
         return DampingProbe(scale, as_verdict(op.verdict), {
             "depth_limit_m": op.depth_limit_m, "depth_limit_error_m": op.depth_limit_error_m, "margin": op.margin,
             "spectral_radius": op.spectral_radius, "bifurcation": str(op.limit_bifurcation),
-            "chatter_freq_hz": op.limit_chatter_freq_hz, "slowest_decay_per_s": _slowest_decay(lin)})
+            "chatter_freq_hz": op.limit_chatter_freq_hz, "slowest_decay_per_s": _slowest_decay(lin),
+            "ae_m": case.cut.ae_m})
 
-    return bracket_search(check, settings.damping_scales, settings.damping_tol, "lobes", variant)
+    scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
+    return bracket_search(check, scales, settings.damping_tol, "lobes" if dy_m is None else "lobes at ae - dy",
+                          variant)
+
+
+def eroded_deflection(d: DampingSearch) -> float | None:
+    """Mean of the eroded probes' mean normal deflection at the ends of their bracket, m (None if unknown)."""
+    dys = [p.info.get("mean_normal_deflection_m") for p in d.probes if p.scale in d.bracket]
+    dys = [v for v in dys if v is not None]
+    return float(np.mean(dys)) if dys else None
 
 
 def _slowest_decay(lin) -> float:
@@ -260,12 +277,88 @@ def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Pr
         n[0] += 1
         progress(min(1.0, n[0] / 9))
         s = run.summary
-        return DampingProbe(scale, run.verdict, {k: s.get(k) for k in
-                                                  ("chatter_freq_hz", "growth_rate_per_s", "growth_rate_se_per_s",
-                                                   "growth_rate_ci_per_s", "verdict_basis")})
+        return DampingProbe(scale, run.verdict, {**{k: s.get(k) for k in
+                                                    ("chatter_freq_hz", "growth_rate_per_s", "growth_rate_se_per_s",
+                                                     "growth_rate_ci_per_s", "verdict_basis")},
+                                                 "mean_normal_deflection_m": _mean_normal_deflection(run)})
 
     scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
     return bracket_search(check, scales, settings.td_damping_tol, "time domain", variant)
+
+
+#: Initial displacement of the delay-based damping probes, m (the convergence page's steel runs).
+DELAY_KICK_M = 1e-7
+
+
+def lobes_tool(tool, cut):
+    """The tool as the lobes see it: without runout when the runout changes neither which teeth cut
+    nor their delays (the SDM then solves the same linear problem with and without it; with runout
+    the forced response has a period-2 part that above the limit is not linear)."""
+    from robolobes.cases.milling import regeneration
+    plain = replace(tool, runout_m=(0.0,) * tool.teeth)
+    same = [(r.cuts, r.delay_rad) for r in regeneration(tool, cut)] == \
+        [(r.cuts, r.delay_rad) for r in regeneration(plain, cut)]
+    return plain if same else tool
+
+
+def damping_by_delay(settings, lins: Linearizations, steel, theta_start, variant: str = "basic",
+                     seed: tuple = (), progress: Progress = _quiet) -> DampingSearch:
+    """Damping bracket by the delay-based regenerative model (``DelayNewmark``): the lobes' linear
+    problem (the same linearized structure at the Tab. 7 pose, the same cut at the nominal radial
+    depth, :func:`lobes_tool`) simulated for ``settings.steel_t_end_s`` from a 0.1 um kick; its rate
+    converges to the SDM's Floquet exponent, so its bracket is the like-with-like check of the
+    lobes'. ``seed``: scales tried besides ``settings.damping_scales`` (the lobes' bracket)."""
+    from robolobes.timedomain import DelayNewmark, simulate
+    from robolobes.timedomain.delay import StructureProblem
+    tool = lobes_tool(steel.tool, steel.cut)
+    t_end = settings.steel_t_end_s or 5.5
+    n = [0]
+
+    def check(scale):
+        _, st = lins.structure(steel, variant, "start", theta_start, damping_scale=scale)
+        r = simulate(StructureProblem(st, tool, steel.cut, steel.law, t_end_s=t_end), DelayNewmark(kick_m=DELAY_KICK_M))
+        n[0] += 1
+        progress(min(1.0, n[0] / 6))
+        v = r.verdict.to_json()
+        rate = r.rate
+        return DampingProbe(scale, as_verdict(r.verdict.verdict), {
+            "growth_rate_per_s": v.get("growth_rate_per_s"), "growth_rate_se_per_s": v.get("growth_rate_se_per_s"),
+            "growth_rate_ci_per_s": v.get("growth_rate_ci_per_s"),
+            "gated_rate_per_s": None if rate.estimate is None else rate.rate_per_s,
+            "gated_rate_se_per_s": None if rate.estimate is None else rate.se_per_s,
+            "chip_loss_fraction": v.get("chip_loss_fraction"), "t_end_s": t_end, "kick_m": DELAY_KICK_M,
+            "runout": tool is steel.tool and max(tool.runout_m) > 0, "cpu_s": r.stats["cpu_s"]})
+
+    memo: dict[float, DampingProbe] = {}
+
+    def once(scale):
+        if scale not in memo:
+            memo[scale] = check(scale)
+        return memo[scale]
+
+    # from the lobes' bracket up (a run far below it, x1, costs as much as all the others: its chip
+    # is lost at every tooth pass); below it only if the bracket's unstable side is stable here
+    given = sorted({float(s) for s in seed if s is not None})
+    low = given[0] if given else -math.inf
+    scales = sorted(set(given) | {float(s) for s in settings.damping_scales if s > low})
+    d = bracket_search(once, scales, settings.td_damping_tol, "delay-based time domain", variant)
+    if d.largest_unstable is None and given:
+        scales = sorted(set(scales) | {float(s) for s in settings.damping_scales})
+        d = bracket_search(once, scales, settings.td_damping_tol, "delay-based time domain", variant)
+    return DampingSearch(d.method, d.variant, tuple(memo[k] for k in sorted(memo)), d.largest_unstable,
+                         d.smallest_stable, d.resolution)
+
+
+def _mean_normal_deflection(run: TimeDomainRun) -> float | None:
+    """The eroded run's mean normal deflection ``dy`` over its steady window, m (> 0: away from the
+    material's side the cut frame's y points to; its engagement is ``ae - dy``), None without a series."""
+    r = run.series
+    if r is None or getattr(r, "steady_window_s", None) is None:
+        return None
+    t0, t1 = r.steady_window_s
+    t = np.asarray(r.t_s)
+    sel = (t >= t0) & (t <= t1)
+    return float(np.mean(np.asarray(r.tcp_deviation_m)[sel, 1])) if sel.any() else None
 
 
 # ------------------------------------------------------------------------------------------ time domain
@@ -445,8 +538,13 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
     diagrams = compute_diagrams(settings, lins, cs, poses, _sub(progress, 0.2, 0.38))
     absolute = compute_absolute_limits(lins, cs, poses)
     d_lobes = damping_by_lobes(settings, lins, cs["steel"], poses["start"])
-    d_td = damping_by_time_domain(settings, cs["steel"], progress=_sub(progress, 0.42, 0.6), cache=runs_cache,
+    d_td = damping_by_time_domain(settings, cs["steel"], progress=_sub(progress, 0.42, 0.58), cache=runs_cache,
                                   lins=lins, seed=d_lobes.bracket)
+    d_delay = damping_by_delay(settings, lins, cs["steel"], poses["start"], seed=d_lobes.bracket,
+                               progress=_sub(progress, 0.58, 0.6))
+    dy = eroded_deflection(d_td)
+    d_lobes_dy = (None if dy is None else
+                  damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy, seed=d_td.bracket))
     runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache, lins)
     facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
                                                       == (mat, "basic", "start")),
@@ -459,7 +557,8 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
         settings=settings, provenance=provenance(study_inputs(settings, cs, paper)),
         cases={k: c.name for k, c in cs.items()}, notes=NOTES, modes=modes, operating_points=ops,
         diagrams=diagrams, absolute_limits=absolute, td_linearized=settings.td_linearized, time_domain=runs,
-        damping_lobes=d_lobes, damping_time_domain=d_td,
+        damping_lobes=d_lobes, damping_time_domain=d_td, damping_delay=d_delay,
+        damping_lobes_eroded=d_lobes_dy, eroded_deflection_m=dy,
         paper_damping_scale=float(paper["steel"]["stabilizing_damping_scale"]),
         tab10=tab10_rows(paper, runs), roughness=roughness_rows(paper, runs), facts=facts,
         wall_s=time.perf_counter() - t0, generated=time.strftime("%Y-%m-%d %H:%M"),

@@ -58,7 +58,10 @@ def summary_table(data: dict) -> str:
          variants_verdicts(data, "aluminium"), variants_verdicts(data, "steel")),
         ("joint-damping scale that stabilizes steel (basic), [unstable, stable]", "",
          f"{prose.bracket_text(dl['largest_unstable_scale'], dl['smallest_stable_scale'])} lobes, "
-         f"{prose.bracket_text(dt['largest_unstable_scale'], dt['smallest_stable_scale'])} time domain"),
+         + (f"{prose.bracket_text(*_bracket(dt))} eroded-part time domain, "
+            f"{prose.bracket_text(*_bracket(dd))} delay-based time domain"
+            if (dd := data["steel_damping"].get("delay_based"))
+            else f"{prose.bracket_text(*_bracket(dt))} time domain")),
     ]
     lines = ["| | aluminium 6060 | steel St 52-3 |", "|---|---|---|"]
     lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
@@ -113,11 +116,20 @@ def _how_steel_chatters(ex: dict) -> str | None:
     return s
 
 
+def _bracket(d: dict) -> tuple:
+    return d["largest_unstable_scale"], d["smallest_stable_scale"]
+
+
 def _damping(data: dict) -> str:
-    dl, dt = data["steel_damping"]["lobes"], data["steel_damping"]["time_domain"]
-    return "**Damping.** " + prose.damping_comparison(
-        (dl["largest_unstable_scale"], dl["smallest_stable_scale"]),
-        (dt["largest_unstable_scale"], dt["smallest_stable_scale"]), data["steel_damping"]["paper_scale"])
+    sd = data["steel_damping"]
+    dl, dt = sd["lobes"], sd["time_domain"]
+    label = "the eroded-part time domain" if sd.get("delay_based") else "the time domain"
+    out = "**Damping.** " + prose.damping_comparison(_bracket(dl), _bracket(dt), sd["paper_scale"], label)
+    if sd.get("delay_based"):
+        at_dy = sd.get("lobes_at_ae_minus_dy")
+        out += " " + prose.damping_cross_check(_bracket(dl), _bracket(sd["delay_based"]), _bracket(dt),
+                                               sd.get("eroded_deflection_m"), _bracket(at_dy) if at_dy else None)
+    return out
 
 
 def _forces(data: dict) -> str | None:

@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 
 __all__ = ["position_in_range", "range_comparison", "times", "ratio_comparison", "modes_below",
-           "limit_against_cut", "bracket_text", "brackets_relation", "damping_comparison",
+           "limit_against_cut", "bracket_text", "brackets_relation", "bracket_width", "damping_comparison",
+           "damping_cross_check",
            "relative_agreement", "limit_scaling", "tab10_identified"]
 
 #: Two ratios are "about" equal when they differ by less than this factor (15 %): wider than the
@@ -88,10 +89,43 @@ def brackets_relation(a: tuple, b: tuple) -> str:
     return "overlap" if max(alo, blo) < min(ahi, bhi) else "are disjoint"
 
 
-def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float) -> str:
+def bracket_width(lo: float | None, hi: float | None) -> float | None:
+    """``hi - lo`` of a closed bracket, None when a side is open."""
+    return None if lo is None or hi is None else hi - lo
+
+
+def _width_text(br: tuple) -> str:
+    w = bracket_width(*br)
+    return "open" if w is None else f"{w:.3g} wide"
+
+
+def damping_cross_check(lobes: tuple, delay: tuple, eroded: tuple, dy_m: float | None = None,
+                        lobes_at_dy: tuple | None = None) -> str:
+    """Like with like. The delay-based bracket (the lobes' linear problem, fixed engagement at the
+    nominal radial depth) against the lobes' ("overlap" / "are disjoint" by
+    :func:`brackets_relation`), with each bracket's width; then the eroded part's bracket, whose
+    engagement moves with the tool's mean normal deflection ``dy_m`` (m), against the lobes' at the
+    nominal ae and, given ``lobes_at_dy``, against the SDM's at ``ae - dy``."""
+    out = (f"Like with like, the delay-based time domain (the lobes' linear problem: the same linearized "
+           f"structure and cut, the engagement fixed at the nominal radial depth) brackets it in "
+           f"{bracket_text(*delay)} ({_width_text(delay)}; the lobes' is {_width_text(lobes)}): the two "
+           f"brackets {brackets_relation(lobes, delay)}. The eroded part's bracket {bracket_text(*eroded)} "
+           f"({_width_text(eroded)}) and the lobes' {brackets_relation(lobes, eroded)}; its engagement moves with "
+           f"the tool's deflection")
+    if dy_m is None:
+        return out + ", so it compares with the SDM at the radial depth ae - dy, not at the nominal ae."
+    out += (f" (mean normal deflection dy = {dy_m * 1e6:+.2f} um at its bracket's ends), so it compares with "
+            f"the SDM at the radial depth ae - dy, not at the nominal ae")
+    if lobes_at_dy is None:
+        return out + "."
+    return (out + f". The SDM at ae - dy brackets it in {bracket_text(*lobes_at_dy)} ({_width_text(lobes_at_dy)}); "
+            f"this bracket and the eroded part's {brackets_relation(lobes_at_dy, eroded)}.")
+
+
+def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float, td_label: str = "the time domain") -> str:
     """The stabilizing damping of both methods as brackets, whether they overlap, and whether the
     paper's scale is enough by each (enough: at or above the bracket's stable side; not enough: at
-    or below its unstable side; else inside the bracket)."""
+    or below its unstable side; else inside the bracket). ``td_label``: the time-domain method's name."""
     def verdict_on_paper(br):
         lo, hi = br
         if hi is not None and paper_scale >= hi:
@@ -102,9 +136,9 @@ def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float) -> 
     pl, pt = verdict_on_paper(lobes), verdict_on_paper(time_domain)
     both = (f"The paper's x{paper_scale:g} is not enough by either method" if pl == pt == "not enough"
             else f"The paper's x{paper_scale:g} is {pl} by both methods" if pl == pt
-            else f"The paper's x{paper_scale:g} is {pl} by the lobes and {pt} by the time domain")
+            else f"The paper's x{paper_scale:g} is {pl} by the lobes and {pt} by {td_label}")
     return (f"The smallest joint-damping scale that stabilizes steel lies in {bracket_text(*lobes)} by the lobes "
-            f"and in {bracket_text(*time_domain)} by the time domain ([largest unstable, smallest stable] "
+            f"and in {bracket_text(*time_domain)} by {td_label} ([largest unstable, smallest stable] "
             f"tried); the brackets {brackets_relation(lobes, time_domain)}. {both}.")
 
 

@@ -154,7 +154,7 @@ class DampingSearch:
     as not stable (it would move the bracket up, never down). None: no such probe.
     """
 
-    method: str                  # "lobes" or "time domain"
+    method: str                  # "lobes", "time domain" or "delay-based time domain"
     variant: str
     probes: tuple                # DampingProbe, by increasing scale
     largest_unstable: float | None
@@ -243,7 +243,10 @@ class StudyResult:
     wall_s: float
     generated: str
     linearize_calls: int = 0
-    identify_facts: dict | None = None   # {"tab10": ..., "steel": ...} (study.force_facts); None: not computed
+    identify_facts: dict | None = None
+    damping_delay: DampingSearch | None = None  # the delay-based time domain's (None: not computed)
+    damping_lobes_eroded: DampingSearch | None = None  # the lobes' at ae - dy, the eroded part's engagement
+    eroded_deflection_m: float | None = None    # that dy: the eroded runs' mean normal deflection, m   # {"tab10": ..., "steel": ...} (study.force_facts); None: not computed
 
     # ---- look-ups -------------------------------------------------------------------------------
     def mode_set(self, variant: str, pose: str) -> ModeSet:

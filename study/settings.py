@@ -34,7 +34,7 @@ class StudySettings:
     al_t_end_s : float|None     simulated aluminium time, s (None: whole pass, 1.75 s)
     damping_scales : tuple      joint-damping scales tried for steel, then bisected
     damping_tol : float         width of the final [largest unstable, smallest stable] bracket of
-                                the lobes' search (the time domain's is at least 0.25)
+                                the lobes' search (the time domain's is at least 0.15)
     identify_facts : tuple      the seed's facts confronted with identification
                                 (:mod:`robolobes.study.force_facts`): ``"tab10"`` (a, minutes: full
                                 study only) and ``"steel"`` (b, about 15 s)
@@ -55,12 +55,12 @@ class StudySettings:
     @property
     def td_damping_tol(self) -> float:
         """Bracket width of the time-domain damping search (each probe is a whole steel run)."""
-        return max(self.damping_tol, 0.25)
+        return max(self.damping_tol, 0.15)
 
     @staticmethod
     def make(quick: bool) -> "StudySettings":
         if quick:
             return StudySettings(quick=True, n_rpm=40, lobe_variants=("basic", "orthogonal"),
                                  lobe_poses=("start",), td_linearized=True, steel_t_end_s=5.5,
-                                 al_t_end_s=None, damping_tol=0.25, identify_facts=("steel",))
+                                 al_t_end_s=None, damping_tol=0.15, identify_facts=("steel",))
         return StudySettings()

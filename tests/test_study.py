@@ -72,6 +72,31 @@ def test_damping_comparison_brackets_overlap_and_paper_scale():
     assert "x10 is enough by both methods" in prose.damping_comparison((1.0, 8.0), (5.0, 10.0), 10)
 
 
+def test_damping_cross_check_wording_follows_the_brackets():
+    s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72))
+    assert "brackets it in [x12.27, x12.34] (0.07 wide; the lobes' is 0.07 wide): the two brackets overlap" in s
+    assert "[x11.84, x11.98] (0.14 wide) and the lobes' are disjoint" in s
+    assert "dy = +80.47 um" in s and "ae - dy" in s
+    assert "brackets it in [x11.6, x11.72] (0.12 wide); this bracket and the eroded part's are disjoint" in s
+    s = prose.damping_cross_check((12.19, 12.34), (12.35, 12.5), (12.0, 12.3), None, None)
+    assert "the two brackets are disjoint" in s and "(0.3 wide) and the lobes' overlap" in s
+    assert "dy =" not in s and "this bracket" not in s
+    s = prose.damping_cross_check((12.19, 12.34), (12.5, None), (None, 12.0), 1e-6, (11.9, 12.1))
+    assert "open" in s and "this bracket and the eroded part's overlap" in s
+    assert prose.bracket_width(12.0, 12.5) == 0.5 and prose.bracket_width(None, 12.0) is None
+
+
+def test_lobes_tool_drops_the_steel_runout_only_when_the_lobes_do_not_see_it(steel_case):
+    from dataclasses import replace
+    tool, cut = steel_case.tool, steel_case.cut
+    assert max(tool.runout_m) > 0
+    plain = compute.lobes_tool(tool, cut)
+    assert max(plain.runout_m) == 0 and plain.teeth == tool.teeth
+    # runout larger than the feed: a tooth stops cutting, the lobes see it, the tool is kept
+    big = replace(tool, runout_m=(0.0,) + (2 * cut.feed_per_tooth_m,) * (tool.teeth - 1))
+    assert compute.lobes_tool(big, cut) is big
+
+
 def test_relative_agreement_percentage():
     # |51.9 - 51.7| / 51.7 = 0.387 %
     s = prose.relative_agreement("TD", 51.9, 51.7, "Hz", ref_label="the lobes'")
@@ -198,8 +223,46 @@ def test_damping_brackets_are_consistent_with_their_probes(quick):
             continue
         lo, hi = d["largest_unstable_scale"], d["smallest_stable_scale"]
         assert lo is not None and hi is not None and 0 < hi - lo <= d["resolution"]
-        for sc, p in d["probes"].items():
-            assert p["verdict"] == "stable" if float(sc) >= hi else p["verdict"] != "stable"
+        for sc, p in d["probes"].items():  # keys are the scales written with :g, so is the bound here
+            assert p["verdict"] == "stable" if float(sc) >= float(f"{hi:g}") else p["verdict"] != "stable"
+
+
+def test_delay_based_bracket_overlaps_the_lobes_and_every_bracket_is_narrow(quick):
+    # like with like: the delay-based model (the lobes' linear problem at the nominal ae) converges
+    # to the SDM's Floquet exponent, so its bracket must overlap the lobes'; the eroded part's is
+    # reported beside it (its engagement is ae - dy); each at most 0.15 wide
+    _, res = quick
+    sd = res["steel_damping"]
+    assert {"lobes", "time_domain", "delay_based"} <= set(sd)
+    for k in ("lobes", "time_domain", "delay_based"):
+        lo, hi = sd[k]["largest_unstable_scale"], sd[k]["smallest_stable_scale"]
+        assert lo is not None and hi is not None and 0 < hi - lo <= 0.15, (k, lo, hi)
+    br = {k: (sd[k]["largest_unstable_scale"], sd[k]["smallest_stable_scale"]) for k in sd if isinstance(sd[k], dict)}
+    assert prose.brackets_relation(br["lobes"], br["delay_based"]) == "overlap", br
+    # the delay-based probes carry a fitted rate of the sign of their verdict
+    for sc, p in sd["delay_based"]["probes"].items():
+        assert p["growth_rate_per_s"] is not None
+        if p["verdict"] != "undetermined":
+            assert (p["growth_rate_per_s"] < 0) == (p["verdict"] == "stable"), (sc, p)
+    # the eroded probes at the bracket's ends carry their mean normal deflection; the SDM at ae - dy
+    # used their mean, and its probes ran at that radial depth
+    dys = [sd["time_domain"]["probes"][f"{sc:g}"]["mean_normal_deflection_m"] for sc in br["time_domain"]]
+    assert_allclose(sd["eroded_deflection_m"], np.mean(dys), rtol=1e-12)
+    ae = compute.load_inputs()[0]["steel"].cut.ae_m
+    for p in sd["lobes_at_ae_minus_dy"]["probes"].values():
+        assert_allclose(p["ae_m"], ae - sd["eroded_deflection_m"], rtol=1e-12)
+    lo, hi = br["lobes_at_ae_minus_dy"]
+    assert lo is not None and hi is not None and 0 < hi - lo <= 0.15
+
+
+def test_quick_report_states_the_cross_check(quick):
+    out, res = quick
+    report = (out / "report.md").read_text()
+    sd = res["steel_damping"]
+    rel = prose.brackets_relation(*((sd[k]["largest_unstable_scale"], sd[k]["smallest_stable_scale"])
+                                    for k in ("lobes", "delay_based")))
+    assert f"the two brackets {rel}" in report and "ae - dy" in report
+    assert "delay-based verdict" in report
 
 
 def test_start_pose_modes_are_the_eigenvalues_of_the_tab7_linearization(quick, tx200_robot, alu_case):
@@ -242,9 +305,12 @@ def test_report_tables_figures_and_provenance(quick):
 
 def test_one_linearization_per_variant_damping_and_pose(quick):
     # quick: modes at 3 poses x 4 variants (12), lobes at the start (already there), the lobes'
-    # damping search at the start: one per scale it tried besides x1
+    # damping searches at the start (the lobes', the SDM's at ae - dy, the delay-based one's): one per
+    # scale they tried besides x1
     _, res = quick
-    n_scales = len([s for s in res["steel_damping"]["lobes"]["probes"] if float(s) != 1.0])
+    sd = res["steel_damping"]
+    n_scales = len({s for k in ("lobes", "lobes_at_ae_minus_dy", "delay_based") for s in sd[k]["probes"]
+                    if float(s) != 1.0})
     assert res["linearize_calls"] == 12 + n_scales
 
 
