@@ -279,7 +279,8 @@ class MapMethod:
 
     def describe(self) -> dict:
         return {"m": self.m, "depth_max_m": self.depth_max_m, "rtol": self.rtol,
-                "reduce_max_freq_hz": self.reduce_max_freq_hz, "reduce_residual": self.reduce_residual,
+                "reduce_max_freq_hz": self.reduce_max_freq_hz,
+                **({"reduce_residual": True} if self.reduce_residual else {}),  # stores made before it resume
                 "error_band_hz": list(self.error_band_hz),
                 "prescan_m": self.prescan_m,
                 "chunk_poses": self.chunk_poses, **({} if self.tol is None else {"tol": self.tol}),
