@@ -41,7 +41,8 @@ def main(argv=None) -> int:
     ap.add_argument("--case", default="tx200-aluminium", help="tx200-aluminium (default) or tx200-steel")
     ap.add_argument("--cpu-only", action="store_true", help="only item 4 (CPU per reachable pose): the default "
                     "(refined, fast search) against the previous code's methods (one level m = 40, and refined, "
-                    "with the plain search) in the same process, and the ratios")
+                    "with the plain search) and the default with the static residual, in the same process, and "
+                    "the ratios")
     args = ap.parse_args(argv)
 
     from robolobes import cases, linearize
@@ -62,8 +63,10 @@ def main(argv=None) -> int:
                            "previous default: one level m = 40 (no estimate), plain search")
         c_ref = _cpu_check(pr, _replace(base, search="plain"), None, args.cpu_poses,
                            "previous code refined (tol 0.01), plain search")
+        c_res = _cpu_check(pr, _replace(base, reduce_residual=True), None, args.cpu_poses,
+                           "default with the static residual (MapMethod(reduce_residual=True))")
         print(f"   ratios: default / previous one level = {c_new / c_one:.2f}, default / previous refined = "
-              f"{c_new / c_ref:.2f}")
+              f"{c_new / c_ref:.2f}, with residual / default = {c_res / c_new:.2f}")
         return 0
     robot = linearize.build_model(case.robot, "orthogonal")
     lin = linearize.linearize(robot, case.path.start_q_rad)

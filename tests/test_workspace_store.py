@@ -69,6 +69,9 @@ def test_a_store_of_other_inputs_is_refused_and_the_same_inputs_resume(problem, 
     _refused(other_problem, path, "holds a map of other inputs")
     _refused(problem, path, "holds a map of other inputs", method=MapMethod(m=21, reduce_max_freq_hz=None,
                                                                             prescan_m=None, chunk_poses=1))
+    from dataclasses import replace
+
+    _refused(problem, path, "holds a map of other inputs", method=replace(FAST, reduce_residual=True))
     again = solve_map(problem, FAST, path=path, scheduler="serial")
     assert again.stats["computed_poses"] == 0
     np.testing.assert_array_equal(again.dataset["depth_limit_m"].values, first.dataset["depth_limit_m"].values)

@@ -68,8 +68,10 @@ def _cutoff_hz(robot, max_freq_hz: float) -> float:
 
 def pose_structure(problem: MapProblem, method: MapMethod, lin, feed: np.ndarray):
     """The tool-tip structure at one pose (cut frame of ``feed``): the robot (with the tool's TCP
-    oscillators, if any), truncated to ``method.reduce_max_freq_hz`` (with its error report), plus
-    any tool modes given as lobes modes in series.
+    oscillators, if any), truncated to ``method.reduce_max_freq_hz`` (raised by :func:`_cutoff_hz`
+    so the TCP oscillators keep their modes; with ``method.reduce_residual`` the dropped modes are
+    replaced by their static compliance, :func:`_with_residual`) with its error report, plus any
+    tool modes given as lobes modes in series (never truncated).
 
     Returns ``(structure, report)``; ``report`` is None without truncation.
     """
@@ -80,10 +82,33 @@ def pose_structure(problem: MapProblem, method: MapMethod, lin, feed: np.ndarray
             return phys, None
         ss = phys.state_space()
         return ReducedStructure(_series(ss, series), TruncationReport((), (), 0.0, 0.0, (0.0, 0.0))), None
-    red = phys.truncated(max_freq_hz=_cutoff_hz(lin.robot, method.reduce_max_freq_hz), band_hz=tuple(method.error_band_hz))
+    cutoff = _cutoff_hz(lin.robot, method.reduce_max_freq_hz)
+    if method.reduce_residual:
+        red = _with_residual(phys, cutoff, tuple(method.error_band_hz))
+    else:
+        red = phys.truncated(max_freq_hz=cutoff, band_hz=tuple(method.error_band_hz))
     if series:
         red = ReducedStructure(_series(red.ss, series), red.report)
     return red, red.report
+
+
+def _with_residual(phys: PhysicalStructure, cutoff_hz: float, band_hz: tuple) -> ReducedStructure:
+    """The modes up to ``cutoff_hz`` plus a residual mode with the static compliance of the others
+    (``lobes.basis.truncated_with_residual``, residual at the lowest dropped mode). Its report is
+    of the cut-plane rows (x_c, y_c), the ones the residual restores and the chip thickness sees:
+    static error ``||(G_red(0) - G(0))[:2]|| / ||G(0)[:2]||`` (rounding level) and FRF error
+    ``max_band ||(G_red - G)[:2]|| / max_band ||G[:2]||`` over ``band_hz`` (4001 points, as
+    ``PhysicalStructure.truncated``)."""
+    from robolobes.lobes.basis import truncated_with_residual
+
+    red = truncated_with_residual(phys, cutoff_hz)
+    lo, hi = float(band_hz[0]), float(band_hz[1])
+    full = phys.state_space()
+    w = 2 * np.pi * np.linspace(lo, hi, 4001)
+    Hf, Hr = full.receptance(w)[:2], red.ss.receptance(w)[:2]
+    frf = float(np.max(np.linalg.norm(Hr - Hf, ord=2, axis=(0, 1))) / np.max(np.linalg.norm(Hf, ord=2, axis=(0, 1))))
+    rep = replace(red.report, frf_rel_error=frf, band_hz=(lo, hi))
+    return ReducedStructure(red.ss, rep, red.basis)
 
 
 @dataclass(frozen=True)
