@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import tempfile
 import time
 import warnings
@@ -26,7 +27,6 @@ from pathlib import Path
 import numpy as np
 
 from robolobes.cases import load_case
-from robolobes.cases.loader import _data_dir
 from robolobes.identify.cutting_effects import ProcessDamping
 from robolobes.linearize import build_model, linearize
 from robolobes.linearize.extra_elements import TipDamper
@@ -40,13 +40,12 @@ from robolobes.timedomain.summary import principal_period
 
 
 def _case(tmp: Path):
-    text = (_data_dir() / "tx200-steel.toml").read_text()
-    text = text.replace("runout_um = [6.929, 0]", "runout_um = [0, 0]").replace("feed_mm_per_min = 280",
-                                                                                 "feed_mm_per_min = 840")
-    text = text.replace('name = "tx200-steel"', 'name = "steel-synthetic"')
-    p = tmp / "steel-synthetic.toml"
-    p.write_text(text)
-    base = load_case(p)
+    """The identification tests' synthetic steel case (tests/test_identify_process_damping.py) at the
+    300 rpm, 0.150 mm point."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_identify_process_damping import _case_file
+
+    base = load_case(_case_file(tmp))
     return replace(base, cut=replace(base.cut, spindle_rpm=300.0, ap_m=0.15e-3))
 
 

@@ -473,8 +473,11 @@ for _e in FORCE_EFFECTS:
 def chain_transfer(chain: tuple):
     """The product of the transfer functions of a measurement chain ``((name, params), ...)``."""
     by_name = {e.name: e for e in FORCE_EFFECTS if isinstance(e, ChainEffect)}
-    hs = [by_name[n].transfer(tuple(p[k] for k in by_name[n].params)) for n, p in chain]
+    return transfer_product([by_name[n].transfer(tuple(p[k] for k in by_name[n].params)) for n, p in chain])
 
+
+def transfer_product(hs):
+    """``f -> prod_g g(f)`` of transfer functions ``hs`` (each of the frequency ``f``, Hz, complex)."""
     def h(f):
         out = np.ones(np.shape(f), dtype=complex)
         for g in hs:

@@ -49,7 +49,7 @@ import numpy as np
 
 from robolobes.core.errors import BadInput
 
-from .cutting_effects import FORCE_EFFECTS, ForceEffect, chain_transfer
+from .cutting_effects import FORCE_EFFECTS, ForceEffect, chain_transfer, transfer_product
 from .effects import SIGNATURES, ModelState, effects_for
 from .force_data import ForceSeries, ForceStatistics, read_force_set, read_force_stats, read_stability
 from .force_model import revolution_averages, simulate_forces, with_spindle_hz
@@ -305,15 +305,7 @@ def _chain_of(base: ModelState, effects, values):
     hs = [e.transfer(v) for e, v in zip(effects, values) if e.chain]
     if base.chain:
         hs.append(chain_transfer(base.chain))
-    if not hs:
-        return None
-
-    def h(f):
-        out = np.ones(np.shape(f), dtype=complex)
-        for g in hs:
-            out = out * g(f)
-        return out
-    return h
+    return transfer_product(hs) if hs else None
 
 
 def _joint_fit(ctx: ForceContext, base: ModelState, effects, values, shift0: float) -> _Joint:

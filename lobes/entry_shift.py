@@ -29,16 +29,14 @@ A full slot (``ae = D``) has no block edge: no term.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
 from robolobes.cases.milling import engagement_rad, regeneration
-from robolobes.core.numerics import richardson
 
-from .exponent import FloquetExponent
+from .exponent import FloquetExponent, two_level_exponent
 from .problem import LobeProblem
-from .sdm import SDMEngine, SemiDiscretization
+from .sdm import SemiDiscretization
 
 __all__ = ["entry_shift_impulses", "entry_shift_exponent"]
 
@@ -83,17 +81,8 @@ def entry_shift_exponent(problem: LobeProblem, method: SemiDiscretization | None
                          with_entry: bool = True) -> FloquetExponent:
     """The Floquet exponent of ``problem`` with the entry-shift term (``with_entry=False``: without
     it, the same dense SDM), at ``m`` and ``2 m``, Richardson-extrapolated, 1/s."""
-    method = SemiDiscretization(m=40) if method is None else method
-    rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
-    rates = []
-    period = math.nan
-    for m in (method.m, 2 * method.m):
-        engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6))
-        period = float(engine.period_s(np.array([rpm]))[0])
+    def radius(engine, rpm, depth):
+        m = engine.plan.m
         imp = entry_shift_impulses(problem, m, engine.plan.slices, engine.plan.period_rad) if with_entry else None
-        U = engine.monodromy_dense(rpm, depth, impulses=imp)
-        rho = float(np.max(np.abs(np.linalg.eigvals(U))))
-        rates.append(math.log(rho) / period)
-    ext = richardson(rates[0], rates[1])
-    return FloquetExponent(coarse_per_s=rates[0], fine_per_s=rates[1], value_per_s=float(ext.value),
-                           error_per_s=float(ext.error), period_s=period, m=method.m)
+        return float(np.max(np.abs(np.linalg.eigvals(engine.monodromy_dense(rpm, depth, impulses=imp)))))
+    return two_level_exponent(problem, method, radius)

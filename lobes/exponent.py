@@ -44,6 +44,13 @@ def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = N
     method : SemiDiscretization, optional
         The coarse level (default ``SemiDiscretization(m=40)``); the fine level doubles ``m``.
     """
+    return two_level_exponent(problem, method, lambda engine, rpm, depth: float(engine.multipliers([rpm], [depth])[0][0]))
+
+
+def two_level_exponent(problem: LobeProblem, method: SemiDiscretization | None, spectral_radius) -> FloquetExponent:
+    """ln|mu| / T at ``m`` and ``2 m`` (``method.m``, default 40), Richardson-extrapolated, 1/s, with
+    ``spectral_radius(engine, rpm, depth_m)`` the largest multiplier's modulus of one
+    :class:`~robolobes.lobes.sdm.SDMEngine` at the problem's own cut."""
     method = SemiDiscretization(m=40) if method is None else method
     rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
     rates = []
@@ -51,8 +58,7 @@ def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = N
     for m in (method.m, 2 * method.m):
         engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6))
         period = float(engine.period_s(np.array([rpm]))[0])
-        rho = float(engine.multipliers([rpm], [depth])[0][0])
-        rates.append(math.log(rho) / period)
+        rates.append(math.log(spectral_radius(engine, rpm, depth)) / period)
     ext = richardson(rates[0], rates[1])
     return FloquetExponent(coarse_per_s=rates[0], fine_per_s=rates[1], value_per_s=float(ext.value),
                            error_per_s=float(ext.error), period_s=period, m=method.m)
