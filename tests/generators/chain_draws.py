@@ -31,15 +31,10 @@ import numpy as np
 from .draws import N_LINES, N_POSES, _either, chain_covered, judge_axes, run_identify, verdict
 from .tx200 import Effects, write_frf_set
 
-__all__ = ["CASES", "ALL_CASES", "draw", "judge", "run_chain_case", "TOOL_MODE"]
+__all__ = ["CASES", "draw", "judge", "run_chain_case", "TOOL_MODE"]
 
 _BASE = ("channel_scale_3", "channel_scale_5", "channel_scale_12", "daq_delay", "accelerometer")
-#: The sets CI runs in full (tests/test_identify_chain.py): every base alone, and each but the 3 % scale
-#: with a joint (channel_scale_3+joint is the same draws as the other scales' +joint sets with a smaller
-#: scale; run by hand, counted in docs/guide/identify-answers.md), to keep CI's long step in its budget.
-CASES = _BASE + tuple(f"{c}+joint" for c in _BASE if c != "channel_scale_3")
-#: Every set :func:`draw` knows.
-ALL_CASES = _BASE + tuple(f"{c}+joint" for c in _BASE)
+CASES = _BASE + tuple(f"{c}+joint" for c in _BASE)
 DELAY_S = 50e-6
 ACCEL_KG = 0.020
 # the tool mode of the accelerometer case: 200 Hz, zeta 0.03, modal mass 0.2 kg, along TCP x
@@ -48,8 +43,8 @@ TOOL_MODE = (200.0, 0.03, 0.2 * (2 * np.pi * 200.0) ** 2, (1.0, 0.0, 0.0))
 
 def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
     """``(effects, truth, rel_noise)`` of draw ``seed`` of ``case``."""
-    if case not in ALL_CASES:
-        raise ValueError(f"case {case!r}; valid: {', '.join(ALL_CASES)}")
+    if case not in CASES:
+        raise ValueError(f"case {case!r}; valid: {', '.join(CASES)}")
     rng = np.random.default_rng(1000 + seed)
     noise = float(rng.uniform(0.01, 0.03))
     truth: dict = {}
