@@ -21,7 +21,6 @@ algorithms take a ``pin.Data`` workspace per call (docs/guide/development.md).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from typing import TYPE_CHECKING, Callable
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -87,10 +86,10 @@ def pytest_configure(config: pytest.Config) -> None:
 
 
 @pytest.fixture
-def draw_plan(request: pytest.FixtureRequest) -> Callable[[Sequence[int], int], DrawPlan]:
-    """``draw_plan(seeds, need)``: the :class:`draw_counts.DrawPlan` of a rule "``need`` of ``seeds``
-    right" under this run's ``--draws`` option (the full set without it)."""
+def draw_plan(request: pytest.FixtureRequest) -> Callable[..., DrawPlan]:
+    """``draw_plan(seeds, need, full_rule_only="")``: the :class:`draw_counts.DrawPlan` of a rule
+    "``need`` of ``seeds`` right" under this run's ``--draws`` option (the full set without it)."""
     from draw_counts import plan_draws
 
     n = request.config.getoption("--draws")
-    return lambda seeds, need: plan_draws(seeds, need, n)
+    return lambda seeds, need, full_rule_only="": plan_draws(seeds, need, n, full_rule_only=full_rule_only)

@@ -8,6 +8,10 @@ the first ``N`` seeds only, and the rule is never loosened: the reduced check re
 ``ceil(need * N / len(seeds))`` of ``N`` right, a share at least the full rule's (for N = 2: both
 right, for 4 of 5 and for 19 of 20 alike). Without the option, or with ``N >= len(seeds)``, the full
 seed list and the full rule run.
+
+A set may declare that it is judged by its full rule only (``full_rule_only``, with the reason): a set
+whose known wrong draw is among the first ``N`` seeds meets "4 of 5" but fails the reduced "N of N",
+so under ``--draws N`` its plan runs no seed and carries the reason to skip (``DrawPlan.skip``).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ class DrawPlan:
     seeds: tuple[int, ...]
     need: int
     reduced: bool  # True: fewer seeds than the full set (``--draws N``)
+    skip: str = ""  # non-empty: a full-rule-only set under ``--draws N``, why it does not run
 
     def describe(self, full: str) -> str:
         """The rule asserted, for assertion messages: ``full`` is the full rule's wording."""
@@ -31,8 +36,12 @@ class DrawPlan:
         return f"{self.need} of {len(self.seeds)} right (reduced from {full} by --draws {len(self.seeds)})"
 
 
-def plan_draws(seeds: Sequence[int], need: int, draws: int | None) -> DrawPlan:
-    """The plan for a rule "``need`` of ``seeds``" under ``--draws draws`` (None: the full set)."""
+def plan_draws(seeds: Sequence[int], need: int, draws: int | None, *, full_rule_only: str = "") -> DrawPlan:
+    """The plan for a rule "``need`` of ``seeds``" under ``--draws draws`` (None: the full set).
+
+    ``full_rule_only``: non-empty for a set judged by its full rule only, the reason why; under a
+    reducing ``--draws`` its plan has no seeds, ``need`` 0 and ``skip`` set to
+    ``"full rule only (<need> of <n>): <reason>; run without --draws"``."""
     seeds = tuple(seeds)
     if not 1 <= need <= len(seeds):
         raise ValueError(f"need = {need} must be between 1 and the {len(seeds)} seeds")
@@ -40,4 +49,7 @@ def plan_draws(seeds: Sequence[int], need: int, draws: int | None) -> DrawPlan:
         return DrawPlan(seeds, need, reduced=False)
     if draws < 1:
         raise ValueError(f"--draws {draws}: must be a whole number >= 1")
+    if full_rule_only:
+        why = f"full rule only ({need} of {len(seeds)}): {full_rule_only}; run without --draws"
+        return DrawPlan((), 0, reduced=True, skip=why)
     return DrawPlan(seeds[:draws], -(-need * draws // len(seeds)), reduced=True)  # integer ceil

@@ -36,6 +36,16 @@ def test_bad_counts_are_refused_naming_the_value():
         plan_draws(range(5), 6, None)
 
 
+def test_full_rule_only_sets_skip_when_reduced_and_run_in_full_otherwise():
+    reduced = plan_draws(range(1, 6), 4, 2, full_rule_only="its wrong draw is seed 1")
+    assert (reduced.seeds, reduced.need, reduced.reduced) == ((), 0, True)
+    assert reduced.skip == "full rule only (4 of 5): its wrong draw is seed 1; run without --draws"
+    for draws in (None, 5):
+        full = plan_draws(range(1, 6), 4, draws, full_rule_only="its wrong draw is seed 1")
+        assert (full.seeds, full.need, full.skip) == ((1, 2, 3, 4, 5), 4, "")
+    assert plan_draws(range(1, 6), 4, 2).skip == ""  # a set without the declaration runs the reduced rule
+
+
 def test_the_option_reaches_the_fixture(pytestconfig, draw_plan):
     n = pytestconfig.getoption("--draws")
     plan = draw_plan(range(5), 4)
