@@ -549,8 +549,9 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
         depth[c0:c0 + chunk] = est
         if found.any():
             j = np.flatnonzero(found)
+            n0 = engine.critical_evaluations
             _, mu, fr = engine.critical(r[j], hi[j])
-            stats["evaluations"] += len(j)
+            stats["evaluations"] += engine.critical_evaluations - n0
             freq[c0 + j] = fr
             bif[c0 + j] = classify_multiplier(mu, engine.method.angle_tol_rad)
         if progress is not None:
