@@ -104,7 +104,8 @@ class SemiDiscretization:
         from a verified bracket around the coarser level's limit: +-4 % at every 5th speed, and at
         the others a bracket sized from the level-to-level shifts of those neighbours (+-0.5 % to
         +-4 %; where it does not hold, +-4 %), closed at once by a straddling pair when it is at
-        most 2.5 % wide. "fast-wide": the same with +-4 % at every speed (the earlier "fast").
+        most 2.5 % wide; this for structures of 12 states or more (robots), +-4 % at every speed
+        below. "fast-wide": the same with +-4 % at every speed (the earlier "fast").
         "plain": the earlier search (Illinois until the bracket is ``rtol`` wide; finer levels
         from the coarse depth grid's bracket), kept as the reference of ``bench/bench_lobes.py``.
         All return a limit bracketed by SDM evaluations of both signs to ``rtol``, so they agree
