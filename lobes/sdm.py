@@ -118,7 +118,7 @@ class SemiDiscretization:
         multipliers are the same to rounding; only zero multipliers of unread history nodes are
         left out (the spectra are padded with zeros to a common width). "single": one layout, that
         of the batch's largest depth, for every pair (the earlier code), kept as the reference of
-        ``bench/bench_lobes.py`` and ``tests/test_sdm_fast.py``.
+        ``bench/bench_lobes.py`` and ``tests/test_sdm_batching.py``.
     """
 
     m: int = 40
