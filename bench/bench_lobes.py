@@ -14,10 +14,13 @@ Run: .venv/bin/python bench/bench_lobes.py [--quick] [--targets]
    rpm, depths to 10 mm, m = 40: wall time of the full lobe diagram (target < 10 s on one core)
    for both SDM schemes, and its ratio to one straightforward grid point of the same problem.
 3. The diagram targets in CPU seconds: the default (``RefinedSDM``, error estimate <= 1 % per
-   speed, fast depth search) against the previous code's default (the same rule with
-   ``search="plain"``, its depth search) and one level m = 40 in the same run, for a 2-mode modal
-   model (target < 0.5 s) and the TX200 steel and aluminium diagrams (target < 2 s each), 200
-   speeds; for the TX200 also the candidate modal truncation <= 300 Hz (cost and error).
+   speed, fast depth search with adaptive warm brackets, grouped batching) against the code before
+   those two (``batching="single"``: one monodromy layout per batch, the critical multiplier
+   re-evaluated at each limit; ``search="fast-wide"``: +-4 % warm brackets at every speed;
+   ``chunk=50``: batches of 50 speeds for every structure), the
+   older default (the same rule with ``search="plain"``) and one level m = 40 in the same run, for a 2-mode modal model (target <
+   0.5 s) and the TX200 steel and aluminium diagrams (target < 2 s each), 200 speeds; for the
+   TX200 also the candidate modal truncation <= 300 Hz (cost and error).
 
 The process is pinned to one BLAS thread (set before numpy is imported).
 """
@@ -157,17 +160,23 @@ def bench_targets(quick: bool) -> None:
     prescan at m) and one level m = 40 in the same run, and against a 300 Hz modal truncation."""
     n = 50 if quick else 200
     print(f"3. diagram targets, CPU s of this process, {n} speeds; default = RefinedSDM (error estimate <= 1 %, "
-          "fast search); previous = the same rule with the plain search (the previous code's default)")
+          "fast search); before = the default before the grouped batching and adaptive warm brackets; previous = "
+          "the same rule with the plain search (an older default)")
     cases = [("2-mode modal (2-DOF symmetric, a/D 0.05 down)", insperger_2dof(), np.linspace(5000, 25000, n), 0.5)]
     for name in ("tx200-steel", "tx200-aluminium"):
         cases.append((f"{name} 18-DOF orthogonal, Tab. 7 pose", tx200_problem(name), np.linspace(2000, 25000, n), 2.0))
-    previous = RefinedSDM(SemiDiscretization(search="plain"))
+    previous = RefinedSDM(SemiDiscretization(search="plain", batching="single"))
+    single = RefinedSDM(SemiDiscretization(prescan_m=20, batching="single", search="fast-wide"))
     for label, p, speeds, target in cases:
         t40, r40 = cpu(solve, p, SemiDiscretization(m=40, search="plain"), speeds, depth_max_m=10e-3)
-        tp, rp = cpu(solve, p, previous, speeds, depth_max_m=10e-3)
+        tp, rp = cpu(solve, p, previous, speeds, depth_max_m=10e-3, chunk=50)
+        ts, rs = cpu(solve, p, single, speeds, depth_max_m=10e-3, chunk=50)
         t, r = cpu(solve, p, RefinedSDM(), speeds, depth_max_m=10e-3)
         nu = int((r.status == "unconverged").sum())
         print(f"   {label}: default {t:.2f} s (target < {target:g} s: {'met' if t < target else 'not met'}); "
+              f"before (batching='single', search='fast-wide') {ts:.2f} s, ratio before / default = {ts / t:.2f}, "
+              f"limits differ by up to "
+              f"{100 * _largest_diff(r, rs):.2e} %, same status {bool(np.all(r.status == rs.status))}; "
               f"previous {tp:.2f} s, ratio previous / default = {tp / t:.2f}; one level m = 40 {t40:.2f} s; "
               f"levels m = {r.stats['m_levels']}, unconverged {nu} / {len(speeds)}; default vs previous limits: "
               f"largest difference {100 * _largest_diff(r, rp):.3f} %, m = 40 off the default by up to "

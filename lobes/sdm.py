@@ -45,7 +45,8 @@ __all__ = ["SemiDiscretization", "Bifurcation", "Scheme", "classify_multiplier"]
 
 Bifurcation = Literal["hopf", "flip", "fold", "none"]
 Scheme = Literal["sdm", "free-exact"]
-Search = Literal["fast", "plain"]
+Search = Literal["fast", "fast-wide", "plain"]
+Batching = Literal["grouped", "single"]
 
 
 @dataclass(frozen=True)
@@ -97,13 +98,27 @@ class SemiDiscretization:
         Steps per principal period of that prescan (None: ``m``). A coarser prescan is cheaper
         (smaller monodromy); its brackets are still verified by the SDM at ``m``, so the limits
         stay the SDM's (a failed bracket is repaired by the SDM).
-    search : {"fast", "plain"}
+    search : {"fast", "fast-wide", "plain"}
         Depth search of :func:`lobes.solve`. "fast" (default): regula falsi points closed by a
         straddling pair (``lobes.solver._refine``) and, in a refinement, each finer level started
-        from a verified bracket of +-4 % around the coarser level's limit. "plain": the earlier
-        search (Illinois until the bracket is ``rtol`` wide; finer levels from the coarse depth
-        grid's bracket), kept as the reference of ``bench/bench_lobes.py``. Both return a limit
-        bracketed by SDM evaluations of both signs to ``rtol``, so they agree to ``rtol``.
+        from a verified bracket around the coarser level's limit: +-4 % at every 5th speed, and at
+        the others a bracket sized from the level-to-level shifts of those neighbours (+-0.5 % to
+        +-4 %; where it does not hold, +-4 %), closed at once by a straddling pair when it is at
+        most 2.5 % wide; this for structures of 12 states or more (robots), +-4 % at every speed
+        below. "fast-wide": the same with +-4 % at every speed (the earlier "fast").
+        "plain": the earlier search (Illinois until the bracket is ``rtol`` wide; finer levels
+        from the coarse depth grid's bracket), kept as the reference of ``bench/bench_lobes.py``.
+        All return a limit bracketed by SDM evaluations of both signs to ``rtol``, so they agree
+        to ``rtol``.
+    batching : {"grouped", "single"}
+        How :meth:`SDMEngine.spectra` and :meth:`SDMEngine.critical` evaluate a batch of (speed,
+        depth) pairs. "grouped" (default): the pairs are grouped by their set of engaged steps
+        (for a helical tool it grows with the depth, and with it the reduced monodromy) and each
+        group is evaluated with its own, smaller layout, in cache-sized sub-batches. The
+        multipliers are the same to rounding; only zero multipliers of unread history nodes are
+        left out (the spectra are padded with zeros to a common width). "single": one layout, that
+        of the batch's largest depth, for every pair (the earlier code), kept as the reference of
+        ``bench/bench_lobes.py`` and ``tests/test_sdm_batching.py``.
     """
 
     m: int = 40
@@ -117,6 +132,7 @@ class SemiDiscretization:
     prescan: bool | None = None
     prescan_m: int | None = None
     search: Search = "fast"
+    batching: Batching = "grouped"
 
     def __post_init__(self) -> None:
         integer("SemiDiscretization m (steps per principal period)", self.m, minimum=2, error=LobeError)
@@ -132,8 +148,10 @@ class SemiDiscretization:
             raise LobeError(f"period must be 'auto' or 'revolution', got {self.period!r}")
         if self.scheme not in ("sdm", "free-exact"):
             raise LobeError(f"scheme must be 'sdm' or 'free-exact', got {self.scheme!r}")
-        if self.search not in ("fast", "plain"):
-            raise LobeError(f"search must be 'fast' or 'plain', got {self.search!r}")
+        if self.search not in ("fast", "fast-wide", "plain"):
+            raise LobeError(f"search must be 'fast', 'fast-wide' or 'plain', got {self.search!r}")
+        if self.batching not in ("grouped", "single"):
+            raise LobeError(f"batching must be 'grouped' or 'single', got {self.batching!r}")
         if self.rule not in ("gauss", "midpoint"):
             raise LobeError(f"rule must be 'gauss' or 'midpoint', got {self.rule!r}")
 
@@ -188,6 +206,8 @@ class SDMEngine:
         self.depth_max_m = float(depth_max_m)
         self._build_structure(self.plan.candidate_steps(self.depth_max_m))
         self._free_cache: dict[tuple[float, int | str], tuple[np.ndarray, ...]] = {}  # (dt, key) -> propagators
+        self._kept: dict[tuple[float, float], tuple[float, complex, float]] = {}  # (rpm, depth) -> critical
+        self.critical_evaluations = 0
 
     # ----- structure of the reduced recurrence --------------------------------------------------
     def _build_structure(self, cand: np.ndarray) -> None:
@@ -352,13 +372,62 @@ class SDMEngine:
             return U, recs
         return U
 
+    def batches(self, depth_m) -> list[np.ndarray]:
+        """Index arrays (into ``depth_m`` (B,)) of the sub-batches that :meth:`spectra` evaluates.
+
+        ``batching="single"``: one batch. "grouped": the pairs sorted by depth and cut into runs of
+        :func:`_sub_batch` pairs (sized for the largest depth's layout), so that each run is
+        evaluated with the reduced layout of its own largest depth (:meth:`structure_for`; for a
+        helical tool the engaged steps grow with the depth) and its step propagators stay in
+        cache. Runs are not cut smaller than that: each call has a fixed Python cost (~3 ms for
+        the TX200 at m = 80, as much as 1 pair).
+        """
+        depth = np.asarray(depth_m, dtype=float).reshape(-1)
+        B = len(depth)
+        if self.method.batching == "single" or B == 0:
+            return [np.arange(B)]
+        st = self.structure_for(float(np.max(depth)))
+        n = _sub_batch(len(st.cand), self.ns, st.n_red)
+        order = np.argsort(depth, kind="stable")
+        return [order[a:a + n] for a in range(0, B, n)]
+
     def spectra(self, rpm, depth_m) -> np.ndarray:
-        """All Floquet multipliers (B, N) complex of the reduced monodromy at paired speeds/depths (B,)."""
-        return np.linalg.eigvals(self.monodromy(rpm, depth_m))
+        """All Floquet multipliers (B, N) complex of the reduced monodromy at paired speeds/depths (B,).
+
+        With ``batching="grouped"`` each sub-batch of :meth:`batches` has its own layout; rows are
+        padded with zero multipliers to the widest one (N = the largest reduced size used). The
+        depth searches evaluate through this method: with "grouped" it also keeps the critical
+        multiplier and chatter frequency of every unstable pair (a search's limit is bracketed
+        from above by one; :meth:`critical` at a pair evaluated here then costs nothing). :meth:`multipliers` (the coarse scans) does not keep them."""
+        return self._spectra(rpm, depth_m, keep=self.method.batching == "grouped" and self.ns >= _KEEP_MIN_STATES)
+
+    def _spectra(self, rpm, depth_m, keep: bool) -> np.ndarray:
+        rpm = np.asarray(rpm, dtype=float).reshape(-1)
+        depth = np.asarray(depth_m, dtype=float).reshape(-1)
+        if len(rpm) == 0:
+            return np.zeros((0, self.n_red), dtype=complex)
+        parts = []
+        for j in self.batches(depth):
+            if keep:
+                U, recs = self.monodromy(rpm[j], depth[j], record=True)
+                ev = np.linalg.eigvals(U)
+                un = np.flatnonzero(np.abs(ev).max(axis=1) >= 1.0)  # only an unstable pair ends a search
+                if len(un):
+                    crit = self._critical_of(rpm[j][un], U[un], [X[un] for X in recs], ev[un])
+                    for i, (r, d) in enumerate(zip(rpm[j][un].tolist(), depth[j][un].tolist())):
+                        self._kept[(r, d)] = (crit[0][i], crit[1][i], crit[2][i])
+            else:
+                ev = np.linalg.eigvals(self.monodromy(rpm[j], depth[j]))
+            parts.append((j, ev))
+        width = max(ev.shape[1] for _, ev in parts)
+        out = np.zeros((len(rpm), width), dtype=complex)
+        for j, ev in parts:
+            out[j, :ev.shape[1]] = ev
+        return out
 
     def multipliers(self, rpm, depth_m):
         """Spectral radius (B,) and critical multiplier (B,) complex."""
-        ev = self.spectra(rpm, depth_m)
+        ev = self._spectra(rpm, depth_m, keep=False)
         j = np.argmax(np.abs(ev), axis=1)
         mu = ev[np.arange(len(ev)), j]
         return np.abs(mu), mu
@@ -370,23 +439,47 @@ class SDMEngine:
         candidates ``|arg mu + 2 pi p| / (2 pi T)`` we take the one nearest the damped frequency of
         the structural pole that dominates the tool motion of the critical Floquet solution
         (modal decomposition of the eigen-solution's states at the kept mesh nodes, weighted by
-        each pole's tool-tip displacement).
+        each pole's tool-tip displacement). Pairs already evaluated by :meth:`spectra` (with
+        ``batching="grouped"``) are taken from it; ``self.critical_evaluations`` counts the others.
         """
         rpm = np.asarray(rpm, dtype=float).reshape(-1)
-        U, recs = self.monodromy(rpm, depth_m, record=True)
-        ev, vec = np.linalg.eig(U)
-        j = np.argmax(np.abs(ev), axis=1)
+        depth = np.asarray(depth_m, dtype=float).reshape(-1)
+        rho, mu, freq = np.zeros(len(rpm)), np.zeros(len(rpm), complex), np.zeros(len(rpm))
+        kept = [self._kept.get(k) for k in zip(rpm.tolist(), depth.tolist())]
+        for i, v in enumerate(kept):
+            if v is not None:
+                rho[i], mu[i], freq[i] = v
+        miss = np.array([i for i, v in enumerate(kept) if v is None], dtype=int)
+        self.critical_evaluations += len(miss)
+        for j in self.batches(depth[miss]) if len(miss) else ():
+            k = miss[j]
+            U, recs = self.monodromy(rpm[k], depth[k], record=True)
+            if self.method.batching == "single":  # the earlier code: eigenvectors by LAPACK
+                ev, vec = np.linalg.eig(U)
+                jj = np.argmax(np.abs(ev), axis=1)
+                idx = np.arange(len(ev))
+                m_, z = ev[idx, jj], vec[idx, :, jj]
+                rho[k], mu[k], freq[k] = np.abs(m_), m_, self._chatter_freq(rpm[k], m_, z, recs)
+            else:
+                rho[k], mu[k], freq[k] = self._critical_of(rpm[k], U, recs, np.linalg.eigvals(U))
+        return rho, mu, freq
+
+    def _critical_of(self, rpm: np.ndarray, U: np.ndarray, recs: list, ev: np.ndarray):
+        """``|mu|, mu, freq`` (B,) of the dominant multiplier of monodromies ``U`` (B, N, N) with
+        multipliers ``ev`` (B, N) and recorded node states ``recs``; its eigenvector by
+        :func:`eigenvector_of`."""
         idx = np.arange(len(ev))
-        mu = ev[idx, j]
-        z = vec[idx, :, j]  # (B, N)
+        mu = ev[idx, np.argmax(np.abs(ev), axis=1)]
+        return np.abs(mu), mu, self._chatter_freq(rpm, mu, eigenvector_of(U, mu), recs)
+
+    def _chatter_freq(self, rpm: np.ndarray, mu: np.ndarray, z: np.ndarray, recs: list) -> np.ndarray:
+        """Chatter frequency (Hz) (B,) of multipliers ``mu`` (B,) with eigenvectors ``z`` (B, N)."""
         Y = np.stack([np.einsum("bsn,bn->bs", Xr, z) for Xr in recs], axis=1)  # (B, nodes, ns)
         wfreq, wts = self.ss.mode_weights(Y.reshape(-1, self.ns))
         wts = wts.reshape(Y.shape[0], Y.shape[1], -1)
         tot = (wts / np.maximum(np.linalg.norm(wts, axis=2, keepdims=True), 1e-300)).sum(axis=1)
         dom = wfreq[np.argmax(tot, axis=1)]  # rad/s
-        T = self.period_s(rpm)
-        freq = chatter_branch(mu, T, dom)
-        return np.abs(mu), mu, freq
+        return chatter_branch(mu, self.period_s(rpm), dom)
 
     # ----- straightforward reference (dense, every step, full history) ---------------------------
     def _van_loan(self, dt: float, wsum: np.ndarray):
@@ -452,6 +545,26 @@ class SDMEngine:
                 D[ns + 2:, ns:ns + 2 * (h - 1)] = np.eye(2 * (h - 1))
             U = D @ U
         return U
+
+
+#: Smallest structure (states) whose critical multipliers :meth:`SDMEngine.spectra` keeps: below it
+#: the re-evaluation at each limit is cheaper than keeping them at every unstable search point
+#: (2-mode model, 4 states: 0.53 s without, 0.56 s with, in one run of ``bench_lobes.py --targets``).
+_KEEP_MIN_STATES = 12
+
+
+#: Bytes of step propagators (``Phi``, ``Gamma0``, ``Gamma1`` of every engaged step) plus the
+#: propagated state ``X`` per sub-batch of :meth:`SDMEngine.batches`. Measured on the TX200 (36
+#: states, m = 80, 64 pairs): 3.2-3.8 ms per pair in runs of 8-32, 4.4 ms in one run of 64 and
+#: 6.5 ms one by one (the fixed cost per call); this budget gives runs of ~14 there. The 2-mode
+#: model's whole batches fit.
+_SUB_BATCH_BYTES = 8 << 20
+
+
+def _sub_batch(n_engaged: int, ns: int, n_red: int) -> int:
+    """Pairs per sub-batch: :data:`_SUB_BATCH_BYTES` over one pair's propagators and state."""
+    per_pair = 8 * (n_engaged * (ns * ns + 4 * ns) + 3 * ns * n_red)
+    return max(1, _SUB_BATCH_BYTES // per_pair)
 
 
 #: Taylor degree of phi2 and the norm bound it is used up to: the first neglected term of
@@ -549,6 +662,30 @@ def _phi_tables():
 
 
 _PHI_COEF, _PHI_DIAG = _phi_tables()
+
+
+def eigenvector_of(U: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """Eigenvectors (B, N) complex of matrices ``U`` (B, N, N) for their eigenvalues ``mu`` (B,).
+
+    One step of inverse iteration: ``(U - s I) z = v`` with the shift ``s = mu (1 + 1e-12)`` and a
+    fixed generic ``v``; ``z`` is the eigenvector up to a factor ``1 + O(1e-12 |mu| / gap)`` in
+    the other eigen-directions (``gap``: distance of ``mu`` to the next eigenvalue). One LU
+    (``2/3 N^3``) instead of the eigenvectors of the QR algorithm. Where the shifted matrix is
+    singular to working precision, LAPACK's eigenvectors are taken. Normalized to unit 2-norm.
+    """
+    B, N, _ = U.shape
+    shift = mu * (1 + 1e-12) + 1e-300
+    M = U.astype(complex) - shift[:, None, None] * np.eye(N)[None]
+    v = np.cos(np.arange(N) * 1.6180339887) + 0.5j * np.sin(np.arange(N) * 2.718281828)
+    try:
+        z = np.linalg.solve(M, np.broadcast_to(v, (B, N))[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        z = np.full((B, N), np.nan, complex)
+    bad = ~np.all(np.isfinite(z), axis=1)
+    if bad.any():
+        ev, vec = np.linalg.eig(U[bad])
+        z[bad] = vec[np.arange(int(bad.sum())), :, np.argmin(np.abs(ev - mu[bad, None]), axis=1)]
+    return z / np.linalg.norm(z, axis=1, keepdims=True)
 
 
 def chatter_branch(mu: np.ndarray, period_s: np.ndarray, omega_ref: np.ndarray) -> np.ndarray:

@@ -202,7 +202,7 @@ def _coarse(rho_fn, rpm: np.ndarray, rho0: np.ndarray, grid: np.ndarray, stats: 
 
 
 def _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol: float, stats: dict, max_iter: int = 100,
-            straddle: bool = True, eig_fn=None, mu_hi=None, tlo=None):
+            straddle: bool = True, eig_fn=None, mu_hi=None, tlo=None, pair_width: float = 0.0):
     """Illinois regula falsi on ``rho - 1`` inside the brackets (bisection every 4th step), until
     ``hi - lo <= rtol * hi``. Returns the root estimate (inf where there is no bracket) and ``hi``.
 
@@ -217,7 +217,8 @@ def _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol: float, stats: dict, max_iter: i
     With ``straddle``, from the second step on each regula falsi point ``x`` is replaced by the pair
     ``x (1 -+ 0.45 rtol)`` evaluated in one batch: once the interpolation is within ``0.45 rtol`` of
     the root the pair brackets it and the search ends with a bracket of ``0.9 rtol``. Where the pair
-    does not straddle, its nearer point is the step. ``mu_hi`` (S,) complex: the critical multiplier
+    does not straddle, its nearer point is the step; from the first step already where the bracket
+    is at most ``pair_width`` (relative) wide (the interpolation is then accurate). ``mu_hi`` (S,) complex: the critical multiplier
     at ``hi`` when known, ``tlo`` (S,) the followed multiplier's ``|mu| - 1`` at ``lo``.
     """
     lo, glo, hi, ghi = (np.array(x, dtype=float) for x in (lo, glo, hi, ghi))
@@ -239,9 +240,9 @@ def _refine(rho_fn, rpm, lo, glo, hi, ghi, rtol: float, stats: dict, max_iter: i
         bad = ~np.isfinite(x) | (x <= a) | (x >= b) | (it % 4 == 0)
         x = np.where(bad, 0.5 * (a + b), x)
         pair = np.zeros(len(idx), bool)
-        if straddle and it >= 2:
+        if straddle:
             c = 0.45 * rtol
-            pair = ~bad & (x * (1 - c) > a) & (x * (1 + c) < b)
+            pair = ~bad & (x * (1 - c) > a) & (x * (1 + c) < b) & ((it >= 2) | (b - a <= pair_width * b))
         x1 = np.where(pair, x * (1 - 0.45 * rtol), x)
         x2 = x[pair] * (1 + 0.45 * rtol)
         need_ref = np.zeros(len(idx), bool) if eig_fn is None else ~np.isfinite(mu_ref[idx])
@@ -381,45 +382,94 @@ def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, 
 _WARM_HALF_WIDTH = 0.04
 
 
-def _warm_search(engine: SDMEngine, rpm, rho0, start, grid, rtol, stats):
+#: Adaptive warm start ("fast"): every ``_WARM_PROBE_EVERY``-th speed is a probe with the full
+#: +-4 % bracket; the others get ``clip(2 |shift| + 0.2 %, 0.5 %, 4 %)`` from the largest relative
+#: level-to-level shift of the two nearest probes (in rpm), and a straddling pair at once when
+#: their bracket is at most ``_WARM_PAIR_WIDTH`` wide. On the TX200 diagrams the shifts 40 -> 80
+#: are within +-0.6 %, so most brackets are +-1 % and closed by one pair.
+_WARM_PROBE_EVERY = 5
+_WARM_PAIR_WIDTH = 0.025
+#: Smallest structure (states) with the adaptive warm start. Its extra rounds (probes, narrow
+#: brackets, retries) cost more than they save where one evaluation is cheap: on the 2-mode model
+#: (4 states) of ``bench_lobes.py --targets`` it took 0.55 s against 0.49 s with +-4 %.
+_ADAPTIVE_MIN_STATES = 12
+#: Speeds per batch of :func:`solve` for structures of at least ``_ADAPTIVE_MIN_STATES`` states.
+_CHUNK = 50
+
+
+def _warm_search(engine: SDMEngine, rpm, rho0, start, grid, rtol, stats, adaptive: bool = False):
     """Critical depths at a finer level from a coarser level's limits ``start`` (S,), m.
 
-    The bracket ``start (1 -+ 0.04)`` is checked with ``engine`` (stable at its lower end, unstable
-    at its upper end, one batch) and refined (:func:`_refine`); where the check fails, or ``start``
-    is inf or too close to ``depth_max``, the coarser grid bracket is verified and refined as
-    without the warm start (:func:`_verified_search`). Returns ``est, hi, found`` as :func:`_search`.
+    The bracket ``start (1 -+ w)`` is checked with ``engine`` (stable at its lower end, unstable
+    at its upper end, one batch) and refined (:func:`_refine`); ``w = 0.04``, or with ``adaptive``
+    the narrower width of :data:`_WARM_PROBE_EVERY` (retried at 0.04 where it does not hold).
+    Where the check fails, or ``start`` is inf or too close to ``depth_max``, the coarser grid
+    bracket is verified and refined as without the warm start (:func:`_verified_search`).
+    Returns ``est, hi, found`` as :func:`_search`.
     """
     start = np.asarray(start, dtype=float)
     S = len(rpm)
     w = _WARM_HALF_WIDTH
-    try_ = np.flatnonzero(np.isfinite(start) & (start * (1 + w) < grid[-1]))
+    out = (np.full(S, np.inf), np.full(S, np.nan), np.zeros(S, bool))
     ok = np.zeros(S, bool)
-    est, hi, found = np.full(S, np.inf), np.full(S, np.nan), np.zeros(S, bool)
-    if len(try_):
-        a, b = start[try_] * (1 - w), start[try_] * (1 + w)
-        n = len(try_)
-        ev = engine.spectra(np.concatenate([rpm[try_], rpm[try_]]), np.concatenate([a, b]))
-        stats["evaluations"] += 2 * n
-        stats["rounds"] += 1
-        aev = np.abs(ev)
-        g = aev.max(axis=1) - 1.0
-        ga, gb = g[:n], g[n:]
-        mu_b = ev[n:][np.arange(n), np.argmax(aev[n:], axis=1)]
-        ta = aev[:n][np.arange(n), np.argmin(np.abs(ev[:n] - mu_b[:, None]), axis=1)] - 1.0
-        good = (ga < 0) & (gb >= 0)
-        j = try_[good]
-        ok[j] = True
-        if len(j):
-            e, h = _refine(lambda s, d: engine.multipliers(s, d)[0], rpm[j], a[good], ga[good], b[good], gb[good],
-                           rtol, stats, eig_fn=engine.spectra, mu_hi=mu_b[good], tlo=ta[good])
-            est[j], hi[j], found[j] = e, h, True
-        stats["warm_rejected"] = stats.get("warm_rejected", 0) + int((~good).sum())
+    cand = np.flatnonzero(np.isfinite(start) & (start * (1 + w) < grid[-1]))
+    if adaptive and len(cand) > _WARM_PROBE_EVERY:
+        probe = cand[::_WARM_PROBE_EVERY]
+        _warm_try(engine, rpm, start, probe, np.full(len(probe), w), rtol, stats, out, ok)
+        rest = np.setdiff1d(cand, probe)
+        wr = _warm_widths(rpm, start, out[0], probe[ok[probe]], rest)
+        _warm_try(engine, rpm, start, rest, wr, rtol, stats, out, ok, "warm_narrow_rejected")
+        again = rest[~ok[rest] & (wr < w)]
+        _warm_try(engine, rpm, start, again, np.full(len(again), w), rtol, stats, out, ok)
+    else:
+        _warm_try(engine, rpm, start, cand, np.full(len(cand), w), rtol, stats, out, ok)
+    est, hi, found = out
     rest = np.flatnonzero(~ok)
     if len(rest):
         lo_g, hi_g = _grid_bracket(grid, start[rest])
         e, h, f = _verified_search(engine, rpm[rest], rho0[rest], lo_g, hi_g, grid, rtol, stats)
         est[rest], hi[rest], found[rest] = e, h, f
     return est, hi, found
+
+
+def _warm_widths(rpm, start, est, probes, rest) -> np.ndarray:
+    """Half-widths (len(rest),) of the warm brackets at the speeds ``rest`` from the relative shifts
+    ``est / start - 1`` at the successful ``probes`` (index arrays into ``rpm`` (S,))."""
+    w = np.full(len(rest), _WARM_HALF_WIDTH)
+    if len(probes) == 0 or len(rest) == 0:
+        return w
+    shift = np.abs(est[probes] / start[probes] - 1)
+    d = np.abs(rpm[rest][:, None] - rpm[probes][None, :])
+    near = np.argsort(d, axis=1, kind="stable")[:, :2]
+    big = shift[near].max(axis=1)
+    return np.clip(2 * big + 0.002, 0.005, _WARM_HALF_WIDTH)
+
+
+def _warm_try(engine: SDMEngine, rpm, start, idx, w, rtol, stats, out, ok, counter: str = "warm_rejected") -> None:
+    """Warm brackets ``start (1 -+ w)`` at the speeds ``idx`` (index array, ``w`` (len(idx),)):
+    verified in one batch, refined where they hold; fills ``out = (est, hi, found)`` and ``ok``
+    there, counts the others in ``stats[counter]``."""
+    if len(idx) == 0:
+        return
+    a, b = start[idx] * (1 - w), start[idx] * (1 + w)
+    n = len(idx)
+    ev = engine.spectra(np.concatenate([rpm[idx], rpm[idx]]), np.concatenate([a, b]))
+    stats["evaluations"] += 2 * n
+    stats["rounds"] += 1
+    aev = np.abs(ev)
+    g = aev.max(axis=1) - 1.0
+    ga, gb = g[:n], g[n:]
+    mu_b = ev[n:][np.arange(n), np.argmax(aev[n:], axis=1)]
+    ta = aev[:n][np.arange(n), np.argmin(np.abs(ev[:n] - mu_b[:, None]), axis=1)] - 1.0
+    good = (ga < 0) & (gb >= 0)
+    j = idx[good]
+    ok[j] = True
+    if len(j):
+        narrow = _WARM_PAIR_WIDTH if np.any(w < _WARM_HALF_WIDTH) else 0.0
+        e, h = _refine(lambda s, d: engine.multipliers(s, d)[0], rpm[j], a[good], ga[good], b[good], gb[good],
+                       rtol, stats, eig_fn=engine.spectra, mu_hi=mu_b[good], tlo=ta[good], pair_width=narrow)
+        out[0][j], out[1][j], out[2][j] = e, h, True
+    stats[counter] = stats.get(counter, 0) + int((~good).sum())
 
 
 def _grid_bracket(grid: np.ndarray, est: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -511,7 +561,7 @@ def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats, st
 
 
 def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: int, rtol: float,
-                stats: dict, progress: ProgressCallback | None, chunk: int, done0: int = 0, total: int | None = None,
+                stats: dict, progress: ProgressCallback | None, chunk: int | None, done0: int = 0, total: int | None = None,
                 start: np.ndarray | None = None):
     """Critical depths (m), chatter frequencies (Hz) and bifurcations at ``rpm`` (S,) for one level.
 
@@ -520,11 +570,13 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     """
     S = len(rpm)
     total = total if total is not None else S
+    if chunk is None:  # small structures: one batch (cheap evaluations, the fixed cost per round counts)
+        chunk = _CHUNK if engine.ns >= _ADAPTIVE_MIN_STATES else max(S, 1)
     depth = np.full(S, np.inf)
     freq = np.full(S, np.nan)
     bif = np.full(S, "none", dtype="<U4")
     lam = engine.ss.poles
-    fast = engine.method.search == "fast"
+    fast = engine.method.search in ("fast", "fast-wide")
     pre = None
     use_pre = engine.method.prescan if engine.method.prescan is not None else engine.ns >= 12
     if engine.method.scheme == "sdm" and use_pre and start is None:
@@ -536,7 +588,7 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
         rho0 = np.max(np.abs(np.exp(np.outer(T, lam))), axis=1)
         if start is not None and fast:
             est, hi, found = _warm_search(engine, r, rho0, start[c0:c0 + chunk], _grid(depth_max, n_coarse), rtol,
-                                          stats)
+                                          stats, adaptive=engine.method.search == "fast" and engine.ns >= _ADAPTIVE_MIN_STATES)
         elif start is not None:
             grid = _grid(depth_max, n_coarse)
             lo, hi = _grid_bracket(grid, start[c0:c0 + chunk])
@@ -549,8 +601,9 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
         depth[c0:c0 + chunk] = est
         if found.any():
             j = np.flatnonzero(found)
+            n0 = engine.critical_evaluations
             _, mu, fr = engine.critical(r[j], hi[j])
-            stats["evaluations"] += len(j)
+            stats["evaluations"] += engine.critical_evaluations - n0
             freq[c0 + j] = fr
             bif[c0 + j] = classify_multiplier(mu, engine.method.angle_tol_rad)
         if progress is not None:
@@ -561,7 +614,7 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
 @blas_single_threaded
 def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *, depth_max_m: float = 0.01,
           coarse_points: int = 16, rtol: float = 1e-3, progress: ProgressCallback | None = None,
-          chunk: int = 50) -> LobeResult:
+          chunk: int | None = None) -> LobeResult:
     """Stability lobe diagram: the critical axial depth at each spindle speed.
 
     Parameters
@@ -582,8 +635,12 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
         default 1e-3 is well below the 1 % error target.
     progress : callable(done, total), optional
         Called after each chunk of speeds.
-    chunk : int
-        Speeds evaluated together (vectorized).
+    chunk : int or None
+        Speeds evaluated together (vectorized); ``progress`` is called after each chunk. None
+        (default): 50 for structures of 12 states or more, all the speeds of a level at once for
+        smaller ones (their evaluations are cheap, so the fixed cost of each batch counts: the
+        200-speed 2-mode diagram of ``bench/bench_lobes.py --targets`` took 0.43 s against 0.50 s
+        in chunks of 50).
 
     Returns
     -------
@@ -639,7 +696,7 @@ def _zoa_diagram(problem: LobeProblem, method: ZeroOrder, rpm: np.ndarray, depth
 
 
 def _sdm_diagram(problem: LobeProblem, method: SemiDiscretization, rpm: np.ndarray, depth_max: float,
-                 coarse_points: int, rtol: float, stats: dict, progress, chunk: int):
+                 coarse_points: int, rtol: float, stats: dict, progress, chunk: int | None):
     """One SDM level: limits (m), chatter frequencies (Hz), bifurcations, NaN errors, statuses and
     levels at ``rpm`` (S,); fills ``stats``. ``richardson=True`` is the refinement limited to one
     pair of levels (:class:`RefinedSDM` with ``m_max = 2 m``)."""
@@ -660,7 +717,7 @@ def _level_stats(stats: dict, eng: SDMEngine, method: SemiDiscretization) -> Non
 
 
 def _refined_diagram(problem: LobeProblem, method: RefinedSDM, rpm: np.ndarray, depth_max: float,
-                     coarse_points: int, rtol: float, stats: dict, progress, chunk: int):
+                     coarse_points: int, rtol: float, stats: dict, progress, chunk: int | None):
     """The refinement rule of :mod:`lobes.refine` over the speeds ``rpm`` (S,): levels m, 2m, ...
     per speed, each finer level only where the previous pair did not converge, its brackets taken
     from the coarser level and verified. Returns limits (m), chatter frequencies (Hz),
@@ -831,7 +888,7 @@ def _sdm_level(problem: LobeProblem, method: SemiDiscretization, m: int, dmax: f
     st = {"evaluations": 0, "rounds": 0}
     r = np.array([float(problem.cut.spindle_rpm)])
     rho0 = np.max(np.abs(np.exp(np.outer(eng.period_s(r), eng.ss.poles))), axis=1)
-    fast = method.search == "fast"
+    fast = method.search in ("fast", "fast-wide")
     est, hi, found = _search(lambda s, d: eng.multipliers(s, d)[0], r, rho0, dmax, coarse_points, rtol, st,
                              straddle=fast, eig_fn=eng.spectra if fast else None)
     rho, mu, fr = eng.critical(r, np.array([float(problem.cut.ap_m)]))

@@ -68,6 +68,45 @@ def test_warm_start_far_from_the_limit_falls_back_to_the_grid_bracket():
     np.testing.assert_allclose(est, ref, rtol=2e-3)
 
 
+def _warm(adaptive: bool, rel_shift):
+    """The m = 80 limits of the benchmark at 12 speeds, warm-started from ``ref (1 + rel_shift)``
+    (``ref``: the plain search's own m = 80 limits to rtol 1e-7)."""
+    p = insperger_2dof()
+    eng = SDMEngine(p, SemiDiscretization(m=80), 0.01)
+    rpm = np.linspace(15000.0, 21000.0, 12)
+    ref = solve(p, SemiDiscretization(m=80, search="plain"), rpm, rtol=1e-7).depth_limit_m
+    assert np.all(np.isfinite(ref))
+    st = {"evaluations": 0, "rounds": 0}
+    rho0 = np.max(np.abs(np.exp(np.outer(eng.period_s(rpm), eng.ss.poles))), axis=1)
+    est, _, found = _warm_search(eng, rpm, rho0, ref * (1 + rel_shift), _grid(0.01, 24), 1e-3, st, adaptive=adaptive)
+    assert found.all()
+    return est, ref, st
+
+
+def test_adaptive_warm_start_same_limits_fewer_evaluations():
+    # Starts 0.2 % above the level's limits (a finer level's typical shift on the TX200): every 5th
+    # speed is a probe with +-4 %, the others get +-0.6 % (2 * 0.2 % + 0.2 %) and a straddling pair
+    # at once. Each search brackets the root to rtol = 1e-3 (plus the reference's 1e-7): the
+    # estimates agree with the reference to 1.01e-3 either way, and the adaptive one needs fewer
+    # evaluations.
+    est_w, ref, st_w = _warm(False, 0.002)
+    est_a, _, st_a = _warm(True, 0.002)
+    np.testing.assert_allclose(est_w, ref, rtol=1.01e-3)
+    np.testing.assert_allclose(est_a, ref, rtol=1.01e-3)
+    assert st_a.get("warm_narrow_rejected", 0) == 0
+    assert st_a["evaluations"] < st_w["evaluations"], (st_a["evaluations"], st_w["evaluations"])
+
+
+def test_adaptive_warm_start_retries_the_wide_bracket_where_the_narrow_one_fails():
+    # The probes (speeds 0, 5, 10) start 0.1 % off, the others 3 % below: their +-0.4 % brackets
+    # do not hold the sign change, are counted, and retried at +-4 %; same limits (rtol 1.01e-3).
+    shift = np.full(12, -0.03)
+    shift[::5] = 0.001
+    est, ref, st = _warm(True, shift)
+    assert st["warm_narrow_rejected"] == 9 and st.get("warm_rejected", 0) == 0
+    np.testing.assert_allclose(est, ref, rtol=1.01e-3)
+
+
 @pytest.mark.parametrize("ae_m, mode", [(0.0005, "down"), (0.01, "down")])
 def test_fast_and_plain_search_agree_on_the_benchmark(ae_m, mode):
     # Same levels, same rule; each level's limit is bracketed to rtol = 1e-3 by either search, so
@@ -87,5 +126,5 @@ def test_fast_and_plain_search_agree_on_the_benchmark(ae_m, mode):
 
 def test_search_option_is_validated():
     from robolobes.lobes import LobeError
-    with pytest.raises(LobeError, match="search must be 'fast' or 'plain'"):
+    with pytest.raises(LobeError, match="search must be 'fast', 'fast-wide' or 'plain'"):
         SemiDiscretization(search="quick")  # type: ignore[arg-type]  # the bad value under test
