@@ -231,9 +231,10 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     ignoring how the robot's deflection changes the engagement), the fit is re-centred: an affine
     family through a simulated run at the current values is fitted again, up to :data:`REFINE_STEPS`
     times (Gauss-Newton), and the model averages returned are the simulated ones at the final values,
-    not the family's. The first re-centring takes finite-difference columns (:func:`_fd_columns`, one
-    run per coordinate); the later ones update them by Broyden's secant rule from the run at the new
-    centre (:func:`secant_update`, no run of their own)."""
+    not the family's. The first re-centring takes the family's own slopes at the centre (no run: for
+    the edge coefficients the superposition of the basis runs, for runout the spline's), through the
+    simulated run at the centre; the later ones update them by Broyden's secant rule from the run at
+    the new centre (:func:`secant_update`, no run of their own). Each re-centring thus costs one run."""
     family = effect.family(ctx, state)
     fc = effect.fit_coordinates(state.case.tool)
     h = chain_transfer(state.chain) if state.chain else None
@@ -251,15 +252,15 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     if not effect.family_exact:
         def raw_at(uu):
             return ctx.raw_averages(effect.apply_values(state, fc.to_values(uu)))
-        cols, c_old, raw_old = None, None, None
+        prev = None   # (centre, its simulated raw averages, the columns there) of the re-centring before
         for _ in range(REFINE_STEPS):
             center = lo + best.x[:-1] * scale
             raw0 = raw_at(center)
-            if cols is None:   # the family's own slopes: its basis runs are done (edge: the superposition)
+            if prev is None:   # the family's own slopes: its basis runs are done (edge: the superposition)
                 cols = _fd_columns(lambda uu: family(fc.to_values(uu)), center, lo, hi, range(len(center)))
             else:
-                cols = secant_update(cols, c_old, raw_old, center, raw0, scale)
-            c_old, raw_old = center, raw0
+                cols = secant_update(prev[2], prev[0], prev[1], center, raw0, scale)
+            prev = (center, raw0, cols)
             local = _affine(center, raw0, cols)
             new = _least_squares_fit(ctx, fc, local, h, [center], float(best.x[-1]))
             moved = float(np.max(np.abs(new.x[:-1] - best.x[:-1])))
@@ -406,12 +407,12 @@ def _joint_fit(ctx: ForceContext, base: ModelState, effects, values, shift0: flo
     def raw_at(uu):
         return ctx.raw_averages(_compose(base, effects, vals(uu)))
 
-    resid, cols, c_old, raw_old = None, None, None, None
+    resid, prev = None, None   # prev: (centre, its raw averages, the columns there) of the iteration before
     for _ in range(JOINT_STEPS):
         raw0 = raw_at(u)
-        cols = (_fd_columns(raw_at, u, lo, hi, np.flatnonzero(cut)) if cols is None
-                else secant_update(cols, c_old, raw_old, u, raw0, scale))
-        c_old, raw_old = u.copy(), raw0
+        cols = (_fd_columns(raw_at, u, lo, hi, np.flatnonzero(cut)) if prev is None
+                else secant_update(prev[2], prev[0], prev[1], u, raw0, scale))
+        prev = (u.copy(), raw0, cols)
         resid = local(u.copy(), cols, raw0)
         x0 = np.append((u - lo) / scale, shift)
         r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift - 0.5),
