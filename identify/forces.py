@@ -179,22 +179,46 @@ def _least_squares_fit(ctx: ForceContext, fc, model_u, h, starts_u, shift0: floa
     return best
 
 
-def _local_family(ctx: ForceContext, effect, state: ModelState, fc, center: np.ndarray):
-    """The affine family in the fit coordinates through simulated runs at ``center`` and at
-    ``center + d_i e_i`` (``d_i = REFINE_STEP`` of coordinate i's range, stepped inwards at an upper
-    bound): exact at the centre, first order around it."""
-    lo, hi = np.asarray(fc.lower, float), np.asarray(fc.upper, float)
-    base = ctx.raw_averages(effect.apply_values(state, fc.to_values(center)))
-    cols = []
-    for i in range(len(center)):
+def _fd_columns(raw_at, center: np.ndarray, lo: np.ndarray, hi: np.ndarray, idx) -> dict:
+    """Finite-difference columns ``{i: [d raw_k / d u_i per block k]}`` of the raw averages at ``center``
+    (fit coordinates u, shape (P,)) for the coordinates ``idx``: one simulated run per coordinate at
+    ``center + d_i e_i``, ``d_i = REFINE_STEP`` of its range, stepped inwards at an upper bound.
+    ``raw_at(u)`` gives the raw averages (list of (bins, 3) arrays, N) at ``u``."""
+    base = raw_at(center)
+    cols = {}
+    for i in idx:
         d = REFINE_STEP * (hi[i] - lo[i])
         d = -d if center[i] + d > hi[i] else d
         u = center.copy()
         u[i] += d
-        cols.append([(a - b) / d for a, b in zip(ctx.raw_averages(effect.apply_values(state, fc.to_values(u))), base)])
+        cols[int(i)] = [(a - b) / d for a, b in zip(raw_at(u), base)]
+    return cols
+
+
+def secant_update(cols: dict, c_old: np.ndarray, raw_old: list, c_new: np.ndarray, raw_new: list,
+                  scale: np.ndarray) -> dict:
+    """Broyden's rank-one update of the columns of an affine model of the raw averages when its centre
+    moves from ``c_old`` to ``c_new`` (fit coordinates, (P,)), where ``raw_new`` was simulated.
+
+    ``cols``: ``{i: [d raw_k / d u_i per block k]}``; ``raw_old``/``raw_new``: the averages at the two
+    centres (lists of arrays, N); ``scale`` (P,): each coordinate's range (the update is the least change
+    of the Jacobian in the coordinates scaled to [0, 1]). The updated model through ``c_new`` is exact at
+    ``c_new`` (the secant condition: from ``c_old`` it predicts ``raw_new``) and unchanged along every
+    direction orthogonal to the step. Returns the new columns (``cols`` is not modified)."""
+    idx = sorted(cols)
+    sx = np.array([(c_new[i] - c_old[i]) / scale[i] for i in idx])
+    nn = float(sx @ sx)
+    if nn == 0.0:
+        return dict(cols)
+    miss = [rn - ro - sum((c_new[i] - c_old[i]) * cols[i][k] for i in idx)
+            for k, (ro, rn) in enumerate(zip(raw_old, raw_new))]
+    return {i: [col + m * (sx[j] / (scale[i] * nn)) for col, m in zip(cols[i], miss)] for j, i in enumerate(idx)}
+
+
+def _affine(center: np.ndarray, base: list, cols: dict):
+    """The affine model ``u -> [base_k + sum_i (u_i - center_i) cols[i][k]]`` (lists of arrays, N)."""
     c = center.copy()
-    return lambda u: [b + sum((float(u[i]) - c[i]) * col[k] for i, col in enumerate(cols))
-                      for k, b in enumerate(base)]
+    return lambda u: [b + sum((float(u[i]) - c[i]) * col[k] for i, col in cols.items()) for k, b in enumerate(base)]
 
 
 def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> _Fit:
@@ -205,9 +229,12 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     effect's :meth:`family` gives the first fit. Where that family only approximates the simulated
     model (``family_exact`` False: the edge coefficients' superposition, the runout's spline, both
     ignoring how the robot's deflection changes the engagement), the fit is re-centred: an affine
-    family from simulated runs at the current values (:func:`_local_family`) is fitted again, up to
-    :data:`REFINE_STEPS` times (Gauss-Newton with a finite-difference Jacobian), and the model
-    averages returned are the simulated ones at the final values, not the family's."""
+    family through a simulated run at the current values is fitted again, up to :data:`REFINE_STEPS`
+    times (Gauss-Newton), and the model averages returned are the simulated ones at the final values,
+    not the family's. The first re-centring takes the family's own slopes at the centre (no run: for
+    the edge coefficients the superposition of the basis runs, for runout the spline's), through the
+    simulated run at the centre; the later ones update them by Broyden's secant rule from the run at
+    the new centre (:func:`secant_update`, no run of their own). Each re-centring thus costs one run."""
     family = effect.family(ctx, state)
     fc = effect.fit_coordinates(state.case.tool)
     h = chain_transfer(state.chain) if state.chain else None
@@ -223,9 +250,18 @@ def _fit_effect(ctx: ForceContext, effect, state: ModelState, shift0: float) -> 
     starts = [fc.from_values(np.asarray(v, float)) for v in effect.starts_for(cost)]
     best = _least_squares_fit(ctx, fc, lambda u: family(fc.to_values(u)), h, starts, shift0)
     if not effect.family_exact:
+        def raw_at(uu):
+            return ctx.raw_averages(effect.apply_values(state, fc.to_values(uu)))
+        prev = None   # (centre, its simulated raw averages, the columns there) of the re-centring before
         for _ in range(REFINE_STEPS):
             center = lo + best.x[:-1] * scale
-            local = _local_family(ctx, effect, state, fc, center)
+            raw0 = raw_at(center)
+            if prev is None:   # the family's own slopes: its basis runs are done (edge: the superposition)
+                cols = _fd_columns(lambda uu: family(fc.to_values(uu)), center, lo, hi, range(len(center)))
+            else:
+                cols = secant_update(prev[2], prev[0], prev[1], center, raw0, scale)
+            prev = (center, raw0, cols)
+            local = _affine(center, raw0, cols)
             new = _least_squares_fit(ctx, fc, local, h, [center], float(best.x[-1]))
             moved = float(np.max(np.abs(new.x[:-1] - best.x[:-1])))
             best = new
@@ -317,11 +353,13 @@ def _joint_fit(ctx: ForceContext, base: ModelState, effects, values, shift0: flo
     averages (edge coefficients and runout both move the tooth-passing harmonics' levels, a low-pass
     and backlash both roll them off), and descent along one block at a time crawls along such a
     valley, each sweep re-building every effect's family (16 runs for a backlash scan); one
-    Gauss-Newton step solves the coupled linear problem at once. Each iteration is
-    :func:`_local_family` over all coordinates: the model's raw averages are affine in the
-    coordinates of the cutting-law and element effects, through a simulated run at the centre (the
-    one evaluated at the end of the iteration before, memoised) and one run per coordinate at
-    ``REFINE_STEP`` of its range; the chain effects filter that exactly. The least-squares solution
+    Gauss-Newton step solves the coupled linear problem at once. Each iteration takes the model's raw
+    averages as affine in the coordinates of the cutting-law and element effects, through a simulated
+    run at the centre (the one evaluated at the end of the iteration before, memoised); the chain
+    effects filter that exactly. The first iteration's columns are finite differences
+    (:func:`_fd_columns`: one run per coordinate at ``REFINE_STEP`` of its range), a later
+    iteration's are the earlier ones updated by Broyden's secant rule through the run at its centre
+    (:func:`secant_update`, no run of their own). The least-squares solution
     is then simulated; it is kept only if its simulated training cost is lower than the centre's
     (a step that does not pay stops the refit at the centre, so the refit never ends worse than its
     start, the conditional fit). The refit stops after :data:`JOINT_STEPS` iterations, or when no
@@ -366,16 +404,15 @@ def _joint_fit(ctx: ForceContext, base: ModelState, effects, values, shift0: flo
             return (shift_average(filt(raw[:1], vals(uu))[0], x[-1])[:, :2] - meas).ravel()
         return resid
 
-    resid = None
+    def raw_at(uu):
+        return ctx.raw_averages(_compose(base, effects, vals(uu)))
+
+    resid, prev = None, None   # prev: (centre, its raw averages, the columns there) of the iteration before
     for _ in range(JOINT_STEPS):
-        raw0 = ctx.raw_averages(_compose(base, effects, v))
-        cols = {}
-        for i in np.flatnonzero(cut):
-            d = REFINE_STEP * scale[i]
-            d = -d if u[i] + d > hi[i] else d
-            ui = u.copy()
-            ui[i] += d
-            cols[int(i)] = [(a - b) / d for a, b in zip(ctx.raw_averages(_compose(base, effects, vals(ui))), raw0)]
+        raw0 = raw_at(u)
+        cols = (_fd_columns(raw_at, u, lo, hi, np.flatnonzero(cut)) if prev is None
+                else secant_update(prev[2], prev[0], prev[1], u, raw0, scale))
+        prev = (u.copy(), raw0, cols)
         resid = local(u.copy(), cols, raw0)
         x0 = np.append((u - lo) / scale, shift)
         r = least_squares(resid, x0, bounds=(np.append(np.zeros(len(lo)), shift - 0.5),
