@@ -176,3 +176,30 @@ def test_time_domain_rings_at_the_linearized_mount_mode():
     assert tc.size > 20
     f_sim = 1.0 / (2.0 * np.polyfit(np.arange(tc.size), tc, 1)[0])
     assert f_sim == pytest.approx(f_ref, rel=0.01), (f_sim, f_ref)
+
+
+def test_mount_effect_composes_with_a_payload_correction():
+    # identify's perturbation of the mount after (or before) a payload mass correction against
+    # pinocchio rebuilt with both elements: the payload's extra mass rides on the mount too. The
+    # damping ratio is of the mass on the mount when the effect is applied (1045 kg, or the heavier
+    # robot when the payload correction comes first): c = 2 zeta sqrt(k M)
+    from robolobes.identify.effects import REGISTRY, effects_for
+    from robolobes.identify.structural import pose_matrices
+    from robolobes.linearize.extra_elements import PayloadMass
+
+    effects_for("frf")
+    mount, payload = REGISTRY["mount_z"], REGISTRY["payload_mass"]
+    k, zeta, scale = 1.2e8, 0.04, 1.25
+    dm = (scale - 1) * PAYLOAD_MASS
+    theta = np.radians(POSE_TAB7_DEG)
+    w = 2 * math.pi * np.linspace(2.0, 300.0, 200)
+    pm0 = pose_matrices(build_model(SPEC, "basic"), theta)
+    for order, mass in (((mount, payload), M_TOTAL_KG), ((payload, mount), M_TOTAL_KG + dm)):
+        els = (MountCompliance(kz_n_per_m=k, cz_n_s_per_m=2 * zeta * math.sqrt(k * mass)), PayloadMass(dm))
+        Hfull = linearize(build_model(SPEC, "basic", extra_elements=els), theta).frf(w).H
+        pm = pm0
+        for e in order:
+            pm = e.perturb(pm, {"stiffness_n_per_m": k, "damping_ratio": zeta} if e is mount else {"mass_scale": scale})
+        Z = pm.K[None] - w[:, None, None] ** 2 * pm.M[None] + 1j * w[:, None, None] * pm.C[None]
+        H = np.einsum("in,fnj->ijf", pm.J, np.linalg.solve(Z, np.broadcast_to(pm.J.T, (len(w),) + pm.J.T.shape)))
+        assert np.abs(H - Hfull).max() <= 1e-9 * np.abs(Hfull).max(), [e.name for e in order]
