@@ -390,7 +390,7 @@ class MountCompliance(Element):
 
     def bind(self, robot, built=None):
         """The mount coordinates' dofs with their stiffness and damping, each (n_axes,)."""
-        kc = dict(zip(_MOUNT_AXES, self._pairs()))
+        kc: dict[str, tuple[float, float]] = dict(zip(_MOUNT_AXES, self._pairs()))
         iv = np.array([robot.model.joints[robot.model.getJointId(f"mount_{a}")].idx_v for a in self.axes], dtype=int)
         return _Diagonal(iv=iv, dk=np.array([kc[a][0] for a in self.axes]), dd=np.array([kc[a][1] for a in self.axes]))
 

@@ -84,7 +84,8 @@ def test_rocking_mount_mode_against_the_inertia_about_the_base_axis(axis):
     inertia = dict(zip(("rx", "ry"), _inertia_about_base_axes()))[axis]
     f0 = 30.0
     k = inertia * (2 * math.pi * f0) ** 2
-    f = _lowest_hz(MountCompliance(**{f"k{axis}_n_m_per_rad": k}))
+    mount = MountCompliance(krx_n_m_per_rad=k) if axis == "rx" else MountCompliance(kry_n_m_per_rad=k)
+    f = _lowest_hz(mount)
     lo = _dunkerley_hz(inertia, k)
     assert lo > 0.99 * f0
     assert lo <= f <= f0 * (1 + 1e-9), (lo, f, f0)
@@ -184,11 +185,12 @@ def test_mount_effect_composes_with_a_payload_correction():
     # damping ratio is of the mass on the mount when the effect is applied (1045 kg, or the heavier
     # robot when the payload correction comes first): c = 2 zeta sqrt(k M)
     from robolobes.identify.effects import REGISTRY, effects_for
-    from robolobes.identify.structural import pose_matrices
+    from robolobes.identify.structural import StructuralEffect, pose_matrices
     from robolobes.linearize.extra_elements import PayloadMass
 
     effects_for("frf")
     mount, payload = REGISTRY["mount_z"], REGISTRY["payload_mass"]
+    assert isinstance(mount, StructuralEffect) and isinstance(payload, StructuralEffect)
     k, zeta, scale = 1.2e8, 0.04, 1.25
     dm = (scale - 1) * PAYLOAD_MASS
     theta = np.radians(POSE_TAB7_DEG)
