@@ -15,7 +15,7 @@ it; Dunkerley's bound ``1 / w_1^2 <= trace(K^-1 M) = M_uu / k + sum_j M_jj / k_j
 ``M_jj`` the joint diagonal of the independent generator's mass matrix at q = 0 (the same with or
 without the mount: a joint's own inertia does not see the base's coordinates). For 1000x joints the
 window is 1 % (49.51-50 Hz, 29.89-30 Hz); dropping the base link's 226 kg from the mount would put
-the z mode 12 % high, out of it.
+the z mode 13 % high, out of it.
 """
 
 import math
