@@ -5,8 +5,9 @@ stores anything about the robot it is part of, so one instance can sit in any nu
 Following pinocchio (a constant ``Model``, a ``Data`` workspace per call), the assembly goes in
 three steps, each with its own home for what it produces:
 
-1. ``after_motion_joint(b, index, joint_id)`` and ``finish(b)`` add joints, bodies and frames
-   to the :class:`ModelBuilder`; ``finish`` returns what the element needs to find its part of
+1. ``before_chain(b, parent)``, ``after_motion_joint(b, index, joint_id)`` and ``finish(b)`` add
+   joints, bodies and frames to the :class:`ModelBuilder` (``before_chain``: between the universe
+   and the first motion joint, e.g. the robot's mount); ``finish`` returns what the element needs to find its part of
    the model again (a joint name, or None);
 2. ``bind(robot, built)`` returns the element's robot-specific indices (joint and dof indices,
    scaled gains), which the robot keeps: ``robot.element_indices[i]`` for element ``i``;
@@ -110,6 +111,15 @@ class Element:
     """
 
     name: str = "element"
+
+    def before_chain(self, b: ModelBuilder, parent: int) -> int:
+        """Called before the first motion joint; may add joints under ``parent`` (0: the universe).
+
+        Returns the joint the chain (the base link and motion joint 1) hangs from: ``parent`` when
+        the element adds none. When the result is not the universe, :func:`~robolobes.linearize.model.assemble`
+        puts the base link's inertia (``spec.links[0]``) on it.
+        """
+        return parent
 
     def after_motion_joint(self, b: ModelBuilder, index: int, joint_id: int) -> int:
         """Called after motion joint ``index`` is added; may add joints. Returns the new tail joint."""

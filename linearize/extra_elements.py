@@ -46,6 +46,13 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     type = "backlash"              # dead zone (eq. 12) on every motion axis, any variant
     half_width_rad = 7.3e-5
 
+    [[elements]]
+    type = "mount_compliance"      # the base on springs and dampers (base frame); omitted axes rigid
+    kz_n_per_m = 1.5e8
+    cz_n_s_per_m = 4.0e4
+    krx_n_m_per_rad = 5.0e7        # rocking about base x and y (kry_n_m_per_rad, c.._n_m_s_per_rad)
+    crx_n_m_s_per_rad = 1.0e3
+
 :data:`ELEMENT_TYPES` maps each ``type`` to its class, or to the constructor that builds it
 (``tcp_mode``: :meth:`TcpOscillator.one_axis`: a tool mode is always a
 :class:`~robolobes.linearize.tool.TcpOscillator`); :func:`element_from_spec` checks the keys
@@ -73,7 +80,7 @@ from .base_elements import VirtualJoints, diagonal_force, diagonal_tangent, virt
 from .element import Element, ModelBuilder
 from .tool import TcpOscillator
 
-__all__ = ["TcpOscillator", "TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash",
+__all__ = ["TcpOscillator", "TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash", "MountCompliance",
            "ELEMENT_TYPES", "element_from_spec", "element_table", "spec_table"]
 
 
@@ -310,10 +317,95 @@ class GearBacklash(Element):
         return float(self.half_width_rad)
 
 
+_MOUNT_AXES = ("x", "y", "z", "rx", "ry")
+_MOUNT_JOINTS = {"x": pin.JointModelPX, "y": pin.JointModelPY, "z": pin.JointModelPZ,
+                 "rx": pin.JointModelRX, "ry": pin.JointModelRY}
+
+
+@dataclass(frozen=True)
+class MountCompliance(Element):
+    """The robot's base on springs and dampers (its mount, the floor): compliance outside the joints.
+
+    Up to five coordinates between the universe and the base link, in the robot's base frame:
+    translations along base x, y, z (m) and rocking rotations about base x and y through the base
+    frame's origin (rad), in that order (pinocchio ``PX, PY, PZ, RX, RY``), each with a spring to 0
+    and a damper: ``tau_a = -k_a u_a - c_a du_a``. An axis with infinite stiffness (the default)
+    adds no coordinate. The base link (``spec.links[0]``, 226 kg on the TX200) rides on the mount,
+    so the mount's modes carry the whole robot: the vertical one of the rigid robot is
+    ``sqrt(kz / M_total) / 2 pi``. With gravity the mount sags under the robot's weight (the static
+    equilibrium finds it); rocking under gravity loses ``M g h`` of stiffness (``h`` the height of
+    the centre of mass), which the linearization's ``dg/dq`` holds.
+
+    Parameters
+    ----------
+    kx_n_per_m, ky_n_per_m, kz_n_per_m : float > 0 or inf      translational stiffness, N/m
+    krx_n_m_per_rad, kry_n_m_per_rad : float > 0 or inf        rocking stiffness, N m/rad
+    cx_n_s_per_m, cy_n_s_per_m, cz_n_s_per_m : float >= 0      translational damping, N s/m
+    crx_n_m_s_per_rad, cry_n_m_s_per_rad : float >= 0          rocking damping, N m s/rad
+    """
+
+    kx_n_per_m: float = math.inf
+    ky_n_per_m: float = math.inf
+    kz_n_per_m: float = math.inf
+    krx_n_m_per_rad: float = math.inf
+    kry_n_m_per_rad: float = math.inf
+    cx_n_s_per_m: float = 0.0
+    cy_n_s_per_m: float = 0.0
+    cz_n_s_per_m: float = 0.0
+    crx_n_m_s_per_rad: float = 0.0
+    cry_n_m_s_per_rad: float = 0.0
+    name: str = "mount compliance"
+
+    def __post_init__(self):
+        for a, (k, c) in zip(_MOUNT_AXES, self._pairs()):
+            kname, cname = self._names(a)
+            if isinstance(k, bool) or not isinstance(k, (int, float)) or math.isnan(k) or k <= 0:
+                raise BadInput(f"mount_compliance {kname} must be a number > 0 (inf: rigid), got {k!r}")
+            _positive(f"mount_compliance {cname}", c, zero_ok=True)
+            if math.isinf(k) and c != 0:
+                raise BadInput(f"mount_compliance {cname} = {c!r} on a rigid axis ({kname} = inf): "
+                               f"give {kname} a finite value or leave the damping out")
+
+    @staticmethod
+    def _names(axis: str) -> tuple[str, str]:
+        if axis.startswith("r"):
+            return f"k{axis}_n_m_per_rad", f"c{axis}_n_m_s_per_rad"
+        return f"k{axis}_n_per_m", f"c{axis}_n_s_per_m"
+
+    def _pairs(self) -> list[tuple[float, float]]:
+        """``(stiffness, damping)`` per axis of ``x, y, z, rx, ry``."""
+        return [(getattr(self, k), getattr(self, c)) for k, c in map(self._names, _MOUNT_AXES)]
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The compliant axes (finite stiffness), in chain order."""
+        return tuple(a for a, (k, _) in zip(_MOUNT_AXES, self._pairs()) if math.isfinite(k))
+
+    def before_chain(self, b: ModelBuilder, parent: int) -> int:
+        if any(n.startswith("mount_") for n in b.model.names):
+            raise BadInput("two mount_compliance elements: a robot has one mount (give all its axes in one)")
+        for a in self.axes:
+            parent = b.model.addJoint(parent, _MOUNT_JOINTS[a](), pin.SE3.Identity(), f"mount_{a}")
+        return parent
+
+    def bind(self, robot, built=None):
+        """The mount coordinates' dofs with their stiffness and damping, each (n_axes,)."""
+        kc: dict[str, tuple[float, float]] = dict(zip(_MOUNT_AXES, self._pairs()))
+        iv = np.array([robot.model.joints[robot.model.getJointId(f"mount_{a}")].idx_v for a in self.axes], dtype=int)
+        return _Diagonal(iv=iv, dk=np.array([kc[a][0] for a in self.axes]), dd=np.array([kc[a][1] for a in self.axes]))
+
+    def force(self, robot, ix, data, q, v, theta):
+        return _diagonal_force(robot.nv, ix.iv, ix.dk, ix.dd, q, v)
+
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        return diagonal_tangent(robot.nv, ix.iv, ix.dk, ix.dd)
+
+
 ELEMENT_TYPES: dict[str, Callable[..., Element]] = {
                  "tcp_mode": TcpOscillator.one_axis, "joint_correction": JointCorrection,
                  "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
-                 "servo_drive": ServoDrive, "backlash": GearBacklash, "tcp_oscillator": TcpOscillator}
+                 "servo_drive": ServoDrive, "backlash": GearBacklash, "tcp_oscillator": TcpOscillator,
+                 "mount_compliance": MountCompliance}
 
 
 def _keys(cls) -> list[str]:

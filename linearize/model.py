@@ -56,6 +56,7 @@ __all__ = [
     "tcp_pose",
     "tcp_jacobian",
     "dead_zone",
+    "base_inertia",
 ]
 
 @dataclass(frozen=True)
@@ -180,11 +181,29 @@ def chain_links(spec: RobotSpec) -> tuple[list[tuple[pin.SE3, str | np.ndarray, 
     return out, pin.SE3(np.eye(3), last.com_m + last.next_joint_m)
 
 
+def base_inertia(spec: RobotSpec) -> pin.Inertia:
+    """The base link's inertia (``spec.links[0]``: mass kg, centre of mass m, inertia kg m^2, base
+    frame); zero for a URDF robot (its tree starts at the first motion joint's parent, fixed).
+
+    >>> from robolobes.cases import load_robot
+    >>> float(base_inertia(load_robot("tx200")).mass)
+    226.0
+    """
+    if not spec.links:
+        return pin.Inertia.Zero()
+    link = spec.links[0]
+    return pin.Inertia(link.mass_kg, np.asarray(link.com_m), np.asarray(link.inertia_kg_m2))
+
+
 def assemble(spec: RobotSpec, elements: Sequence[Element], variant: str = "custom") -> FlexibleRobot:
     """Build the pinocchio model of ``spec`` with ``elements`` hooked into the assembly."""
     b = ModelBuilder(spec)
     links, flange_placement = chain_links(spec)
     parent = 0
+    for e in elements:
+        parent = e.before_chain(b, parent)
+    if parent != 0:      # the base link rides on what an element put under it (the mount)
+        b.model.appendBodyToJoint(parent, base_inertia(spec), pin.SE3.Identity())
     for i, (js, (placement, axis, body)) in enumerate(zip(spec.joints, links)):
         jid = b.add_joint(parent, axis, placement, js.name)
         b.motion_joints.append(jid)

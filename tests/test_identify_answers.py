@@ -4,15 +4,17 @@ or the model's elements).
 
 Tolerances asserted (and stated in docs/guide/identify-answers.md):
 
-* the generator with no added effect, and with each library effect, equals robolobes' own model
-  to 1e-9 of the largest |H| (a cross-check of both);
+* the generator with no added effect, and with each library effect (the mount included: the
+  generator's floor compliance ``base_z``), equals robolobes' own model to 1e-9 of the largest |H|
+  (a cross-check of both);
 * the stepwise selection's family-wise false-positive rate on noise-only toy data stays below its
   alpha (binomial 99.9 % bound);
 * the unexplained margin's false-alarm rate on noise-only lines stays below alpha (binomial bound);
 * on a null FRF set from the generator: nothing identified, the residual not unexplained, the noise
   floor within 20 % of the generating model's error;
-* slow, long: 5 draws of joint + servo, of the tool-mode pairs and of each effect outside the
-  library, at least 4 right; 20 nulls, at least 19 clean (tests/generators/draws.py states what
+* slow, long: 5 draws of joint + servo, of the tool-mode pairs, of the mount (alone and with a
+  joint) and of each effect outside the library (the DAQ's high-pass, the arm's lateral bending),
+  at least 4 right; 20 nulls, at least 19 clean (tests/generators/draws.py states what
   "right" means); CI runs the first 2 of each, both right (``--draws 2``);
 * the provisional and replace steps of the selection on a toy whose single fits are not credible.
 """
@@ -39,6 +41,7 @@ def test_generator_matches_robolobes_model():
     from robolobes.linearize import build_model, linearize
     from robolobes.linearize.extra_elements import (
         JointCorrection,
+        MountCompliance,
         PayloadMass,
         ServoDrive,
     )
@@ -51,7 +54,8 @@ def test_generator_matches_robolobes_model():
              (Effects(tool_modes=((220.0, 0.03, 3.8e5, (0.6, 0.8, 0.0)),)), (TcpOscillator.one_axis(220.0, 0.03, 3.8e5, (0.6, 0.8, 0.0)),)),
              (Effects(joint_scale={3: (0.75, 0.6)}), (JointCorrection(3, 0.75, 0.6),)),
              (Effects(servo=(2, 50.0, 4e6, 2e3)), (ServoDrive(2, 50.0, 4e6, 2e3),)),
-             (Effects(payload_factor=1.2), (PayloadMass(0.2 * 44.4),))]
+             (Effects(payload_factor=1.2), (PayloadMass(0.2 * 44.4),)),
+             (Effects(base_z=(1.6e8, 4e4)), (MountCompliance(kz_n_per_m=1.6e8, cz_n_s_per_m=4e4),))]
     for eff, els in pairs:
         gen, own = TX200(eff), build_model(case.robot, "basic", extra_elements=els)
         for k in range(len(POSE_OFFSETS_DEG)):
@@ -283,7 +287,8 @@ def test_null_set_from_the_generator_is_clean(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "highpass", "mode_xy+payload", "mode_xy+joint"])
+@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "base_z+joint", "highpass", "arm_bend",
+                                  "mode_xy+payload", "mode_xy+joint"])
 def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
     # the tool-mode cases take 30-100 s of CPU per draw (bench/bench_identify_answers.py runs the same
     # rule); --draws N: the first N seeds, ceil(4 N / 5) of N right (tests/draw_counts.py)
@@ -291,7 +296,17 @@ def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
     got = [run_case(case, seed, tmp_path) for seed in plan.seeds]
     right = sum(r["right"] for r in got)
     assert right >= plan.need, (plan.describe("4 of 5"), [(r["seed"], r["why"]) for r in got])
+    if case in FLOOR_NOT_ASSERTED:
+        return
     assert sum(r["floor_ok"] for r in got) >= plan.need, [r["floor_ratio"] for r in got]
+
+
+# draw sets whose noise floor is not held to 20 % of the true noise, with the reason (measured, in
+# docs/guide/identify-answers.md): an answer can be right while the floor is off
+FLOOR_NOT_ASSERTED = {
+    "arm_bend": "a whole unexplained mode (35-55 Hz) stays in the residual, 4.3-14x the floor, and the line "
+                "noise estimate of that residual takes part of it for noise: floor / true 1.04-1.50, 3 of 5 within 20 %",
+}
 
 
 @pytest.mark.slow

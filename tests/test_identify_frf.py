@@ -17,7 +17,8 @@ from robolobes.identify.effects import REGISTRY
 from robolobes.identify.selection import significance, z_threshold
 from robolobes.identify.synthetic import synthetic_frf_set, truth_errors
 from robolobes.linearize import build_model, linearize
-from robolobes.linearize.extra_elements import JointCorrection, OrthogonalCorrection, PayloadMass, ServoDrive
+from robolobes.linearize.extra_elements import (JointCorrection, MountCompliance, OrthogonalCorrection, PayloadMass,
+                                               ServoDrive)
 from robolobes.linearize.tool import TcpOscillator
 from robolobes.main import main
 
@@ -58,6 +59,11 @@ def _fast_vs_element(robot, variant, effect_name, params, element):
     ("basic", "servo_a2", {"kp_scale": 4e6 / 6.02e6, "rotor_freq_hz": math.sqrt(10.02e6 / 5.0) / (2 * math.pi),
                            "rotor_damping_ratio": 2e3 / (2 * math.sqrt(10.02e6 * 5.0))},
      ServoDrive(2, 5.0, 4e6, 2e3)),
+    # the mount: 1.5e8 N/m under the 1045 kg robot (NOTES.md Tab. 3-4), zeta 0.05: c = 2 zeta sqrt(k M)
+    ("basic", "mount_z", {"stiffness_n_per_m": 1.5e8, "damping_ratio": 0.05},
+     MountCompliance(kz_n_per_m=1.5e8, cz_n_s_per_m=0.1 * math.sqrt(1.5e8 * 1045.0))),
+    ("gravity", "mount_z", {"stiffness_n_per_m": 1.5e8, "damping_ratio": 0.05},
+     MountCompliance(kz_n_per_m=1.5e8, cz_n_s_per_m=0.1 * math.sqrt(1.5e8 * 1045.0))),
 ])
 def test_fast_perturbation_equals_element_model(tx200_robot, variant, name, params, element):
     # two independent paths: M, C, K perturbed in place (identify) vs pinocchio rebuilt with the

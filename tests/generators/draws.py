@@ -4,8 +4,11 @@ rule that says whether an answer is right (stated here once, before any draw was
 Cases (``CASES``): ``mode_xy+joint``, ``mode_xy+payload``, ``joint+servo`` (pairs of library effects a
 user meets together; the tool-holder mode is in both radial directions, the usual case),
 ``sensor_gain`` (the hammer's calibration: since issue 20 the library's ``channel_scale``),
-``base_z`` and ``highpass`` (effects no library element represents: a floor compliance under the base,
-the DAQ's first-order AC coupling at 0.5-2 Hz on the response channels), ``null`` (nothing added).
+``base_z`` (a vertical floor compliance under the base, 40-80 Hz for the whole robot: the library's
+``mount_z`` since 2026-12-06) and ``base_z+joint`` (with a joint's stiffness off), ``highpass`` and
+``arm_bend`` (effects no library element represents: the DAQ's first-order AC coupling at 0.5-2 Hz
+on the response channels; the arm bending sideways halfway between axes 2 and 3, 1.5e6-4e6 N m/rad,
+a mode at 35-55 Hz), ``null`` (nothing added).
 6 poses x 4 pairs (xx, yy, zz, xy), 400 lines 2-300 Hz, relative noise drawn in 1-3 %.
 
 What "right" means (:func:`judge`):
@@ -21,6 +24,7 @@ What "right" means (:func:`judge`):
     stiffness scale covering ``kp / (k + kp)`` (the combination the data determine below the rotor
     resonance);
   - the payload mass x f: ``payload_mass`` with ``mass_scale`` within 2 sigma of f or 3 %;
+  - the floor compliance k (``base_z``): ``mount_z`` with ``stiffness_n_per_m`` within 2 sigma of k or 3 %;
   - the hammer's gain g (``sensor_gain``): ``channel_scale`` with every response channel's scale
     within 3 of its standard deviations (or its 3 % detection threshold, when wider) of ``1 / g`` (the
     hammer is the gauge, identify/chain_effects.py);
@@ -47,7 +51,9 @@ from .tx200 import K_JOINT, Effects, write_frf_set
 
 __all__ = ["CASES", "draw", "run_identify", "judge", "run_case"]
 
-CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "highpass", "null")
+CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "base_z+joint", "highpass",
+         "arm_bend", "null")
+OUTSIDE = ("highpass", "arm_bend")     # effects no library element represents
 # detection thresholds of the chain effects (identify/chain_effects.py), typed here: the floor of the
 # interval a chain parameter is judged with
 CHAIN_DETECT = {"scale_x": 0.01, "scale_y": 0.01, "scale_z": 0.01, "delay_s": 5e-6, "mass_kg": 0.005}
@@ -101,10 +107,19 @@ def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
         return Effects(sensor_gain=gain), truth, noise
     if case == "highpass":
         return Effects(highpass_hz=float(rng.uniform(0.5, 2.0))), truth, noise
-    if case == "base_z":
+    if case in ("base_z", "base_z+joint"):
         f = float(rng.uniform(40.0, 80.0))
         k = ROBOT_MASS_KG * (2 * math.pi * f) ** 2
-        return Effects(base_z=(k, 2 * 0.05 * math.sqrt(k * ROBOT_MASS_KG))), truth, noise
+        truth["mount_z"] = k
+        base = (k, 2 * 0.05 * math.sqrt(k * ROBOT_MASS_KG))
+        if case == "base_z":
+            return Effects(base_z=base), truth, noise
+        j = int(rng.integers(1, 4))
+        s = _either(rng, (0.6, 0.85), (1.2, 1.6))
+        truth["axes"] = {j: s}
+        return Effects(base_z=base, joint_scale={j: (s, 1.0)}), truth, noise
+    if case == "arm_bend":
+        return Effects(arm_bend=(float(rng.uniform(1.5e6, 4e6)), float(rng.uniform(300.0, 900.0)))), truth, noise
     if case == "null":
         return Effects(), truth, noise
     raise ValueError(f"case {case!r}; valid: {', '.join(CASES)}")
@@ -180,7 +195,7 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
         why += [f"also named {[e['name'] for e in ident if e not in hit]}"] if len(hit) < len(ident) else []
         why += ["residual unexplained"] if res["unexplained"]["unexplained"] else []
         return (not why), "; ".join(why)
-    if case in ("base_z", "highpass"):
+    if case in OUTSIDE:
         return (not ident), ("" if not ident else f"named {[e['name'] for e in ident]} as findings")
     if case == "null":
         ok = not ident and not res["unexplained"]["unexplained"]
@@ -199,6 +214,13 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
         if not any(_covers(e["params"]["mass_scale"], e["uncertainty"]["mass_scale"], truth["payload_factor"])
                    for e in hit):
             why.append(f"payload x{truth['payload_factor']:.3f} not covered by {[e['params'] for e in hit]}")
+        used |= {id(e) for e in hit}
+    if "mount_z" in truth:
+        hit = [e for e in ident if e["name"] == "mount_z"]
+        key = "stiffness_n_per_m"
+        if not any(_covers(e["params"][key], e["uncertainty"][key], truth["mount_z"]) for e in hit):
+            why.append(f"mount k {truth['mount_z']:.4g} N/m not covered by "
+                       f"{[(e['params'][key], e['uncertainty'][key]) for e in hit]}")
         used |= {id(e) for e in hit}
     return verdict(ident, used, res, why)
 

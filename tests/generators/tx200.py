@@ -22,6 +22,11 @@ Effects (``Effects``, all optional):
   joint spring, held by a PD loop to the motor angle.
 * ``base_z``: (stiffness N/m, damping N s/m): the robot's base on a vertical floor compliance (a
   prismatic joint under the base: a compliance outside the six joints, in no library element).
+* ``arm_bend``: (stiffness N m/rad, damping N m s/rad): lateral bending of the arm (link 2, between
+  axes 2 and 3), a revolute joint about the arm's x axis halfway from axis 2 to axis 3 (the arm's
+  mass stays on the proximal half, the rest of the chain bends): a compliance out of the plane of
+  axes 2 and 3, which the basic model has no coordinate for (in no library element: an effect
+  outside the library).
 * ``sensor_gain``: the force sensor's calibration error: measured force = true force x gain, so the
   measured receptance is ``H / gain``.
 * ``channel_gain``: (gx, gy, gz), the response channels' calibration errors (base axes): measured
@@ -99,6 +104,7 @@ class Effects:
     payload_factor: float = 1.0
     servo: tuple | None = None      # (axis, J kg m^2, kp N m/rad, kd N m s/rad)
     base_z: tuple | None = None     # (k N/m, c N s/m)
+    arm_bend: tuple | None = None   # (k N m/rad, c N m s/rad)
     sensor_gain: float = 1.0
     channel_gain: tuple = (1.0, 1.0, 1.0)
     delay_s: float = 0.0
@@ -113,6 +119,9 @@ class TX200:
         self.effects = effects
         self.model, self.tcp_frame, self.n_base, self.n_modes = self._build()
         self.data = self.model.createData()
+        v = lambda name: self.model.joints[self.model.getJointId(name)].idx_v
+        self.motion = np.array([v(f"A{i + 1}") for i in range(6)])              # the six axes' coordinates
+        self.modes = [v(f"mode_{r}") for r in range(self.n_modes)]
 
     def _build(self):
         e = self.effects
@@ -129,7 +138,11 @@ class TX200:
             parent = model.addJoint(parent, joint_models[AXES[i]](), placement, f"A{i + 1}")
             model.appendBodyToJoint(parent, pin.Inertia(MASS[link], np.array(AG[link]),
                                                         _inertia_matrix(INERTIA[link])), pin.SE3.Identity())
-            placement = pin.SE3(np.eye(3), np.array(AG[link]) + np.array(GB[link]))
+            span = np.array(AG[link]) + np.array(GB[link])
+            placement = pin.SE3(np.eye(3), span)
+            if link == "arm" and e.arm_bend is not None:    # bend about the arm's x axis at mid-span
+                parent = model.addJoint(parent, pin.JointModelRX(), pin.SE3(np.eye(3), 0.5 * span), "arm_bend")
+                placement = pin.SE3(np.eye(3), 0.5 * span)
         # payload at the flange face (placement now: flange joint -> flange face)
         face = placement
         pm = PAYLOAD_MASS * e.payload_factor
@@ -162,7 +175,7 @@ class TX200:
         angles ``theta_deg`` (the link angles equal them: no gravity)."""
         e = self.effects
         q = np.zeros(self.model.nq)
-        q[self.n_base:self.n_base + 6] = np.radians(theta_deg)
+        q[self.motion] = np.radians(theta_deg)
         M = pin.crba(self.model, self.data, q)
         M = np.triu(M) + np.triu(M, 1).T
         pin.computeJointJacobians(self.model, self.data, q)
@@ -176,19 +189,22 @@ class TX200:
             d[ax - 1] *= sd
         K = np.zeros((n, n))
         C = np.zeros((n, n))
-        j = slice(self.n_base, self.n_base + 6)
-        K[j, j] = np.diag(k)
-        C[j, j] = np.diag(d)
+        j = self.motion
+        K[j, j] = k
+        C[j, j] = d
         if e.base_z is not None:
             K[0, 0], C[0, 0] = e.base_z
+        if e.arm_bend is not None:
+            i = self.model.joints[self.model.getJointId("arm_bend")].idx_v
+            K[i, i], C[i, i] = e.arm_bend
         for r, (f, z, km, _) in enumerate(e.tool_modes):
-            i = self.n_base + 6 + r
+            i = self.modes[r]
             m = km / (2 * math.pi * f) ** 2       # the mode's own mass (k / w0^2), without the accelerometer
             K[i, i] = km
             C[i, i] = 2 * z * math.sqrt(km * m)
         if e.servo is not None:     # rotor coordinate: spring k between link and rotor, PD to ground
             ax, Jr, kp, kd = e.servo
-            i = self.n_base + ax - 1
+            i = self.motion[ax - 1]
             kk = K[i, i]
             M = np.pad(M, ((0, 1), (0, 1)))
             C = np.pad(C, ((0, 1), (0, 1)))
@@ -203,7 +219,7 @@ class TX200:
     def tcp_rotation(self, theta_deg) -> np.ndarray:
         """Rotation (3, 3) of the TCP frame in base axes at motor angles ``theta_deg`` (columns: TCP x, y, z)."""
         q = np.zeros(self.model.nq)
-        q[self.n_base:self.n_base + 6] = np.radians(theta_deg)
+        q[self.motion] = np.radians(theta_deg)
         pin.framesForwardKinematics(self.model, self.data, q)
         return np.array(self.data.oMf[self.tcp_frame].rotation)
 
