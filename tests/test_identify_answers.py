@@ -296,14 +296,17 @@ def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
     got = [run_case(case, seed, tmp_path) for seed in plan.seeds]
     right = sum(r["right"] for r in got)
     assert right >= plan.need, (plan.describe("4 of 5"), [(r["seed"], r["why"]) for r in got])
-    if case in FLOOR_NOT_ASSERTED:
-        return
-    assert sum(r["floor_ok"] for r in got) >= plan.need, [r["floor_ratio"] for r in got]
+    floors = [round(r["floor_ratio"], 3) for r in got]
+    floor_ok = sum(r["floor_ok"] for r in got) >= plan.need
+    if not floor_ok and case in FLOOR_KNOWN_OFF:  # reported as an expected failure, never as a pass
+        pytest.xfail(f"{case}: noise floor / true noise error {floors}: {FLOOR_KNOWN_OFF[case]}")
+    assert floor_ok, floors
 
 
-# draw sets whose noise floor is not held to 20 % of the true noise, with the reason (measured, in
-# docs/guide/identify-answers.md): an answer can be right while the floor is off
-FLOOR_NOT_ASSERTED = {
+# draw sets whose noise floor is known to miss 20 % of the true noise error, with the reason
+# (measured, in docs/guide/identify-answers.md): their answers are still asserted; a floor that misses
+# is reported as xfail with its numbers, a floor that holds passes
+FLOOR_KNOWN_OFF = {
     "arm_bend": "a whole unexplained mode (35-55 Hz) stays in the residual, 4.3-14x the floor, and the line "
                 "noise estimate of that residual takes part of it for noise: floor / true 1.04-1.50, 3 of 5 within 20 %",
 }
