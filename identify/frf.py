@@ -310,7 +310,9 @@ def _uncertainty(effects_params: list, layout, cov) -> dict:
 
 def diagnose(poses: list[PoseData], effects: list) -> dict:
     """Signatures of the residual of the model with ``effects``: the extra peak (frequency where the
-    measured / model magnitude ratio, averaged over poses and pairs, is largest) and its size."""
+    measured / model magnitude ratio, averaged over poses and pairs, is largest) and its size; and
+    the mass on the robot's mount (kg, :class:`~robolobes.identify.structural.PoseMatrices`), which
+    sets a mount's start values."""
     fmin = min(pd.omega.min() for pd in poses) / (2 * math.pi)
     fmax = max(pd.omega.max() for pd in poses) / (2 * math.pi)
     edges = np.geomspace(max(fmin, 0.1), fmax * (1 + 1e-9), 241)
@@ -335,7 +337,8 @@ def diagnose(poses: list[PoseData], effects: list) -> dict:
     return {"extra_peak_hz": f_peak, "extra_peak_m_per_n": float(amp[k]),
             "extra_peak_log_ratio": float(mean[k]), "extra_peak_in_every_pose": every_pose,
             "extra_peak_direction_tcp": _peak_direction(poses, effects, f_peak),
-            "residual_peaks": residual_peaks(poses, effects, edges)}
+            "residual_peaks": residual_peaks(poses, effects, edges),
+            "mount_mass_kg": float(poses[0].pm.mount_mass_kg)}
 
 
 def residual_peaks(poses: list[PoseData], effects: list, edges: np.ndarray, n_peaks: int = RESIDUAL_PEAKS) -> list:

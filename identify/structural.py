@@ -480,14 +480,16 @@ class MountZEffect(StructuralEffect):
                                                                    "cz_n_s_per_m": float(c)}))
 
     def guesses(self, diagnosis):
-        """Starts at the residual's peaks (``k = M (2 pi f)^2`` for a 1045 kg robot) and a scan of
-        20-250 Hz; ``fit`` optimizes from the cheapest two."""
+        """Starts at the residual's peaks (``k = M (2 pi f)^2``, ``M`` the mass on the mount,
+        ``diagnosis["mount_mass_kg"]``: 1045 kg on the TX200) and a scan of 20-250 Hz; ``fit``
+        optimizes from the cheapest two."""
         freqs = [float(f) for f, _ in (diagnosis.get("residual_peaks") or [])]
         if diagnosis.get("extra_peak_hz"):
             freqs.append(float(diagnosis["extra_peak_hz"]))
         freqs += [20.0, 35.0, 50.0, 70.0, 100.0, 150.0, 250.0]
         k = self.param("stiffness_n_per_m")
-        return [{"stiffness_n_per_m": float(np.clip(1045.0 * (2 * math.pi * f) ** 2, k.lower, k.upper)),
+        mass = float(diagnosis["mount_mass_kg"])
+        return [{"stiffness_n_per_m": float(np.clip(mass * (2 * math.pi * f) ** 2, k.lower, k.upper)),
                  "damping_ratio": 0.05} for f in freqs]
 
     def perturb(self, pm, params):
