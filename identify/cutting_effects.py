@@ -543,7 +543,7 @@ class JointDamping(DampingEffect):
     ``C(s) = C_other + s C_joints``: ``C_joints`` is the motion-axis dampers' share of the
     linearized damping, taken from a second linearization at damping scale 2 (``C_2 - C_1``), so it
     is exact for dampers linear in the scale. In a case TOML it is one ``joint_correction`` element
-    per joint with ``damping_scale = s`` (:meth:`apply`); :meth:`table` is the effect's own record.
+    per joint with ``damping_scale = s`` (:meth:`element_specs`); :meth:`table` is the effect's own record.
     Bounds [0.2, 50]: a fit on the upper bound says no credible joint damping explains the data.
     """
 
@@ -566,14 +566,13 @@ class JointDamping(DampingEffect):
         c_joint = np.asarray(s2.C) - np.asarray(s1.C)
         return np.asarray(s1.C) - c_joint, c_joint
 
-    def apply(self, model: ModelState, params) -> ModelState:
-        """``model`` with ``damping_scale = scale`` on every joint (``joint_correction`` elements)."""
+    def element_specs(self, model: ModelState, params) -> tuple:
+        """``damping_scale = scale`` on every joint of ``model``: one ``joint_correction`` element each."""
         from robolobes.cases.spec import ElementSpec
 
-        s = check_params(self, params)["scale"]
-        for j in range(1, model.case.robot.n_joints + 1):
-            model = model.with_element(ElementSpec(type="joint_correction", params={"joint": j, "damping_scale": s}))
-        return model
+        s = float(params["scale"])
+        return tuple(ElementSpec(type="joint_correction", params={"joint": j, "damping_scale": s})
+                     for j in range(1, model.case.robot.n_joints + 1))
 
 
 class ProcessDamping(DampingEffect):
@@ -624,7 +623,7 @@ class ProcessDamping(DampingEffect):
         """The effect's TOML table ``{"type": "process_damping", "ksp_l2_n_per_m": ...}``, as the other
         cutting-law effects write theirs (read back with :meth:`Effect.from_table`). The damper it
         puts into a case depends on the cut (depth, speed): :meth:`element_table` gives that
-        ``tip_damper`` table, and :meth:`apply` adds it for the model's own cut."""
+        ``tip_damper`` table, and :meth:`element_specs` gives it for the model's own cut."""
         return {"type": self.name, "ksp_l2_n_per_m": check_params(self, params)["ksp_l2_n_per_m"]}
 
     def damping_line(self, state, theta_rad, s1, tool, cut) -> tuple:
@@ -637,14 +636,13 @@ class ProcessDamping(DampingEffect):
         return {"type": "tip_damper", "cxx_n_s_per_m": float(C[0, 0]), "cyy_n_s_per_m": float(C[1, 1]),
                 "cxy_n_s_per_m": float(C[0, 1]), "feed_direction": [float(x) for x in feed_direction]}
 
-    def apply(self, model: ModelState, params) -> ModelState:
-        """``model`` with the damper of its own case's cut (the damper depends on depth and speed)."""
+    def element_specs(self, model: ModelState, params) -> tuple:
+        """The ``tip_damper`` of ``model``'s own cut (the damper depends on depth and speed)."""
         from robolobes.cases.spec import ElementSpec
 
-        p = check_params(self, params)["ksp_l2_n_per_m"]
         c = model.case
-        t = self.element_table(p, c.tool, c.cut, c.cut.feed_direction)
-        return model.with_element(ElementSpec(type=t.pop("type"), params=t))
+        t = self.element_table(float(params["ksp_l2_n_per_m"]), c.tool, c.cut, c.cut.feed_direction)
+        return (ElementSpec(type=t.pop("type"), params=t),)
 
     def flank_m(self, ksp_l2_n_per_m: float) -> tuple[float, float]:
         """Flank contact ``L`` (m) the value needs at ``Ksp`` = the upper and the lower end of its range."""

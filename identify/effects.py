@@ -22,8 +22,9 @@ An effect declares
   ``"force_stats"``, ``"stability"``) and, for each, its detection threshold in words;
 * ``signatures``: the residual signatures it explains (:data:`SIGNATURES`), used by diagnosis to
   rank candidates before fitting;
-* ``apply(model, params)``: the :class:`ModelState` with the effect added;
-* ``table(params)``: its TOML table (for ``"element"`` and ``"cutting_law"`` effects).
+* ``apply(model, params)``: the :class:`ModelState` with the effect added; an ``"element"`` effect
+  adds ``element_specs(model, params)``, its elements with their SI values for that model;
+* ``table(params)``: the effect's own TOML table (its name and parameters, read back by ``from_table``).
 
 Per-kind pipelines (``identify/frf.py``, ``identify/forces.py``) add what they need to evaluate an
 effect fast (e.g. a perturbation of the linearized M, C, K); the contract here is what every
@@ -187,14 +188,22 @@ class Effect:
         """``model`` with the effect added. Default: an element (``table``) or a chain stage."""
         params = check_params(self, params)
         if self.stage == "element":
-            t = self.table(params)
-            return model.with_element(ElementSpec(type=t.pop("type"), params=t))
+            for spec in self.element_specs(model, params):
+                model = model.with_element(spec)
+            return model
         if self.stage == "chain":
             return model.with_chain(self.name, params)
         raise NotImplementedError(f"effect {self.name}: cutting-law effects implement apply()")
 
+    def element_specs(self, model: ModelState, params: Mapping[str, float]) -> tuple[ElementSpec, ...]:
+        """The elements that add the effect with ``params`` (checked) to ``model`` (an element effect's
+        ``[[elements]]`` tables; their SI values may depend on the model, e.g. a mass or a joint
+        stiffness). Default: one element of this effect's name with the parameters as its keys."""
+        return (ElementSpec(type=self.name, params={k: float(v) for k, v in params.items()}),)
+
     def table(self, params: Mapping[str, float]) -> dict:
-        """The TOML table (with ``type``) that adds the effect to a case/robot file."""
+        """The effect's own TOML table: ``type`` (this effect's name) and its parameters, read back
+        by :meth:`from_table`. The elements it adds to a model are :meth:`element_specs`."""
         return {"type": self.name, **{k: float(v) for k, v in params.items()}}
 
     def from_table(self, table: Mapping[str, Any]) -> dict:

@@ -47,7 +47,7 @@ from robolobes.linearize.linear import _state_matrix
 from .effects import ModelState, effects_for
 from .result import Identification
 from .selection import Trial, heldout_error
-from .structural import PoseMatrices, ServoEffect, StructuralEffect, pose_matrices
+from .structural import PoseMatrices, ServoEffect, StructuralEffect, TcpModeEffect, pose_matrices
 
 __all__ = ["identify_frf", "PoseData", "prepare", "predict", "line_noise", "METRIC", "SHORTLIST"]
 
@@ -528,10 +528,10 @@ class _Trials:
         ev = {"signatures": list(effect.signatures), "training_chi2": chi2,
               "per_pose_heldout_error": {pd.name: heldout_error(r[k], m[k]) for pd, k in
                                          zip(self.poses, _splits(self.poses))}}
-        if effect.name == "tcp_mode":
+        if isinstance(effect, TcpModeEffect):
             ev["extra_peak_hz"] = diag["extra_peak_hz"]
             ev["extra_peak_in_every_pose"] = diag["extra_peak_in_every_pose"]
-            ev["direction_tcp"] = effect.table(params[-1][1])["direction"]
+            ev["direction_tcp"] = effect.direction_tcp(params[-1][1])
         if isinstance(effect, ServoEffect):   # the element's SI values (what the model TOML gets)
             J, kp, kd = effect.physical(float(self.poses[0].pm.joint_k[effect.joint - 1]), params[-1][1])
             ev["servo_drive"] = {"rotor_inertia_kg_m2": J, "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": kd}

@@ -30,6 +30,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robolobes.cases.spec import ElementSpec
+
 from .effects import Effect, ModelState, Parameter, register
 
 __all__ = ["PoseMatrices", "StructuralEffect", "TcpModeEffect", "JointCorrectionEffect",
@@ -176,11 +178,17 @@ class TcpModeEffect(StructuralEffect):
     # its stiffness k is in series with the robot: 1/k more compliance on the quasi-static lines
     signatures = ("extra_peak", "static_offset")
 
-    def table(self, params):
-        """The ``tcp_mode`` table: built by :meth:`linearize.tool.TcpOscillator.one_axis`."""
-        d = _direction(params["polar_rad"], params["azimuth_rad"])
-        return {"type": "tcp_mode", "freq_hz": float(params["freq_hz"]), "damping_ratio": float(params["damping_ratio"]),
-                "stiffness_n_per_m": float(params["stiffness_n_per_m"]), "direction": [float(x) for x in d]}
+    def element_specs(self, model, params):
+        """The ``tcp_mode`` element (built by :meth:`linearize.tool.TcpOscillator.one_axis`)."""
+        return (ElementSpec("tcp_mode", {"freq_hz": float(params["freq_hz"]),
+                                         "damping_ratio": float(params["damping_ratio"]),
+                                         "stiffness_n_per_m": float(params["stiffness_n_per_m"]),
+                                         "direction": self.direction_tcp(params)}),)
+
+    @staticmethod
+    def direction_tcp(params) -> list[float]:
+        """The mode's unit direction (3,) in the TCP frame, from ``polar_rad`` and ``azimuth_rad``."""
+        return [float(x) for x in _direction(params["polar_rad"], params["azimuth_rad"])]
 
     def perturb(self, pm, params):
         k = params["stiffness_n_per_m"]
@@ -244,9 +252,9 @@ class JointCorrectionEffect(StructuralEffect):
         # of the least squares from the neutral start
         return [{"stiffness_scale": s, "damping_scale": 1.0} for s in (0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0)]
 
-    def table(self, params):
-        return {"type": "joint_correction", "joint": self.joint, "stiffness_scale": float(params["stiffness_scale"]),
-                "damping_scale": float(params["damping_scale"])}
+    def element_specs(self, model, params):
+        return (ElementSpec("joint_correction", {"joint": self.joint, "stiffness_scale": float(params["stiffness_scale"]),
+                                                 "damping_scale": float(params["damping_scale"])}),)
 
     def perturb(self, pm, params):
         i = pm.motion_dofs[self.joint - 1]
@@ -289,19 +297,10 @@ class PayloadMassEffect(StructuralEffect):
                           "mass off by >~8 %"}
     signatures = ("uniform_shift",)
 
-    def __init__(self, payload_mass_kg: float | None = None):
-        self.payload_mass_kg = payload_mass_kg
-
-    def table(self, params):
-        raise NotImplementedError("payload_mass needs the payload's mass: use table_for(model, params)")
-
-    def apply(self, model, params):
-        from robolobes.cases.spec import ElementSpec
-        from .effects import check_params
-
-        params = check_params(self, params)
+    def element_specs(self, model, params):
+        """A point mass ``(mass_scale - 1) m_payload`` at the payload's centre of mass (``payload_mass``)."""
         dm = (params["mass_scale"] - 1) * model.case.robot.payload.mass_kg
-        return model.with_element(ElementSpec("payload_mass", {"delta_mass_kg": float(dm)}))
+        return (ElementSpec("payload_mass", {"delta_mass_kg": float(dm)}),)
 
     def guesses(self, diagnosis):
         return [{"mass_scale": s} for s in (0.7, 0.85, 1.0, 1.2, 1.4)]
@@ -373,17 +372,11 @@ class ServoEffect(StructuralEffect):
         kd = 2 * params["rotor_damping_ratio"] * math.sqrt((k + kp) * J)
         return J, kp, kd
 
-    def table(self, params):
-        raise NotImplementedError("servo needs the joint stiffness: use apply(model, params)")
-
-    def apply(self, model, params):
-        from robolobes.cases.spec import ElementSpec
-        from .effects import check_params
-
-        params = check_params(self, params)
+    def element_specs(self, model, params):
+        """The ``servo_drive`` element in SI, from the parameters and the model's joint stiffness."""
         J, kp, kd = self.physical(model.case.robot.joints[self.joint - 1].stiffness_n_m_per_rad, params)
-        return model.with_element(ElementSpec("servo_drive", {"joint": self.joint, "rotor_inertia_kg_m2": J,
-                                                              "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": kd}))
+        return (ElementSpec("servo_drive", {"joint": self.joint, "rotor_inertia_kg_m2": J,
+                                            "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": kd}),)
 
     def applicable(self, model: ModelState) -> bool:
         return self.joint <= model.case.robot.n_joints
@@ -462,22 +455,18 @@ class MountZEffect(StructuralEffect):
         specs = tuple(model.elements) + tuple(model.case.robot.elements or ())
         return not any(e.type == "mount_compliance" for e in specs)
 
-    def table(self, params):
-        raise NotImplementedError("mount_z needs the robot's mass: use apply(model, params)")
 
     @staticmethod
     def damping(params, mass_kg: float) -> float:
         """``c = 2 zeta sqrt(k M)``, N s/m, for the mass ``mass_kg`` on the mount."""
         return 2 * params["damping_ratio"] * math.sqrt(params["stiffness_n_per_m"] * mass_kg)
 
-    def apply(self, model, params):
-        from robolobes.cases.spec import ElementSpec
-        from .effects import check_params
-
-        params = check_params(self, params)
+    def element_specs(self, model, params):
+        """The ``mount_compliance`` element (z only): ``kz`` and ``cz = 2 zeta sqrt(kz M)``, ``M`` the
+        mass of ``model``'s robot on the mount."""
         c = self.damping(params, _state_mass_kg(model))
-        return model.with_element(ElementSpec("mount_compliance", {"kz_n_per_m": float(params["stiffness_n_per_m"]),
-                                                                   "cz_n_s_per_m": float(c)}))
+        return (ElementSpec("mount_compliance", {"kz_n_per_m": float(params["stiffness_n_per_m"]),
+                                                 "cz_n_s_per_m": float(c)}),)
 
     def guesses(self, diagnosis):
         """Starts at the residual's peaks (``k = M (2 pi f)^2``, ``M`` the mass on the mount,

@@ -39,6 +39,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from robolobes.cases.spec import ElementSpec
+
 from .effects import Parameter, register
 from .structural import StructuralEffect
 
@@ -72,11 +74,13 @@ class TcpModeXYEffect(StructuralEffect):
         m = params["mass_kg"]
         return m * (2 * math.pi * params["freq1_hz"]) ** 2, m * (2 * math.pi * params["freq2_hz"]) ** 2
 
-    def table(self, params):
+    def element_specs(self, model, params):
+        """The ``tcp_oscillator`` element: the mass, the two principal stiffnesses (N/m), their angle
+        and damping ratios."""
         k1, k2 = self.stiffnesses(params)
-        return {"type": "tcp_oscillator", "mass_kg": float(params["mass_kg"]), "k1_n_per_m": float(k1),
-                "k2_n_per_m": float(k2), "angle_rad": float(params["angle_rad"]), "zeta1": float(params["zeta1"]),
-                "zeta2": float(params["zeta2"])}
+        return (ElementSpec("tcp_oscillator", {"mass_kg": float(params["mass_kg"]), "k1_n_per_m": float(k1),
+                                               "k2_n_per_m": float(k2), "angle_rad": float(params["angle_rad"]),
+                                               "zeta1": float(params["zeta1"]), "zeta2": float(params["zeta2"])}),)
 
     def perturb(self, pm, params):
         m = params["mass_kg"]

@@ -214,3 +214,45 @@ def test_process_damping_table_reads_back(tmp_path):
     # tol 1e-9 relative: the TOML holds repr() floats; quadrature of a trigonometric integrand is exact to 1e-12
     np.testing.assert_allclose([damper.params[k] for k in ("cxx_n_s_per_m", "cyy_n_s_per_m", "cxy_n_s_per_m")],
                                [want[0, 0], want[1, 1], want[0, 1]], rtol=1e-9)
+
+
+def test_every_element_effect_gives_its_elements_for_a_model():
+    # Every registered element effect adds its elements through element_specs(model, params) (no
+    # effect raises for want of the model). Values against NOTES.md, not the code: the payload is
+    # 44.4 kg (Tab. 3), the mass on the mount 226 + 364 + 256 + 99 + 41 + 14 + 0.6 + 44.4 = 1045 kg
+    # (Tab. 4); a servo's rotor mode sqrt((k + kp) / J) / 2 pi is its rotor_freq_hz, k the axis's
+    # stiffness from the case file; joint damping scales the 6 axes. rtol 1e-9: sums of table values.
+    import robolobes.identify.cutting_effects
+    import robolobes.identify.structural
+    import robolobes.identify.tool_effect  # noqa: F401 -- registers the effects
+    from robolobes.cases import load_case
+    from robolobes.identify.effects import REGISTRY, ModelState
+    from robolobes.linearize.extra_elements import element_from_spec
+
+    case = load_case("tx200-aluminium")
+    state = ModelState(case=case, variant="basic")
+    checked = []
+    for name, eff in REGISTRY.items():
+        if eff.stage != "element" or not eff.applicable(state):
+            continue
+        params = {p.name: p.neutral if p.neutral is not None else math.sqrt(p.lower * p.upper)
+                  if p.lower > 0 else 0.5 * (p.lower + p.upper) for p in eff.parameters}
+        specs = eff.element_specs(state, params)
+        for spec in specs:
+            element_from_spec(spec)
+        assert eff.apply(state, params).elements == specs
+        checked.append(name)
+        got = specs[0].params
+        if name == "payload_mass":
+            np.testing.assert_allclose(got["delta_mass_kg"], (params["mass_scale"] - 1) * 44.4, rtol=1e-9)
+        if name == "mount_z":
+            want = 2 * params["damping_ratio"] * math.sqrt(params["stiffness_n_per_m"] * 1045.0)
+            np.testing.assert_allclose(got["cz_n_s_per_m"], want, rtol=1e-9)
+        if name.startswith("servo_a"):
+            k = case.robot.joints[int(name[-1]) - 1].stiffness_n_m_per_rad
+            w = math.sqrt((k + got["kp_n_m_per_rad"]) / got["rotor_inertia_kg_m2"])
+            np.testing.assert_allclose(w / (2 * math.pi), params["rotor_freq_hz"], rtol=1e-9)
+        if name == "joint_damping":
+            assert [s.params["joint"] for s in specs] == [1, 2, 3, 4, 5, 6]
+    assert {"payload_mass", "mount_z", "tcp_mode", "tcp_mode_xy", "servo_a2", "joint_correction_a2",
+            "joint_damping", "process_damping", "backlash"} <= set(checked)

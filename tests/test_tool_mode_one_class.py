@@ -173,17 +173,18 @@ def test_tcp_mode_and_tcp_oscillator_tables_build_the_same_class():
 def test_identify_effects_and_tool_files_give_the_one_class(tmp_path):
     import robolobes.identify.structural
     import robolobes.identify.tool_effect  # noqa: F401 -- registers tcp_mode_xy (structural: tcp_mode)
-    from robolobes.identify.effects import REGISTRY
+    from robolobes.cases import load_case
+    from robolobes.identify.effects import REGISTRY, ModelState
     from robolobes.lobes.tooltip import tool_from_files
 
-    one = REGISTRY["tcp_mode"].table({"freq_hz": 230.0, "damping_ratio": 0.025, "stiffness_n_per_m": 6.3e5,
-                                      "polar_rad": 1.0, "azimuth_rad": 0.4})
-    xy = REGISTRY["tcp_mode_xy"].table({"mass_kg": 0.3, "freq1_hz": 230.0, "freq2_hz": 250.0, "angle_rad": 0.2,
-                                        "zeta1": 0.02, "zeta2": 0.03})
-    assert one["type"] == "tcp_mode" and xy["type"] == "tcp_oscillator"
-    for t in (one, xy):
-        t = dict(t)
-        assert type(element_from_spec(ElementSpec(t.pop("type"), t))) is TcpOscillator
+    state = ModelState(case=load_case("tx200-aluminium"), variant="basic")
+    (one,) = REGISTRY["tcp_mode"].element_specs(state, {"freq_hz": 230.0, "damping_ratio": 0.025,
+                                                    "stiffness_n_per_m": 6.3e5, "polar_rad": 1.0, "azimuth_rad": 0.4})
+    (xy,) = REGISTRY["tcp_mode_xy"].element_specs(state, {"mass_kg": 0.3, "freq1_hz": 230.0, "freq2_hz": 250.0,
+                                                      "angle_rad": 0.2, "zeta1": 0.02, "zeta2": 0.03})
+    assert one.type == "tcp_mode" and xy.type == "tcp_oscillator"
+    for spec in (one, xy):
+        assert type(element_from_spec(spec)) is TcpOscillator
     p = tmp_path / "tool.toml"
     p.write_text("[[oscillators]]\nmass_kg = 0.05\nk1_n_per_m = 1.6e6\nk2_n_per_m = inf\nzeta1 = 0.02\n"
                  "direction = [0.0, 0.6, 0.8]\n")

@@ -112,8 +112,10 @@ def test_identify_perturbation_equals_the_element(tx200_robot):
 
     Hw = H(want)
     assert np.abs(H(got) - Hw).max() <= 1e-9 * np.abs(Hw).max()
-    assert eff.table(params)["type"] == "tcp_oscillator"
-    assert_allclose([eff.table(params)["k1_n_per_m"], eff.table(params)["k2_n_per_m"]],
+    from robolobes.identify.effects import ModelState
+    (spec,) = eff.element_specs(ModelState(case=CASE, variant="basic"), params)
+    assert spec.type == "tcp_oscillator"
+    assert_allclose([spec.params["k1_n_per_m"], spec.params["k2_n_per_m"]],
                     [osc.k1_n_per_m, osc.k2_n_per_m], rtol=1e-12)
 
 
