@@ -34,12 +34,19 @@ def _stage(out: Path) -> Path:
     return out.parent / f".{out.name}.robolobes-partial"
 
 
-def _wait_for(proc, path: Path, limit_s=300.0):
+def _seen(proc, path: Path, limit_s=300.0) -> bool:
+    """Poll every 5 ms until ``path`` exists (True) or ``proc`` has ended (False); fail after ``limit_s``."""
     t0 = time.monotonic()
     while not path.exists():
-        assert proc.poll() is None, proc.communicate()
+        if proc.poll() is not None:
+            return False
         assert time.monotonic() - t0 < limit_s, f"{path} did not appear"
         time.sleep(0.005)
+    return True
+
+
+def _wait_for(proc, path: Path, limit_s=300.0):
+    assert _seen(proc, path, limit_s), proc.communicate()
 
 
 def _children(pid: int) -> list[int]:
@@ -197,13 +204,7 @@ def _start_caught_before_swap(tmp_path: Path, attempts: int = 5):
     for _ in range(attempts):
         out = tmp_path / "m"
         proc = _start(out, ["--over", "pass", "--n", "2", "--n-rpm", "1", "--quiet", "--scheduler", "serial"])
-        t0 = time.monotonic()
-        while not (_stage(out) / "map.json").exists():
-            if proc.poll() is not None:
-                break
-            assert time.monotonic() - t0 < 600, "map.json did not appear in the staging directory"
-            time.sleep(0.005)
-        else:
+        if _seen(proc, _stage(out) / "map.json", limit_s=600):
             return out, proc
         rc, _, err = _finish(proc)
         assert rc == 0 and not err.strip(), (rc, err)
