@@ -12,6 +12,9 @@ Tolerances asserted (and stated in docs/guide/identify-answers.md):
 * the unexplained margin's false-alarm rate on noise-only lines stays below alpha (binomial bound);
 * on a null FRF set from the generator: nothing identified, the residual not unexplained, the noise
   floor within 20 % of the generating model's error;
+* the noise floor's estimator (identify.frf.pair_noise) within 20 % of the generating model's error
+  on arm_bend, base_z, highpass and null seeds 1-5, with the residual of a model that identified
+  nothing (the requirement's 20 %);
 * slow, long: 5 draws of joint + servo, of the tool-mode pairs, of the mount (alone and with a
   joint) and of each effect outside the library (the DAQ's high-pass, the arm's lateral bending),
   at least 4 right; 20 nulls, at least 19 clean (tests/generators/draws.py states what
@@ -23,12 +26,12 @@ import math
 
 import numpy as np
 import pytest
-from generators.draws import run_case
-from generators.tx200 import POSE_OFFSETS_DEG, POSE_TAB7_DEG, TX200, Effects, write_frf_set
+from generators.draws import N_LINES, N_POSES, draw, run_case
+from generators.tx200 import PAIRS, POSE_OFFSETS_DEG, POSE_TAB7_DEG, TX200, Effects, write_frf_set
 from robolobes.identify.effects import Parameter
 from robolobes.identify.evidence import (WHITENED_TOL, below_threshold, credibility, determined, margin, whitened_margin,
                                          whitened_ratio)
-from robolobes.identify.frf import line_noise
+from robolobes.identify.frf import line_noise, pair_noise
 from robolobes.identify.selection import Trial, stepwise_select, z_threshold
 from scipy.stats import binom, norm
 
@@ -285,6 +288,38 @@ def test_null_set_from_the_generator_is_clean(tmp_path):
     assert r["floor_ok"], (r["noise_floor"], r["noise_error"])
 
 
+def _floor_over_true(case: str, seed: int, tmp, estimate) -> float:
+    """The noise floor over the generating model's noise error on draw ``seed`` of ``case``, with the
+    residual of a model that identified nothing: the generator with no effect (equal to robolobes' own
+    model to 1e-9, the first test) minus the measured set; ``estimate(H, r)`` gives each pair's noise."""
+    effects, _, noise = draw(case, seed)
+    f = np.linspace(2.0, 300.0, N_LINES)
+    t = write_frf_set(tmp / f"{case}_{seed}", effects, n_poses=N_POSES, f_hz=f, rel_noise=noise, seed=seed)
+    base, sig, H = TX200(Effects()), [], []
+    for k, hm in enumerate(t["H_meas"]):
+        h0 = base.frf(POSE_TAB7_DEG + POSE_OFFSETS_DEG[k], f)
+        for (o, i), h in zip(PAIRS, hm):
+            sig.append(estimate(h, h0[o, i] - h))
+            H.append(h)
+    floor = math.sqrt(np.mean(np.concatenate(sig) ** 2) / np.mean(np.abs(np.concatenate(H)) ** 2))
+    return floor / t["noise_error"]
+
+
+def test_noise_floor_within_20_percent_with_an_unexplained_residual(tmp_path):
+    """The floor's estimator (identify.frf.pair_noise, one relative-plus-additive noise model per pair)
+    was chosen on noise-only sets (seeds 100-111) and on seeds 6-10 of arm_bend, base_z and highpass;
+    here it is checked on seeds 1-5 of each and on nulls 1-5: within the required 20 % of the generating
+    model's noise error in every set. The running median over 41 lines (the verdict's line_noise) gave
+    1.39 and 1.52 on arm_bend seeds 2 and 3: the residual of the shifted robot poles (13-17 and 23-29 Hz)
+    fills 13-21 of the 41 lines of the windows there."""
+    got = {(c, s): _floor_over_true(c, s, tmp_path, pair_noise)
+           for c in ("arm_bend", "base_z", "highpass", "null") for s in range(1, 6)}
+    assert all(abs(v - 1) <= 0.2 for v in got.values()), {k: round(v, 3) for k, v in got.items()}
+    # the sets are hard for the local estimator (it can fail here): arm_bend seeds 2 and 3 miss by > 20 %
+    (tmp_path / "local").mkdir()
+    assert all(_floor_over_true("arm_bend", s, tmp_path / "local", line_noise) > 1.2 for s in (2, 3))
+
+
 @pytest.mark.slow
 @pytest.mark.long
 @pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "base_z+joint", "highpass", "arm_bend",
@@ -306,10 +341,9 @@ def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
 # draw sets whose noise floor is known to miss 20 % of the true noise error, with the reason
 # (measured, in docs/guide/identify-answers.md): their answers are still asserted; a floor that misses
 # is reported as xfail with its numbers, a floor that holds passes
-FLOOR_KNOWN_OFF = {
-    "arm_bend": "a whole unexplained mode (35-55 Hz) stays in the residual, 4.3-14x the floor, and the line "
-                "noise estimate of that residual takes part of it for noise: floor / true 1.04-1.50, 3 of 5 within 20 %",
-}
+FLOOR_KNOWN_OFF: dict[str, str] = {}
+# (arm_bend was here with floor / true 1.04-1.50, 3 of 5 within 20 %, until the floor's estimator became
+# identify.frf.pair_noise: 1.083, 1.058, 1.041, 0.909, 0.933 on seeds 1-5 through the pipeline)
 
 
 @pytest.mark.slow
