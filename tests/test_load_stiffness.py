@@ -146,3 +146,37 @@ def test_time_domain_rings_at_the_linearized_frequency():
     assert tc.size > 20
     f_sim = 1.0 / (2.0 * np.polyfit(np.arange(tc.size), tc, 1)[0])
     assert f_sim == pytest.approx(f_ref, rel=0.01), (f_sim, f_ref)
+
+
+def test_generator_load_k_equals_the_element():
+    # the independent generator (its own pinocchio model and gravity torque) against robolobes' element
+    # at the six poses of the identification sets: 1e-9 of the largest |H| (both compute the same
+    # linear model; only rounding separates them)
+    from generators.tx200 import POSE_OFFSETS_DEG, POSE_TAB7_DEG, TX200, Effects
+
+    f = np.linspace(2.0, 300.0, 300)
+    gen = TX200(Effects(load_k=(3, 1.5, 1000.0)))
+    own = build_model(SPEC, "basic", extra_elements=(LoadStiffness(3, 1.5, 1000.0),))
+    for k in range(len(POSE_OFFSETS_DEG)):
+        q = POSE_TAB7_DEG + POSE_OFFSETS_DEG[k]
+        Hg, Hr = gen.frf(q, f), linearize(own, np.radians(q)).frf(2 * math.pi * f).H
+        assert np.abs(Hg - Hr).max() <= 1e-9 * np.abs(Hr).max(), k
+
+
+@pytest.mark.parametrize("variant", ["basic", "gravity"])
+def test_effect_perturbation_equals_the_element(variant):
+    # identify's fast perturbation (K[3, 3] += k3 kappa |tau|) against the element's linearization
+    # (same kappa as stiffening at T = 1 kN m), at a set's pose: M, C, K to 1e-9 of the largest entry
+    from robolobes.identify.effects import REGISTRY
+    from robolobes.identify.structural import LoadKEffect, pose_matrices
+
+    theta = np.radians([-11.71 + 12, 20.78 + 6, -212.14 - 4 + 360, 82.76 + 5, 60.80 + 8, -166.96 - 10])
+    pm = pose_matrices(build_model(SPEC, variant), theta)
+    effect = REGISTRY["load_k_a3"]
+    assert isinstance(effect, LoadKEffect)
+    got = effect.perturb(pm, {"stiffening_per_knm": 1.2})
+    ref = pose_matrices(build_model(SPEC, variant, extra_elements=(LoadStiffness(3, 1.2, 1000.0),)), theta)
+    for a, b in ((got.K, ref.K), (got.M, ref.M), (got.C, ref.C)):
+        assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
+    assert pm.gear_torque_n_m is not None
+    assert abs(pm.gear_torque_n_m[2]) == pytest.approx(63.9, abs=0.1)   # generator's pose 1: 63.9 N m
