@@ -18,7 +18,9 @@ costs a few microseconds instead of rebuilding and re-linearizing the pinocchio 
   centre of mass (exact for the basic variant; with gravity the small change of the gravity
   stiffness is neglected);
 * ``load_k_aN``: ``K[i, i] += k_N kappa |tau_N|``, ``tau_N`` the gear's static gravity torque at the
-  pose (``PoseMatrices.gear_torque_n_m``; exact below the element's reference torque);
+  pose (``PoseMatrices.gear_torque_n_m``; exact below the element's reference torque); a
+  ``payload_mass`` correction adds its weight to the gear torques and moves that stiffness with
+  them, in either order (exact);
 * ``mount_z``: one coordinate more, the base's vertical translation, coupled to the others through
   the robot's momentum Jacobian (:class:`MountZEffect`).
 
@@ -62,6 +64,9 @@ class PoseMatrices:
     gear_torque_n_m : array (n_joints,) or None
         The static gravity torque on each motion axis at the pose, N m (g = 9.81 m/s^2 even when the
         variant's dynamics omit gravity: what the gears carry, :class:`LoadKEffect`).
+    load_slope_per_knm : array (n_joints,) or None
+        The load laws already applied (:class:`LoadKEffect`, per kN m): a payload correction applied
+        after them updates their stiffness with the torque it adds.
     """
 
     M: np.ndarray
@@ -80,6 +85,7 @@ class PoseMatrices:
     momentum_jacobian: np.ndarray | None = None
     mount_mass_kg: float = 0.0
     gear_torque_n_m: np.ndarray | None = None
+    load_slope_per_knm: np.ndarray | None = None
 
 
 def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
@@ -120,7 +126,7 @@ def _gear_torque(robot, q: np.ndarray) -> np.ndarray:
     import pinocchio as pin
 
     m = pin.Model(robot.model)
-    m.gravity = pin.Motion(np.array([0.0, 0.0, -9.81]), np.zeros(3))
+    m.gravity = pin.Motion(np.array([0.0, 0.0, -GRAVITY_M_PER_S2]), np.zeros(3))
     return np.asarray(pin.computeGeneralizedGravity(m, m.createData(), q))[np.asarray(robot.motion_dofs)]
 
 
@@ -132,6 +138,30 @@ def _mounted_mass_kg(robot, moving_kg: float) -> float:
 
     on_mount = any(isinstance(e, MountCompliance) and e.axes for e in robot.elements)
     return moving_kg if on_mount else moving_kg + float(base_inertia(robot.spec).mass)
+
+
+GRAVITY_M_PER_S2 = 9.81     # the field the gears carry (LoadKEffect, PayloadMassEffect)
+#: Reference torque the load effect writes into its ``load_stiffness`` table, N m: the stiffening
+#: ``kappa`` per kN m is the element's ``stiffening`` at this torque (no pose of a hammer test on the
+#: TX200 loads axes 3-5 beyond 0.3 kN m, so the law is linear over the data).
+LOAD_K_REFERENCE_N_M = 1000.0
+
+
+def _load_fraction(tau_n_m: np.ndarray) -> np.ndarray:
+    """``min(|tau| / T, 1)`` with ``T = LOAD_K_REFERENCE_N_M`` (the element's law), per axis."""
+    return np.minimum(np.abs(tau_n_m) / LOAD_K_REFERENCE_N_M, 1.0)
+
+
+def _reloaded(pm: PoseMatrices, tau_n_m: np.ndarray) -> PoseMatrices:
+    """``pm`` with the gear torques ``tau_n_m`` (n_joints,), N m: the stiffness of every load law
+    already applied moves with them (``k0 kappa`` times the change of the load fraction)."""
+    out = replace(pm, gear_torque_n_m=tau_n_m)
+    if pm.load_slope_per_knm is None or pm.gear_torque_n_m is None:
+        return out
+    K = pm.K.copy()
+    dk = pm.joint_k * pm.load_slope_per_knm * (_load_fraction(tau_n_m) - _load_fraction(pm.gear_torque_n_m))
+    K[pm.motion_dofs, pm.motion_dofs] += dk
+    return replace(out, K=K)
 
 
 def _bordered(A: np.ndarray, corner: float) -> np.ndarray:
@@ -326,6 +356,8 @@ class PayloadMassEffect(StructuralEffect):
     def perturb(self, pm, params):
         dm = (params["mass_scale"] - 1) * pm.payload_mass_kg
         out = replace(pm, M=pm.M + dm * pm.J_payload.T @ pm.J_payload, mount_mass_kg=pm.mount_mass_kg + dm)
+        if pm.gear_torque_n_m is not None:       # its weight on the gears: g += dm g0 J_G,z (motion axes)
+            out = _reloaded(out, pm.gear_torque_n_m + dm * GRAVITY_M_PER_S2 * pm.J_payload[2, pm.motion_dofs])
         if pm.momentum_jacobian is not None:     # the point mass's momentum (a mount sees it)
             n = pm.M.shape[0]
             out = replace(out, momentum_jacobian=_padded(pm.momentum_jacobian, n) + dm * _padded(pm.J_payload, n))
@@ -537,10 +569,6 @@ def _state_mass_kg(model: ModelState) -> float:
 register(MountZEffect())
 
 
-#: Reference torque the effect writes into its ``load_stiffness`` table, N m: the stiffening
-#: ``kappa`` per kN m is the element's ``stiffening`` at this torque (no pose of a hammer test on the
-#: TX200 loads axes 3-5 beyond 0.3 kN m, so the law is linear over the data).
-LOAD_K_REFERENCE_N_M = 1000.0
 # detection thresholds (stiffening per kN m), derived, not tuned: the load law is told apart from a
 # constant stiffness scale (joint_correction, which resolves 10 %) when the stiffness varies by 10 %
 # over the poses, kappa (|tau|max - |tau|min) >= 0.1. On the TX200 sets (Tab. 7 and its five
@@ -593,8 +621,10 @@ class LoadKEffect(StructuralEffect):
             raise ValueError("load_k needs the pose's gear torques (pose_matrices)")
         i, j = pm.motion_dofs[self.joint - 1], self.joint - 1
         K = pm.K.copy()
-        K[i, i] += pm.joint_k[j] * params["stiffening_per_knm"] * min(abs(pm.gear_torque_n_m[j]) / LOAD_K_REFERENCE_N_M, 1.0)
-        return replace(pm, K=K)
+        K[i, i] += pm.joint_k[j] * params["stiffening_per_knm"] * _load_fraction(pm.gear_torque_n_m[j])
+        slopes = np.zeros(len(pm.joint_k)) if pm.load_slope_per_knm is None else pm.load_slope_per_knm.copy()
+        slopes[j] += params["stiffening_per_knm"]
+        return replace(pm, K=K, load_slope_per_knm=slopes)
 
 
 register(LoadKEffect(3, candidate=True))

@@ -180,3 +180,24 @@ def test_effect_perturbation_equals_the_element(variant):
         assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
     assert pm.gear_torque_n_m is not None
     assert abs(pm.gear_torque_n_m[2]) == pytest.approx(63.9, abs=0.1)   # generator's pose 1: 63.9 N m
+
+
+@pytest.mark.parametrize("order", ["load_first", "payload_first"])
+def test_effect_composes_with_a_payload_correction(order):
+    # a heavier payload loads axis 3's gear more: the element (its torque from the model with the
+    # PayloadMass element) against the perturbations applied in either order; K to 1e-9 of its largest
+    # entry (the weight's torque dm g J_G,z is exact; the rest is rounding)
+    from robolobes.identify.effects import REGISTRY
+    from robolobes.identify.structural import LoadKEffect, PayloadMassEffect, pose_matrices
+    from robolobes.linearize.extra_elements import PayloadMass
+
+    theta = np.radians([-11.71 + 12, 20.78 + 6, -212.14 - 4, 82.76 + 5, 60.80 + 8, -166.96 - 10])
+    load, pay = REGISTRY["load_k_a3"], REGISTRY["payload_mass"]
+    assert isinstance(load, LoadKEffect) and isinstance(pay, PayloadMassEffect)
+    pm = pose_matrices(build_model(SPEC, "basic"), theta)
+    lp, pp = {"stiffening_per_knm": 1.5}, {"mass_scale": 1.25}
+    got = pay.perturb(load.perturb(pm, lp), pp) if order == "load_first" else load.perturb(pay.perturb(pm, pp), lp)
+    ref = pose_matrices(build_model(SPEC, "basic", extra_elements=(PayloadMass(0.25 * 44.4),
+                                                                   LoadStiffness(3, 1.5, 1000.0))), theta)
+    assert np.abs(got.K - ref.K).max() <= 1e-9 * np.abs(ref.K).max()
+    assert np.abs(got.M - ref.M).max() <= 1e-9 * np.abs(ref.M).max()
