@@ -47,6 +47,12 @@ build a model with them like any other. In a robot or case TOML they are ``[[ele
     half_width_rad = 7.3e-5
 
     [[elements]]
+    type = "load_stiffness"        # a gear stiffening with the static torque it carries (axis 1..n)
+    joint = 3
+    stiffening = 1.0               # K3 / K1 - 1 of the gear's catalogue curve, 0..2
+    reference_torque_n_m = 1000.0  # torque at which the top stiffness is reached (catalogue T2)
+
+    [[elements]]
     type = "mount_compliance"      # the base on springs and dampers (base frame); omitted axes rigid
     kz_n_per_m = 1.5e8
     cz_n_s_per_m = 4.0e4
@@ -81,7 +87,7 @@ from .element import Element, ModelBuilder
 from .tool import TcpOscillator
 
 __all__ = ["TcpOscillator", "TcpMode", "JointCorrection", "OrthogonalCorrection", "PayloadMass", "ServoDrive", "GearBacklash", "MountCompliance",
-           "ELEMENT_TYPES", "element_from_spec", "element_table", "spec_table"]
+           "LoadStiffness", "ELEMENT_TYPES", "element_from_spec", "element_table", "spec_table"]
 
 
 def _unit(v, what: str) -> np.ndarray:
@@ -401,11 +407,109 @@ class MountCompliance(Element):
         return diagonal_tangent(robot.nv, ix.iv, ix.dk, ix.dd)
 
 
+LOAD_STIFFENING_MAX = 2.0     # catalogue K3 / K1 <= 3 (harmonic drives 1.5-3, cycloidal reducers 2-3)
+
+
+@dataclass(frozen=True)
+class _Loaded:
+    """Indices of :class:`LoadStiffness`: the axis's dof ``iv``, its table stiffness ``k0`` (N m/rad)
+    and a copy of the robot's pinocchio model with gravity on (the gear load is computed with it)."""
+
+    iv: int
+    k0: float
+    gravity_model: Any
+
+
+@dataclass(frozen=True)
+class LoadStiffness(Element):
+    """Motion axis ``joint`` (1-based) whose gear stiffens with the static torque it transmits.
+
+    Physics. Gear trains (harmonic drives, cycloidal reducers) are softest near zero torque and stiffen
+    as the transmitted torque rises; catalogues give a three-segment torque-windup curve with tangent
+    stiffness ``K1 < K2 < K3`` (``K3 / K1`` about 1.5-3). Here the tangent stiffness rises linearly
+    with the static torque ``tau`` up to the reference torque ``T`` (the catalogue's T2) and stays at the
+    top value beyond it::
+
+        k(tau) = k0 (1 + c min(|tau| / T, 1)),   0 <= c <= 2 (K3 / K1 <= 3)
+
+    ``k0`` the joint table's stiffness (the gear unloaded). ``tau`` is the static gravity torque the
+    gear carries at the pose, ``g_j(q)`` of pinocchio's generalized gravity with the field
+    ``g_m_per_s2`` (on even when the variant's dynamics omit gravity: a robot in a hammer test stands
+    in it). Which gears carry it: a gravity compensation by the drive (axes 3 and 5 of the TX200, the
+    motor's feed-forward torque) passes through the gear, so that gear carries ``g_j``; a balancer
+    spring in parallel with the gear (axis 2 of the TX200, the preloaded spring in its arm) carries
+    the load beside it, the gear only the unknown remainder; a vertical axis (axis 1) carries none.
+
+    Force: ``-(k(q) - k0) (q_j - theta_j)``; tangent ``-(k - k0)`` on the axis plus
+    ``-(q_j - theta_j) dk/dq`` (zero where the spring is at rest, e.g. a compensated axis).
+
+    Parameters
+    ----------
+    joint : int, 1..n
+    stiffening : float, 0..2      ``c``: top stiffness over unloaded minus 1
+    reference_torque_n_m : float > 0      ``T``, N m
+    g_m_per_s2 : float > 0        gravity field for the gear load, m/s^2
+    """
+
+    joint: int
+    stiffening: float
+    reference_torque_n_m: float
+    g_m_per_s2: float = 9.81
+    name: str = "load stiffness"
+
+    def __post_init__(self):
+        if isinstance(self.joint, bool) or not isinstance(self.joint, int) or self.joint < 1:
+            raise BadInput(f"load_stiffness joint must be an axis number 1, 2, ..., got {self.joint!r}")
+        c = self.stiffening
+        if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c <= LOAD_STIFFENING_MAX:
+            raise BadInput(f"load_stiffness stiffening must be a number in [0, {LOAD_STIFFENING_MAX:g}] "
+                           f"(catalogue K3 / K1 - 1), got {c!r}")
+        _positive("load_stiffness reference_torque_n_m", self.reference_torque_n_m)
+        _positive("load_stiffness g_m_per_s2", self.g_m_per_s2)
+
+    def bind(self, robot, built=None):
+        n = robot.spec.n_joints
+        if self.joint > n:
+            raise BadInput(f"load_stiffness joint = {self.joint}: the robot has axes 1..{n}")
+        gm = pin.Model(robot.model)
+        gm.gravity = pin.Motion(np.array([0.0, 0.0, -self.g_m_per_s2]), np.zeros(3))
+        return _Loaded(iv=int(robot.motion_dofs[self.joint - 1]),
+                       k0=float(robot.spec.joints[self.joint - 1].stiffness_n_m_per_rad), gravity_model=gm)
+
+    def gear_torque(self, ix: _Loaded, data, q) -> float:
+        """The static torque the gear carries at link angles ``q`` (nq,), N m: ``g_j(q)``.
+
+        Computed in a workspace of its own (``data`` untouched): a caller may still hold arrays of
+        ``data`` (``pin.rnea`` returns ``data.tau``), which pinocchio's gravity would overwrite."""
+        return float(pin.computeGeneralizedGravity(ix.gravity_model, ix.gravity_model.createData(), q)[ix.iv])
+
+    def added_stiffness(self, tau_n_m: float, k0: float) -> float:
+        """``k(tau) - k0``, N m/rad, for the static gear torque ``tau_n_m`` and the unloaded ``k0``."""
+        return k0 * self.stiffening * min(abs(tau_n_m) / self.reference_torque_n_m, 1.0)
+
+    def force(self, robot, ix, data, q, v, theta):
+        dk = self.added_stiffness(self.gear_torque(ix, data, q), ix.k0)
+        tau = np.zeros(robot.nv)
+        tau[ix.iv] = -dk * (q[ix.iv] - theta[self.joint - 1])
+        return tau
+
+    def tangent(self, robot, ix, data, q, v, theta, engaged=False):
+        own = ix.gravity_model.createData()      # not the caller's data: see gear_torque
+        g = float(pin.computeGeneralizedGravity(ix.gravity_model, own, q)[ix.iv])
+        kq = np.zeros((robot.nv, robot.nv))
+        kq[ix.iv, ix.iv] = -self.added_stiffness(g, ix.k0)
+        if abs(g) < self.reference_torque_n_m:
+            dg = pin.computeGeneralizedGravityDerivatives(ix.gravity_model, own, q)[ix.iv]
+            slope = ix.k0 * self.stiffening * math.copysign(1.0, g) / self.reference_torque_n_m
+            kq[ix.iv] -= (q[ix.iv] - theta[self.joint - 1]) * slope * dg
+        return kq, np.zeros((robot.nv, robot.nv))
+
+
 ELEMENT_TYPES: dict[str, Callable[..., Element]] = {
                  "tcp_mode": TcpOscillator.one_axis, "joint_correction": JointCorrection,
                  "orthogonal_correction": OrthogonalCorrection, "payload_mass": PayloadMass,
                  "servo_drive": ServoDrive, "backlash": GearBacklash, "tcp_oscillator": TcpOscillator,
-                 "mount_compliance": MountCompliance}
+                 "mount_compliance": MountCompliance, "load_stiffness": LoadStiffness}
 
 
 def _keys(cls) -> list[str]:

@@ -3,7 +3,10 @@ rule that says whether an answer is right (stated here once, before any draw was
 
 Cases (``CASES``): ``mode_xy+joint``, ``mode_xy+payload``, ``joint+servo`` (pairs of library effects a
 user meets together; the tool-holder mode is in both radial directions, the usual case),
-``sensor_gain`` (the hammer's calibration: since issue 20 the library's ``channel_scale``),
+``load_k`` and ``load_k+payload`` (axis 3's gear stiffening with its static gravity torque,
+``k = k0 (1 + c min(|tau| / T, 1))``, slope ``kappa = c / T`` drawn in 0.8-1.8 per kN m, twice the
+library's 0.40 detection threshold or more, ``T`` in 600-1500 N m with ``c <= 2``; alone and with the
+payload mass off), ``sensor_gain`` (the hammer's calibration: since issue 20 the library's ``channel_scale``),
 ``base_z`` (a vertical floor compliance under the base, 40-80 Hz for the whole robot: the library's
 ``mount_z`` since 2026-12-06) and ``base_z+joint`` (with a joint's stiffness off), ``highpass`` and
 ``arm_bend`` (effects no library element represents: the DAQ's first-order AC coupling at 0.5-2 Hz
@@ -24,6 +27,12 @@ What "right" means (:func:`judge`):
     stiffness scale covering ``kp / (k + kp)`` (the combination the data determine below the rotor
     resonance);
   - the payload mass x f: ``payload_mass`` with ``mass_scale`` within 2 sigma of f or 3 %;
+  - the load law of axis 3 (``load_k``): ``load_k_a3`` with ``stiffening_per_knm`` within 2 sigma or 3 %
+    of ``kappa = c / T`` (per kN m). Every pose of the set loads axis 3 below 0.3 kN m < ``T``, so the
+    data determine the slope only, never ``c`` and ``T`` apart: the slope is what is judged. Over the
+    set's torque span (18-265 N m) the drawn slopes change the stiffness by 20-44 % from pose to pose,
+    beyond what a constant scale (``joint_correction_a3``) fits, so a joint correction in its place is
+    not right;
   - the floor compliance k (``base_z``): ``mount_z`` with ``stiffness_n_per_m`` within 2 sigma of k or 3 %;
   - the hammer's gain g (``sensor_gain``): ``channel_scale`` with every response channel's scale
     within 3 of its standard deviations (or its 3 % detection threshold, when wider) of ``1 / g`` (the
@@ -52,7 +61,7 @@ from .tx200 import K_JOINT, Effects, write_frf_set
 __all__ = ["CASES", "draw", "run_identify", "judge", "run_case"]
 
 CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "base_z+joint", "highpass",
-         "arm_bend", "null")
+         "arm_bend", "load_k", "load_k+payload", "null")
 OUTSIDE = ("highpass", "arm_bend")     # effects no library element represents
 # detection thresholds of the chain effects (identify/chain_effects.py), typed here: the floor of the
 # interval a chain parameter is judged with
@@ -118,6 +127,15 @@ def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
         s = _either(rng, (0.6, 0.85), (1.2, 1.6))
         truth["axes"] = {j: s}
         return Effects(base_z=base, joint_scale={j: (s, 1.0)}), truth, noise
+    if case in ("load_k", "load_k+payload"):
+        kappa = float(rng.uniform(0.8, 1.8))              # per kN m
+        T = float(rng.uniform(600.0, min(1500.0, 2000.0 / kappa)))
+        truth["load_k"] = kappa
+        pf = 1.0
+        if case == "load_k+payload":
+            pf = _either(rng, (0.75, 0.88), (1.12, 1.3))
+            truth["payload_factor"] = pf
+        return Effects(load_k=(3, kappa * T / 1000.0, T), payload_factor=pf), truth, noise
     if case == "arm_bend":
         return Effects(arm_bend=(float(rng.uniform(1.5e6, 4e6)), float(rng.uniform(300.0, 900.0)))), truth, noise
     if case == "null":
@@ -220,6 +238,13 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
         key = "stiffness_n_per_m"
         if not any(_covers(e["params"][key], e["uncertainty"][key], truth["mount_z"]) for e in hit):
             why.append(f"mount k {truth['mount_z']:.4g} N/m not covered by "
+                       f"{[(e['params'][key], e['uncertainty'][key]) for e in hit]}")
+        used |= {id(e) for e in hit}
+    if "load_k" in truth:
+        hit = [e for e in ident if e["name"] == "load_k_a3"]
+        key = "stiffening_per_knm"
+        if not any(_covers(e["params"][key], e["uncertainty"][key], truth["load_k"]) for e in hit):
+            why.append(f"load_k kappa {truth['load_k']:.3f} per kN m not covered by "
                        f"{[(e['params'][key], e['uncertainty'][key]) for e in hit]}")
         used |= {id(e) for e in hit}
     return verdict(ident, used, res, why)

@@ -27,6 +27,10 @@ Effects (``Effects``, all optional):
   mass stays on the proximal half, the rest of the chain bends): a compliance out of the plane of
   axes 2 and 3, which the basic model has no coordinate for (in no library element: an effect
   outside the library).
+* ``load_k``: (axis, c, T N m): the axis's gear stiffens with the static torque it carries,
+  ``k = k0 (1 + c min(|tau| / T, 1))``, ``tau`` the axis's gravity torque at the pose (this model's
+  ``computeGeneralizedGravity`` with g = 9.81 m/s^2 along -z: the robot stands in gravity even though
+  the dynamics here omit it); the damper is unchanged.
 * ``sensor_gain``: the force sensor's calibration error: measured force = true force x gain, so the
   measured receptance is ``H / gain``.
 * ``channel_gain``: (gx, gy, gz), the response channels' calibration errors (base axes): measured
@@ -110,6 +114,7 @@ class Effects:
     delay_s: float = 0.0
     accel_mass_kg: float = 0.0
     highpass_hz: float = 0.0
+    load_k: tuple | None = None     # (axis 1-6, c, T N m)
 
 
 class TX200:
@@ -187,6 +192,9 @@ class TX200:
         for ax, (sk, sd) in e.joint_scale.items():
             k[ax - 1] *= sk
             d[ax - 1] *= sd
+        if e.load_k is not None:
+            ax, c, T = e.load_k
+            k[ax - 1] *= 1.0 + c * min(abs(self.gravity_torque(q)[ax - 1]) / T, 1.0)
         K = np.zeros((n, n))
         C = np.zeros((n, n))
         j = self.motion
@@ -215,6 +223,13 @@ class TX200:
             K[-1, -1] = kk + kp
             K[i, -1] = K[-1, i] = -kk
         return M, C, K, J
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """Static gravity torque (6,), N m, on the six axes at the configuration ``q`` (nq,), rad:
+        g = 9.81 m/s^2 along -z (a copy of the model with gravity on)."""
+        m = pin.Model(self.model)
+        m.gravity = pin.Motion(np.array([0.0, 0.0, -9.81]), np.zeros(3))
+        return np.asarray(pin.computeGeneralizedGravity(m, m.createData(), q))[self.motion]
 
     def tcp_rotation(self, theta_deg) -> np.ndarray:
         """Rotation (3, 3) of the TCP frame in base axes at motor angles ``theta_deg`` (columns: TCP x, y, z)."""
