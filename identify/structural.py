@@ -601,9 +601,10 @@ class LoadKEffect(StructuralEffect):
     def guesses(self, diagnosis):
         return [{"stiffening_per_knm": s} for s in (0.25, 0.5, 1.0, 1.6)]
 
-    def table(self, params):
-        return {"type": "load_stiffness", "joint": self.joint, "stiffening": float(params["stiffening_per_knm"]),
-                "reference_torque_n_m": LOAD_K_REFERENCE_N_M}
+    def element_specs(self, model, params):
+        """The ``load_stiffness`` element: ``stiffening`` (c) at the reference torque of 1 kN m equals kappa."""
+        return (ElementSpec("load_stiffness", {"joint": self.joint, "stiffening": float(params["stiffening_per_knm"]),
+                                               "reference_torque_n_m": LOAD_K_REFERENCE_N_M}),)
 
     def perturb(self, pm, params):
         if pm.gear_torque_n_m is None:
