@@ -438,12 +438,17 @@ class Backlash(ForceEffect):
         return replace(state, elements=kept + (ElementSpec(self.name, {"half_width_rad": float(values[0])}),))
 
     def family(self, ctx, state):
+        """Width (rad, (1,)) -> raw averages (list of (bins, 3) arrays, N): linear interpolation between
+        the simulated runs at the nodes ``k RESOLUTION`` (class docstring). Two runs are reused rather
+        than simulated again, both the same numbers (:meth:`node_state`): a value on a node reads that
+        node's run alone (the weight of its neighbour is 0), and the node at width 0 is ``state``
+        without a dead zone, whose run the search has already made."""
         runs: dict = {}
         n_max = int(round(self.upper[0] / self.RESOLUTION))
 
         def run(k):
             if k not in runs:
-                runs[k] = ctx.raw_averages(self.apply_values(state, (k * self.RESOLUTION,)))
+                runs[k] = ctx.raw_averages(self.node_state(state, k * self.RESOLUTION))
             return runs[k]
 
         def f(v):
@@ -452,8 +457,20 @@ class Backlash(ForceEffect):
             w = x - k
             if w < 1e-9:
                 return run(k)
+            if w > 1 - 1e-9:
+                return run(k + 1)
             return [(1 - w) * a + w * b for a, b in zip(run(k), run(k + 1))]
         return f
+
+    def node_state(self, state, half_width_rad: float):
+        """The state simulated for the width ``half_width_rad`` (rad). Width 0 is no dead zone: where
+        the variant has none of its own (every variant but ``backlash``; the robot file's width is read
+        by that variant only, :func:`linearize.model.build_model`), that is ``state`` with its ``backlash`` element removed, the same equations (the compiled pass
+        takes the linear springs when the width is 0, :mod:`timedomain.fastpath`) under the key of a
+        run already memoised."""
+        if half_width_rad == 0.0 and state.variant != "backlash":
+            return replace(state, elements=tuple(e for e in state.elements if e.type != self.name))
+        return self.apply_values(state, (half_width_rad,))
 
     def starts_for(self, cost):
         grid = np.arange(0.0, self.upper[0] + 0.5 * self.SCAN_STEP, self.SCAN_STEP)
