@@ -189,6 +189,7 @@ def test_spindle_estimate_takes_the_commanded_speed_within_half_a_step():
         assert abs(estimate_spindle_hz(t, x, nominal) - expected) <= tol, f_true
 
 
+@pytest.mark.slow   # 78-86 s: the longest test of the default run; CI's slow step runs it (its seed 0 also opens the long set)
 def test_backlash_one_draw(base, tmp_path, capsys):
     (ok, s, info), = _draws([0], base, tmp_path, capsys)
     assert ok, (s, info)
