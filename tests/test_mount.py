@@ -30,6 +30,7 @@ from robolobes.cases.spec import ElementSpec
 from robolobes.core.errors import BadInput
 from robolobes.linearize import build_model, equilibrium, linearize
 from robolobes.linearize.extra_elements import JointCorrection, MountCompliance, element_from_spec, element_table
+from ringing import crossing_frequency_hz
 
 SPEC = load_robot("tx200")
 M_TOTAL_KG = sum(MASS.values()) + PAYLOAD_MASS      # 1045 kg: Tab. 4 and Tab. 3 of NOTES.md
@@ -171,11 +172,7 @@ def test_time_domain_rings_at_the_linearized_mount_mode():
 
     integrate(res, q_eq + eps * np.real(phi), eps * np.real(lam * phi), t0_s=0.0, h_s=h, n_steps=int(0.3 / h),
               tangent=tan, options=NewmarkOptions(atol=1e-14, rtol=1e-10), on_step=rec)
-    t_a, x_a = np.array(t), np.array(x)
-    i = np.nonzero(np.sign(x_a[:-1]) != np.sign(x_a[1:]))[0]
-    tc = t_a[i] - x_a[i] * (t_a[i + 1] - t_a[i]) / (x_a[i + 1] - x_a[i])
-    assert tc.size > 20
-    f_sim = 1.0 / (2.0 * np.polyfit(np.arange(tc.size), tc, 1)[0])
+    f_sim = crossing_frequency_hz(t, x)
     assert f_sim == pytest.approx(f_ref, rel=0.01), (f_sim, f_ref)
 
 

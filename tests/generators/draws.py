@@ -227,27 +227,21 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
             why.append(f"tool modes {[round(f, 1) for f in freqs]} vs {truth['tool_modes_hz']}")
         used |= {id(e) for e in modes}
     used |= judge_axes(truth, ident, why)
-    if "payload_factor" in truth:
-        hit = [e for e in ident if e["name"] == "payload_mass"]
-        if not any(_covers(e["params"]["mass_scale"], e["uncertainty"]["mass_scale"], truth["payload_factor"])
-                   for e in hit):
-            why.append(f"payload x{truth['payload_factor']:.3f} not covered by {[e['params'] for e in hit]}")
-        used |= {id(e) for e in hit}
-    if "mount_z" in truth:
-        hit = [e for e in ident if e["name"] == "mount_z"]
-        key = "stiffness_n_per_m"
-        if not any(_covers(e["params"][key], e["uncertainty"][key], truth["mount_z"]) for e in hit):
-            why.append(f"mount k {truth['mount_z']:.4g} N/m not covered by "
-                       f"{[(e['params'][key], e['uncertainty'][key]) for e in hit]}")
-        used |= {id(e) for e in hit}
-    if "load_k" in truth:
-        hit = [e for e in ident if e["name"] == "load_k_a3"]
-        key = "stiffening_per_knm"
-        if not any(_covers(e["params"][key], e["uncertainty"][key], truth["load_k"]) for e in hit):
-            why.append(f"load_k kappa {truth['load_k']:.3f} per kN m not covered by "
-                       f"{[(e['params'][key], e['uncertainty'][key]) for e in hit]}")
-        used |= {id(e) for e in hit}
+    for truth_key, name, key, label in (("payload_factor", "payload_mass", "mass_scale", "payload scale"),
+                                        ("mount_z", "mount_z", "stiffness_n_per_m", "mount k (N/m)"),
+                                        ("load_k", "load_k_a3", "stiffening_per_knm", "load_k kappa (per kN m)")):
+        if truth_key in truth:
+            used |= _judge_one(ident, name, key, truth[truth_key], label, why)
     return verdict(ident, used, res, why)
+
+
+def _judge_one(ident: list, name: str, key: str, true: float, label: str, why: list) -> set:
+    """The ids of the effects ``name`` in ``ident``; a reason appended to ``why`` unless one of them
+    covers ``true`` with its parameter ``key`` (:func:`_covers`)."""
+    hit = [e for e in ident if e["name"] == name]
+    if not any(_covers(e["params"][key], e["uncertainty"][key], true) for e in hit):
+        why.append(f"{label} {true:.4g} not covered by {[(e['params'][key], e['uncertainty'][key]) for e in hit]}")
+    return {id(e) for e in hit}
 
 
 def run_case(case: str, seed: int, tmp: Path, n_poses: int = N_POSES, n_lines: int = N_LINES) -> dict:
