@@ -9,45 +9,35 @@ from dataclasses import replace
 __all__ = ["rank_candidates", "annotate", "diagnosis_markdown"]
 
 
-def _group(effect) -> str:
-    """The effect's type: instances of one class (six joint corrections, six servo drives) are one
-    explanation of a signature, whichever joint it is."""
-    return getattr(effect, "group", None) or type(effect).__qualname__
-
-
 def rank_candidates(detected: dict, effects, heldout: dict, error_before: float) -> list[dict]:
-    """The candidates ranked by the detected signatures they explain, ties by the residual they explain.
+    """The candidates ranked by the evidence: first those that explain at least one detected signature,
+    then the rest; within each, by the held-out error their fit removes (untried last).
 
-    Score of an effect: the sum over the detected signatures it explains of ``1 / n``, ``n`` the number
-    of effect *types* that explain that signature (the six joint corrections are one type): a
-    signature only one type explains counts fully, one that two types explain counts 1/2 for each
-    (one unit of evidence per signature, shared among its explanations). The signatures narrow the
-    candidates to the types the evidence points to; among equal scores the residual each fit
-    removes decides.
+    The signatures narrow the candidates to the types the residual points to; which of those the data
+    favour is what each fit removes, not how many other types share a signature. So adding an effect
+    type to the library never reorders the others (a rule that shared each signature's credit among
+    the types that show it did: a new type sharing a signature demoted every type beside it).
+    ``score`` is the number of detected signatures the effect explains (information, not the order).
 
     ``detected``: name -> :class:`Signature`; ``effects``: the candidate Effect objects;
     ``heldout``: name -> held-out error with the effect added (first selection step), missing if untried.
     Returns JSON-ready rows, best first, each with ``why``.
     """
     present = [k for k, s in detected.items() if s.present]
-    groups = {}                                   # effect type -> the signatures it explains
-    for e in effects:
-        groups.setdefault(_group(e), set()).update(e.signatures)
-    n_explain = {k: sum(k in sig for sig in groups.values()) for k in present}
     rows = []
     for e in effects:
         explains = [k for k in e.signatures if k in present]
         err = heldout.get(e.name)
         gain = (error_before - err) if err is not None and math.isfinite(err) else -math.inf
-        rows.append({"name": e.name, "explains": explains, "score": sum(1.0 / n_explain[k] for k in explains),
+        rows.append({"name": e.name, "explains": explains, "score": float(len(explains)),
                      "heldout_error_with": err, "explained_error": gain if math.isfinite(gain) else None})
-    rows.sort(key=lambda r: (-round(r["score"], 9), -(r["explained_error"] if r["explained_error"] is not None
-                                                      else -math.inf)))
+    rows.sort(key=lambda r: (not r["explains"], -(r["explained_error"] if r["explained_error"] is not None
+                                                   else -math.inf)))
     for i, r in enumerate(rows):
-        sig = ", ".join(f"{k} (1/{n_explain[k]})" for k in r["explains"]) or "none of the detected signatures"
+        sig = ", ".join(r["explains"]) or "none of the detected signatures"
         gain = "untried" if r["explained_error"] is None else f"lowers the held-out error by {r['explained_error']:.4g}"
         r["rank"] = i + 1
-        r["why"] = f"explains {sig}, score {r['score']:.3g} ({len(present)} detected); {gain}"
+        r["why"] = f"explains {sig} ({len(r['explains'])} of {len(present)} detected); {gain}"
     return rows
 
 
@@ -76,7 +66,7 @@ def diagnosis_markdown(extra: dict) -> list[str]:
     for k, s in sigs.items():
         out.append(f"| {k} | {'yes' if s['present'] else 'no'} | {s['statistic']:.4g} | {s['threshold']:.4g} | "
                    f"{s['rule']} |")
-    out += ["", "Candidates ranked by the detected signatures they explain, ties by the held-out error "
-                "they remove (the selection rule decides; the ranking orders and explains):", ""]
+    out += ["", "Candidates ranked: those that explain a detected signature first, each group by the held-out "
+                "error its fit removes (the selection rule decides; the ranking orders and explains):", ""]
     out += [f"{r['rank']}. **{r['name']}**: {r['why']}" for r in extra.get("ranking", [])]
     return out + [""]

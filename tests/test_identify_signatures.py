@@ -161,31 +161,36 @@ def test_ranking_puts_the_effect_that_explains_the_signature_first():
     # the held-out errors favour edge coefficients: the signature still ranks runout first
     rows = rank_candidates(got, effects, {"edge_coefficients": 0.05, "runout": 0.08, "lowpass": 0.09}, 0.1)
     assert [r["name"] for r in rows] == ["runout", "edge_coefficients", "lowpass"]
-    assert rows[0]["explains"] == ["once_per_rev"] and rows[0]["score"] == 1.0 and "(1 detected)" in rows[0]["why"]
+    assert rows[0]["explains"] == ["once_per_rev"] and rows[0]["score"] == 1.0 and "(1 of 1 detected)" in rows[0]["why"]
     # a tie (no signature) is broken by the explained residual
     assert rows[1]["explained_error"] == pytest.approx(0.05)
 
 
-def test_ranking_shares_a_signature_among_the_effects_that_explain_it():
+def test_ranking_order_is_not_changed_by_a_new_type_sharing_a_signature():
     class E:
-        def __init__(self, name, sig, group=None):
-            self.name, self.signatures, self.group = name, sig, group or name
+        def __init__(self, name, sig):
+            self.name, self.signatures = name, sig
 
     class S:
         def __init__(self, present):
             self.present = present
 
-    got = {"extra_peak": S(True), "peak_height": S(True), "pose_shift": S(True), "static_offset": S(False)}
-    joints = [E(f"joint_{j}", ("pose_shift", "peak_height", "static_offset"), "joint") for j in range(6)]
-    servos = [E(f"servo_{j}", ("extra_peak", "pose_shift", "peak_height"), "servo") for j in range(6)]
-    effects = joints + servos + [E("tcp_mode", ("extra_peak", "static_offset"))]
-    errs = {"tcp_mode": 0.02, "joint_0": 0.09, "servo_3": 0.08}
-    rows = rank_candidates(got, effects, errs, 0.1)
-    # types explaining: extra_peak {servo, tcp} -> 1/2 each; pose_shift, peak_height {joint, servo} -> 1/2
-    # servo: 1/2 + 1/2 + 1/2 = 1.5; joint: 1/2 + 1/2 = 1; tcp: 1/2
-    assert [r["score"] for r in rows[:1]] == [1.5] and rows[0]["name"] == "servo_3"  # tie among servos: residual
-    assert {r["name"]: r["score"] for r in rows}["joint_4"] == pytest.approx(1.0)
-    assert {r["name"]: r["score"] for r in rows}["tcp_mode"] == pytest.approx(0.5)
+    got = {"uniform_shift": S(True), "peak_height": S(True), "pose_shift": S(True), "static_offset": S(False)}
+    base = [E("payload_mass", ("uniform_shift",)), E("joint_2", ("pose_shift", "peak_height", "static_offset")),
+            E("servo_2", ("pose_shift", "peak_height", "static_offset")), E("tcp_mode", ("extra_peak", "static_offset"))]
+    errs = {"payload_mass": 0.06, "joint_2": 0.03, "servo_2": 0.05, "tcp_mode": 0.01}
+    rows = rank_candidates(got, base, errs, 0.1)
+    # eligible (a detected signature explained): joint_2 (removes 0.07), servo_2 (0.05), payload (0.04);
+    # tcp_mode explains none of the detected ones: last, although its fit removes the most
+    assert [r["name"] for r in rows] == ["joint_2", "servo_2", "payload_mass", "tcp_mode"]
+    assert [r["score"] for r in rows] == [2.0, 2.0, 1.0, 0.0] and "(2 of 3 detected)" in rows[0]["why"]
+    # a new type that shares pose_shift (the load law) enters by its own error, the others keep their order
+    more = base + [E("load_k_3", ("pose_shift", "static_offset"))]
+    rows = rank_candidates(got, more, {**errs, "load_k_3": 0.055}, 0.1)
+    assert [r["name"] for r in rows] == ["joint_2", "servo_2", "load_k_3", "payload_mass", "tcp_mode"]  # 0.07, 0.05, 0.045, 0.04
+    # untried eligible candidates come after the tried ones of their group
+    rows = rank_candidates(got, base, {"payload_mass": 0.06}, 0.1)
+    assert [r["name"] for r in rows][:1] == ["payload_mass"] and rows[1]["explained_error"] is None
 
 
 # ---------------------------------------------------------------- on the project's FRF sets (CLI)
@@ -220,17 +225,8 @@ def _generating(name):
             "joint_correction_a2": (JointCorrection(2, 1.4, 1.0), 12)}[name]
 
 
-# The ranking splits each signature's credit among the effect types that show it. Since mount_z
-# (extra_peak, static_offset: the same signatures as the tool mode) joined the default candidates,
-# this set's tool mode scores 1/3 + 1/5 = 0.53 against 1/2 + 1/5 = 0.70 for every joint and servo
-# (before: 0.75 each, the tie broken by the fits' errors). The selection still identifies the tool
-# mode (200.0 Hz, zeta 0.030), as before; only its rank in the signature ordering changed.
-_RANK_XFAIL = pytest.mark.xfail(strict=True, reason="tool mode ranked below the joints (0.53 vs 0.70) since "
-                                "mount_z shares its signatures; the selection still finds it")
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [pytest.param("tcp_mode", marks=_RANK_XFAIL), "payload_mass", "joint_correction_a2"])
+@pytest.mark.parametrize("name", ["tcp_mode", "payload_mass", "joint_correction_a2"])
 def test_frf_sets_rank_the_generating_effect_first(tmp_path, capsys, name):
     """Sets from the full model path with one undeclared element (fixed parameters above the
     detection thresholds): the ranking by signatures puts that effect first.
