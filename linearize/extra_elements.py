@@ -481,7 +481,13 @@ class LoadStiffness(Element):
 
         Computed in a workspace of its own (``data`` untouched): a caller may still hold arrays of
         ``data`` (``pin.rnea`` returns ``data.tau``), which pinocchio's gravity would overwrite."""
-        return float(pin.computeGeneralizedGravity(ix.gravity_model, ix.gravity_model.createData(), q)[ix.iv])
+        return self._gravity(ix, q)[0]
+
+    @staticmethod
+    def _gravity(ix: _Loaded, q) -> tuple[float, Any]:
+        """``(g_j(q) N m, the workspace it was computed in)``: a new pinocchio Data, never the caller's."""
+        own = ix.gravity_model.createData()
+        return float(pin.computeGeneralizedGravity(ix.gravity_model, own, q)[ix.iv]), own
 
     def added_stiffness(self, tau_n_m: float, k0: float) -> float:
         """``k(tau) - k0``, N m/rad, for the static gear torque ``tau_n_m`` and the unloaded ``k0``."""
@@ -494,8 +500,7 @@ class LoadStiffness(Element):
         return tau
 
     def tangent(self, robot, ix, data, q, v, theta, engaged=False):
-        own = ix.gravity_model.createData()      # not the caller's data: see gear_torque
-        g = float(pin.computeGeneralizedGravity(ix.gravity_model, own, q)[ix.iv])
+        g, own = self._gravity(ix, q)             # not the caller's data: see gear_torque
         kq = np.zeros((robot.nv, robot.nv))
         kq[ix.iv, ix.iv] = -self.added_stiffness(g, ix.k0)
         if abs(g) < self.reference_torque_n_m:
