@@ -69,9 +69,10 @@ from __future__ import annotations
 
 import inspect
 import math
+import threading
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -412,12 +413,26 @@ LOAD_STIFFENING_MAX = 2.0     # catalogue K3 / K1 <= 3 (harmonic drives 1.5-3, c
 
 @dataclass(frozen=True)
 class _Loaded:
-    """Indices of :class:`LoadStiffness`: the axis's dof ``iv``, its table stiffness ``k0`` (N m/rad)
-    and a copy of the robot's pinocchio model with gravity on (the gear load is computed with it)."""
+    """Indices of :class:`LoadStiffness`: the axis's dof ``iv``, its table stiffness ``k0`` (N m/rad),
+    a copy of the robot's pinocchio model with gravity on (the gear load is computed with it) and the
+    element's own pinocchio workspace for it, one per thread (``workspace``; a new Data per call
+    cost 66 us against 3 us for the gravity itself on a 6-axis model)."""
 
     iv: int
     k0: float
     gravity_model: Any
+    workspace: threading.local = field(default_factory=threading.local, compare=False, repr=False)
+
+    def data(self) -> Any:
+        """This thread's pinocchio Data of ``gravity_model`` (created on first use, never a caller's)."""
+        own = getattr(self.workspace, "data", None)
+        if own is None:
+            own = self.workspace.data = self.gravity_model.createData()
+        return own
+
+    def __reduce__(self):
+        """Pickled without the workspace (a thread's scratch; a robot goes to worker processes)."""
+        return (_Loaded, (self.iv, self.k0, self.gravity_model))
 
 
 @dataclass(frozen=True)
@@ -485,8 +500,9 @@ class LoadStiffness(Element):
 
     @staticmethod
     def _gravity(ix: _Loaded, q) -> tuple[float, Any]:
-        """``(g_j(q) N m, the workspace it was computed in)``: a new pinocchio Data, never the caller's."""
-        own = ix.gravity_model.createData()
+        """``(g_j(q) N m, the workspace it was computed in)``: the element's own pinocchio Data, never the
+        caller's."""
+        own = ix.data()
         return float(pin.computeGeneralizedGravity(ix.gravity_model, own, q)[ix.iv]), own
 
     def added_stiffness(self, tau_n_m: float, k0: float) -> float:

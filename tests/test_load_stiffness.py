@@ -198,3 +198,27 @@ def test_effect_composes_with_a_payload_correction(order):
                                                                    LoadStiffness(3, 1.5, 1000.0))), theta)
     assert np.abs(got.K - ref.K).max() <= 1e-9 * np.abs(ref.K).max()
     assert np.abs(got.M - ref.M).max() <= 1e-9 * np.abs(ref.M).max()
+
+
+def test_robot_with_the_element_pickles_and_keeps_its_gear_torque():
+    # maps send built robots to worker processes; the element's per-thread pinocchio workspace is
+    # scratch and stays behind. The unpickled robot's gear torque equals the original's (the same
+    # pinocchio model and q: bit for bit) and the hand torque (1e-9 relative, as
+    # test_added_stiffness_from_the_hand_torque), before and after a second call reuses the workspace.
+    import pickle
+
+    robot = build_model(SPEC, "gravity", extra_elements=(LoadStiffness(3, 1.0, 1000.0),))
+    back = pickle.loads(pickle.dumps(robot))
+    q = np.zeros(robot.model.nq)
+    q[np.asarray(robot.motion_dofs)] = Q_ARM_FLAT       # the links at the motor angles (no sag)
+    want = _axis3_torque_by_hand()
+    for r in (robot, back):
+        k = next(i for i, e in enumerate(r.elements) if isinstance(e, LoadStiffness))
+        el, ix = r.elements[k], r.element_indices[k]
+        first, again = el.gear_torque(ix, None, q), el.gear_torque(ix, None, q)
+        assert first == again
+        assert abs(abs(first) / want - 1) < 1e-9, (first, want)
+    ka = next(i for i, e in enumerate(robot.elements) if isinstance(e, LoadStiffness))
+    kb = next(i for i, e in enumerate(back.elements) if isinstance(e, LoadStiffness))
+    assert robot.elements[ka].gear_torque(robot.element_indices[ka], None, q) == \
+        back.elements[kb].gear_torque(back.element_indices[kb], None, q)
