@@ -212,13 +212,15 @@ def test_robot_with_the_element_pickles_and_keeps_its_gear_torque():
     q = np.zeros(robot.model.nq)
     q[np.asarray(robot.motion_dofs)] = Q_ARM_FLAT       # the links at the motor angles (no sag)
     want = _axis3_torque_by_hand()
-    for r in (robot, back):
+
+    def torque(r):
         k = next(i for i, e in enumerate(r.elements) if isinstance(e, LoadStiffness))
-        el, ix = r.elements[k], r.element_indices[k]
-        first, again = el.gear_torque(ix, None, q), el.gear_torque(ix, None, q)
+        el = r.elements[k]
+        assert isinstance(el, LoadStiffness)
+        return el.gear_torque(r.element_indices[k], None, q)
+
+    for r in (robot, back):
+        first, again = torque(r), torque(r)
         assert first == again
         assert abs(abs(first) / want - 1) < 1e-9, (first, want)
-    ka = next(i for i, e in enumerate(robot.elements) if isinstance(e, LoadStiffness))
-    kb = next(i for i, e in enumerate(back.elements) if isinstance(e, LoadStiffness))
-    assert robot.elements[ka].gear_torque(robot.element_indices[ka], None, q) == \
-        back.elements[kb].gear_torque(back.element_indices[kb], None, q)
+    assert torque(robot) == torque(back)
