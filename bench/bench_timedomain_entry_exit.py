@@ -9,6 +9,10 @@ of ``--reference-rev`` (default 7305869, the kernel before these changes), extra
 ``git archive`` into a temporary folder and imported beside the current one, in the same process.
 Its ``entry_exit="sampled"`` and ``"exact"`` runs are timed in the same rounds.
 
+``--attribute`` times, instead, the current sampled run against the same loop with one change undone
+at a time (the column-by-column chip walk, the reference's removal kernel, numba's
+``np.linalg.solve``): what each change saves.
+
 Cases: the aluminium pass (basic model, 30 deg helix, default discs and 2 deg per step) over
 ``--alu-s`` seconds from the start (approach, entry into the part, full engagement), and the
 steel pass over ``--steel-s`` seconds. Prints the CPU time (``time.process_time``) per simulated
@@ -70,6 +74,56 @@ def _cpu_per_s(case, t_end: float, entry_exit: str, pkg=(drivers, equations, pro
     return (time.process_time() - c0) / t_end
 
 
+def _loop_with(ref, edit=None, **globals_) -> object:
+    """The current compiled loop with some of its globals replaced (``globals_``) and its source edited
+    (``edit``: str -> str), compiled now."""
+    import inspect
+    import textwrap
+
+    from numba import njit
+
+    import robolobes.timedomain.fastpath as fp
+
+    src = textwrap.dedent(inspect.getsource(fp._run_chunk.py_func))
+    src = "\n".join(ln for ln in src.splitlines() if not ln.startswith("@"))
+    if edit is not None:
+        new = edit(src)
+        assert new != src, "the edit did not apply"
+        src = new
+    ns: dict = {}
+    exec(src, {**fp.__dict__, **globals_}, ns)  # the project's own loop, edited above
+    return njit(nogil=True)(ns["_run_chunk"])
+
+
+def _attribute(ref_wp, alu, steel, alu_s: float, steel_s: float, repeat: int) -> None:
+    """CPU per simulated second of the current sampled run with each change undone (module docstring)."""
+    import robolobes.timedomain.fastpath as fp
+    from robolobes.timedomain.workpiece import _chip_kernel_columnwise
+
+    solve = ("            u0, u1, u2 = _solve3(G, wv)\n",
+             "            uv = np.linalg.solve(G, wv)\n            u0, u1, u2 = uv[0], uv[1], uv[2]\n")
+    loops = {"current": fp._run_chunk,
+             "column-by-column walk": _loop_with(None, _chip_kernel=_chip_kernel_columnwise),
+             "reference removal": _loop_with(None, _remove_kernel=ref_wp._remove_kernel),
+             "np.linalg.solve": _loop_with(None, lambda t: t.replace(*solve))}
+    shipped = fp._run_chunk
+    for name, case, t_end in (("aluminium", alu, alu_s), ("steel", steel, steel_s)):
+        cpu: dict[str, list[float]] = {k: [] for k in loops}
+        for i in range(repeat + 1):
+            for k, loop in loops.items():
+                fp._run_chunk = loop
+                try:
+                    c = _cpu_per_s(case, t_end if i else 0.002, "sampled")
+                finally:
+                    fp._run_chunk = shipped
+                if i:  # the first round compiles
+                    cpu[k].append(c)
+        base = statistics.median(cpu["current"])
+        print(f"{name} ({t_end:g} s), sampled, CPU per simulated second (median of {repeat}), ratio to current: "
+              + ", ".join(f"{k} {statistics.median(v):.3f} s ({statistics.median(v) / base:.3f})"
+                          for k, v in cpu.items()), flush=True)
+
+
 def _runs(name: str, values: list[float]) -> str:
     return f"{name} {statistics.median(values):.3f} (runs: {', '.join(f'{r:.3f}' for r in values)})"
 
@@ -80,11 +134,15 @@ def main(argv=None) -> int:
     ap.add_argument("--steel-s", type=float, default=1.5)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--reference-rev", default="7305869")
+    ap.add_argument("--attribute", action="store_true")
     a = ap.parse_args(argv)
     if not (0 < a.alu_s <= 1.7 and 0 < a.steel_s <= 20 and 1 <= a.repeat <= 20):
         ap.error("--alu-s in (0, 1.7], --steel-s in (0, 20], --repeat in [1, 20]")
     alu, steel = cases.load_case("tx200-aluminium"), cases.load_case("tx200-steel")
     ref = _reference_package(a.reference_rev)
+    if a.attribute:
+        _attribute(importlib.import_module(f"{_REFERENCE}.workpiece"), alu, steel, a.alu_s, a.steel_s, a.repeat)
+        return 0
     _cpu_per_s(alu, 0.01, "exact")  # compile or load the kernels
     _cpu_per_s(alu, 0.01, "exact", ref)
     for name, case, t_end in (("aluminium", alu, a.alu_s), ("steel", steel, a.steel_s)):
