@@ -27,9 +27,11 @@ compiled (or loaded) before the timings.
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import io
 import pathlib
+import shutil
 import statistics
 import subprocess
 import sys
@@ -54,6 +56,7 @@ def _reference_package(rev: str) -> tuple:
     tar = subprocess.run(["git", "-C", str(root), "archive", rev, "timedomain"], check=True,
                          capture_output=True).stdout
     tmp = pathlib.Path(tempfile.mkdtemp(prefix="robolobes-reference-"))
+    atexit.register(shutil.rmtree, tmp, ignore_errors=True)
     with tarfile.open(fileobj=io.BytesIO(tar)) as tf:
         tf.extractall(tmp, filter="data")
     pkg = types.ModuleType(_REFERENCE)  # the package without its __init__ (which refuses another name)
