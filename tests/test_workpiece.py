@@ -13,7 +13,8 @@ from scipy.optimize import brentq
 
 from robolobes.cases.milling import Cut, MillingMode, Tool
 from robolobes.timedomain.workpiece_force import MillingForce, run_prescribed, straight_path
-from robolobes.timedomain.workpiece import AxialDiscs, Workpiece, WorkpieceError, default_disc_count
+from robolobes.timedomain.workpiece import (AxialDiscs, Workpiece, WorkpieceError, _chip_kernel, _chip_kernel_columnwise,
+                                            default_disc_count)
 from robolobes.cases.milling import CuttingLaw
 
 LAW = CuttingLaw(ktc_pa=661.553e6, krc_pa=253.458e6)
@@ -171,6 +172,36 @@ def test_chip_on_the_own_fresh_cut_matches_exact_trochoid():
     assert np.count_nonzero(late) >= 10          # the exit's last degrees are sampled
     bad = np.abs(got - ref) > tol
     assert not bad.any(), (np.flatnonzero(bad), got[bad], ref[bad], tol[bad])
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_chip_walk_skipping_cleared_columns_is_bit_identical_to_the_columnwise_walk(name):
+    """The chip kernel skips the column intervals an error bound clears and keeps the exact arithmetic
+    where the ray leaves the material; chips and derivatives must equal the column-by-column walk
+    (the kernel before the skip) bit for bit (tolerance 0: the skip is not meant to change any
+    result). States: the steady part, the tool centre moved at random over and beyond the part
+    (faces, padding, the untouched block edge and its ramp) and up to 0.5 mm into the material
+    (buried teeth), every tooth angle of a revolution."""
+    tool, cut = CASES[name]
+    discs = AxialDiscs(cut.ap_m, 3 if tool.helix_rad else 1)
+    wp, model, t_now, x_start = steady_part(tool, cut, discs=discs)
+    wb, x0, dx, sgn = wp._kernel_state()[:4]
+    radius = np.ascontiguousarray(model.tooth_radius_m)
+    rng = np.random.default_rng(7)
+    shape = (tool.teeth, discs.count)
+    long_rays = 0
+    for _ in range(3000):
+        ang = rng.uniform(0.0, 2 * math.pi)
+        phi = np.ascontiguousarray(model.immersion_rad(ang))
+        cx = float(rng.uniform(-2 * R, 30e-3 + 2 * R)) if rng.random() < 0.3 else x_start + float(rng.normal(0, 3e-3))
+        cy = float(rng.normal(0.0, 30e-6)) if rng.random() < 0.9 else -sgn * float(rng.uniform(0.0, 5e-4))
+        got = (np.empty(shape), np.empty(shape + (2,)))
+        ref = (np.empty(shape), np.empty(shape + (2,)))
+        _chip_kernel(wb, x0, dx, cx, sgn * cy, sgn, phi, radius, *got)
+        _chip_kernel_columnwise(wb, x0, dx, cx, sgn * cy, sgn, phi, radius, *ref)
+        assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1]), (cx, cy, ang)
+        long_rays += np.count_nonzero(got[0] * np.abs(np.sin(phi)) > 10 * dx)
+    assert long_rays > 1000  # the rays that cross many columns (where the skip acts) are sampled
 
 
 def test_chip_derivative_matches_finite_difference():

@@ -150,6 +150,37 @@ def _newmark_av(q, q_n, v_n, base_a, vpred, ca, gh, h, a, v):  # pragma: no cove
 
 
 @njit(inline="always")
+def _solve3(G, w):  # pragma: no cover - numba
+    """``G^-1 w`` for a 3 x 3 ``G`` and a (3,) ``w``, as three floats: Gaussian elimination with partial
+    pivoting (LAPACK gesv's algorithm) on scalars, so that the step allocates nothing (numba's
+    ``np.linalg.solve`` copies its arguments on every call). G is not modified."""
+    a00, a01, a02, b0 = G[0, 0], G[0, 1], G[0, 2], w[0]
+    a10, a11, a12, b1 = G[1, 0], G[1, 1], G[1, 2], w[1]
+    a20, a21, a22, b2 = G[2, 0], G[2, 1], G[2, 2], w[2]
+    if abs(a10) > abs(a00) and abs(a10) >= abs(a20):
+        a00, a01, a02, b0, a10, a11, a12, b1 = a10, a11, a12, b1, a00, a01, a02, b0
+    elif abs(a20) > abs(a00):
+        a00, a01, a02, b0, a20, a21, a22, b2 = a20, a21, a22, b2, a00, a01, a02, b0
+    m1 = a10 / a00
+    m2 = a20 / a00
+    a11 -= m1 * a01
+    a12 -= m1 * a02
+    b1 -= m1 * b0
+    a21 -= m2 * a01
+    a22 -= m2 * a02
+    b2 -= m2 * b0
+    if abs(a21) > abs(a11):
+        a11, a12, b1, a21, a22, b2 = a21, a22, b2, a11, a12, b1
+    m = a21 / a11
+    a22 -= m * a12
+    b2 -= m * b1
+    x2 = b2 / a22
+    x1 = (b1 - a12 * x2) / a11
+    x0 = (b0 - a01 * x1 - a02 * x2) / a00
+    return x0, x1, x2
+
+
+@njit(inline="always")
 def _centre(Jc, q, s1, c_off):  # pragma: no cover - numba
     """Tool centre (x_c, y_c) of ``LinearSystemData.center``: commanded s + static offset + Jc q."""
     jx = 0.0
@@ -313,9 +344,9 @@ def _run_chunk(k0, k1, h, omega, max_iter, atol, rtol,
                 wv[ii] = dF[ii, 0] * jy0 + dF[ii, 1] * jy1
                 for jj in range(3):
                     G[ii, jj] = (1.0 if ii == jj else 0.0) - (dF[ii, 0] * JcZ[0, jj] + dF[ii, 1] * JcZ[1, jj])
-            uv = np.linalg.solve(G, wv)
+            u0, u1, u2 = _solve3(G, wv)
             for i in range(n):
-                y[i] += Z[i, 0] * uv[0] + Z[i, 1] * uv[1] + Z[i, 2] * uv[2]
+                y[i] += Z[i, 0] * u0 + Z[i, 1] * u1 + Z[i, 2] * u2
             converged = True
             for i in range(n):
                 dq = -y[i]

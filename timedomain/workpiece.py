@@ -37,7 +37,10 @@ at ``c``: along the ray ``p(rho) = c + rho (sin phi, cos phi)``, ``h = R_j - rho
 contiguous material at the tip, left there by earlier teeth). When the tip is not in material,
 ``h = 0``: teeth lose contact with no screen function. The root is found exactly: the ray is
 walked from the tip inwards one column interval at a time, and inside the interval where the
-sign changes the (linear) equation is solved in closed form. There is no iteration tolerance; the
+sign changes the (linear) equation is solved in closed form (the intervals that an error bound
+shows the ray still in the material are skipped with a cheaper test, and the exact arithmetic is
+kept where the sign changes: the result is that of the plain walk bit for bit,
+:func:`_chip_one`). There is no iteration tolerance; the
 only error is the linear interpolation of the boundary between columns, ``dx^2 / (8 R)`` for an
 arc of radius R (2.5e-11 m for dx = 1 um, R = 5 mm), growing where the boundary is steep in
 ``x`` (near ``phi = 90 deg``; still ~1e-9 m at the 101.5 deg entry of the paper's cut). In the
@@ -54,7 +57,8 @@ Removal (:meth:`Workpiece.remove`)
 Only the tooth tips remove material, along their swept arcs between two *accepted* states (tool
 centre moved linearly, tooth rotated from ``phi0`` to ``phi1``): the path is cut into chords of
 angle at most ``sqrt(8 chord_tol / R)`` (sagitta <= ``chord_tol``, default 1 nm, against a
-feed-mark scallop ``fz^2 / (8 R)`` of 50-250 nm in the paper's cuts) and every column a chord
+feed-mark scallop ``fz^2 / (8 R)`` of 50-250 nm in the paper's cuts; the chord vertices are turned
+from one to the next by a rotation, off by ~1e-16 m) and every column a chord
 crosses is lowered to the chord (``w_b = min(w_b, w_chord)``): the material between the tip and
 the column's boundary point B is inside the tool disc (this is where ``ae <= R`` is needed) and is
 gone -- but only once the tooth has turned past B. In down-milling B always lies behind the tip
@@ -108,6 +112,10 @@ __all__ = [
 _NO_MATERIAL_M = -1.0
 #: Columns without material padded on each side of the part, so that rays and chords see the faces.
 _PAD_COLUMNS = 2
+#: Chord vertices of a tip path between direct evaluations of their sine and cosine in the removal
+#: (in between they are turned by a rotation; the error grows by a few eps per vertex, so by at most
+#: ~1e-14 relative, 1e-16 m on a 5 mm tooth, far below the chords' 1 nm sagitta).
+_ROTATION_RESTART = 32
 #: Largest grid accepted (slices x columns), to fail early instead of exhausting memory.
 _MAX_CELLS = 200_000_000
 
@@ -228,10 +236,141 @@ def _tip_interval(wb, sgn, i, k):  # pragma: no cover - numba
     return wb[k, i], wb[k, i + 1]
 
 
+#: Unit round-off of float64.
+_EPS = 2.0 ** -52
+
+
+@njit(inline="always")
+def _interval_exit(x0, dx, cx, cw, sn, cs, i, wi, wj, rho_hi):  # pragma: no cover - numba
+    """Where the ray, going inwards, leaves column interval ``i`` (boundary ``wi`` -> ``wj``):
+    ``(rho_lo, g_lo, last)``, m, m, bool; ``g`` is the material's boundary minus the ray's ``w``
+    (``< 0``: out of the material); ``last`` where the interval holds the tool centre (rho reaches 0)."""
+    last = False
+    if sn > 1e-15:
+        rho_lo = (x0 + i * dx - cx) / sn
+    elif sn < -1e-15:
+        rho_lo = (x0 + (i + 1) * dx - cx) / sn
+    else:
+        rho_lo = 0.0
+    if rho_lo <= 0.0:
+        rho_lo = 0.0
+        last = True
+    if rho_lo > rho_hi:
+        rho_lo = rho_hi
+    fl = (cx + rho_lo * sn - x0) / dx - i
+    if fl < 0.0:
+        fl = 0.0
+    elif fl > 1.0:
+        fl = 1.0
+    return rho_lo, wi + (wj - wi) * fl - (cw + rho_lo * cs), last
+
+
+@njit(inline="always")
+def _crossing_chip(r, rho_lo, rho_hi, g_lo, g_hi, wi, wj, dx, sn, cs, sgn):  # pragma: no cover - numba
+    """Chip and derivatives ``(h, dh/dc_x, dh/dc_y)`` where the ray leaves the material inside the
+    interval ``[rho_lo, rho_hi]`` (``g_lo < 0 <= g_hi``; module docstring, "Chip thickness")."""
+    rho_b = rho_lo + (rho_hi - rho_lo) * (-g_lo) / (g_hi - g_lo)
+    sl = (wj - wi) / dx
+    den = cs - sl * sn
+    if den != 0.0:
+        return r - rho_b, -sl / den, sgn / den  # d/dc_y = s d/dc_w
+    return r - rho_b, 0.0, 0.0
+
+
+@njit(inline="always")
+def _first_uncleared(wb, x0, dx, cx, cw, sn, cs, r, k, i, step, delta, tol0):  # pragma: no cover - numba
+    """The first column interval from ``i`` on (in steps of ``step``, -1 or +1, the ray's direction
+    inwards) that an error bound does not clear, or the first index off the grid.
+
+    An interval is cleared when the exact walk (:func:`_interval_exit`) provably finds the ray still
+    in the material at its inner end (``g_lo >= 0``) and the tool centre not yet reached
+    (``0 < rho_lo < r``). The test evaluates ``g`` at the column of that end without the division
+    and the interpolation of the exact walk: ``rho~ = (x_c - cx) fl(1/sn)`` is within ``3 eps rho``
+    of the exact ``rho_lo`` (one more rounding than the division), and the exact walk's fraction
+    ``fl`` at that end is within ``delta`` of 0 (``sn > 0``) or 1 (``sn < 0``), so its boundary value
+    is within ``delta |wj - wi|`` of the column's; with the round-off of the sums of ``g``
+    (``tol0 + 64 eps (|wi| + |wj|)``) the bounds are applied with margins (see :func:`_chip_one`),
+    so the skip changes no bit of the result."""
+    ncol = wb.shape[1]
+    inv = 1.0 / sn
+    rho_min = 8.0 * _EPS * r
+    rho_max = r * (1.0 - 16.0 * _EPS)
+    off = 0 if step < 0 else 1  # column at the interval's inner end: i (ray towards -x) or i + 1
+    while 0 <= i < ncol - 1:
+        c = i + off
+        rho = (x0 + c * dx - cx) * inv
+        if not (rho > rho_min and rho < rho_max):
+            return i
+        wi = wb[k, i]
+        wj = wb[k, i + 1]
+        if wb[k, c] - (cw + rho * cs) <= tol0 + delta * abs(wj - wi) + 64.0 * _EPS * (abs(wi) + abs(wj)):
+            return i
+        i += step
+    return i
+
+
 @njit(inline="always")
 def _chip_one(wb, x0, dx, cx, cw, sgn, phi, r, k):  # pragma: no cover - numba
     """Chip of one edge element (tip radius ``r``, angle ``phi``, disc ``k``) and its derivatives:
-    ``(h, dh/dc_x, dh/dc_y)`` (module docstring, "Chip thickness"); ``(0, 0, 0)`` out of the material."""
+    ``(h, dh/dc_x, dh/dc_y)`` (m, 1, 1; module docstring, "Chip thickness"); ``(0, 0, 0)`` out of
+    the material.
+
+    The walk over the column intervals skips those an error bound clears
+    (:func:`_first_uncleared`) and takes the exact arithmetic of the column-by-column walk
+    (:func:`_chip_one_columnwise`) at the tip's interval, at the interval where the ray leaves the
+    material and at the one before it, so the result is the reference's, bit for bit
+    (``tests/test_workpiece.py``). Bounds (eps = 2**-52): the exact walk's fraction at an interval's
+    end, ``(cx + rho sn - x0) / dx - i``, reconstructs ``x0 + i dx`` from sums and products of
+    numbers of size at most ``X = |x0| + |cx| + r + ncol dx``, each off by at most a few eps of
+    ``X``, so it is within ``8 eps (X / dx + ncol)`` of 0 or 1; ``delta`` is 8 times that. The two
+    evaluations of ``g`` (exact and cleared test) round off by at most ``10 eps (|wi| + |wj| + |cw|
+    + r)`` together, with ``|rho| <= r`` and ``|cs| <= 1``; the test allows ``64 eps`` times that
+    (``tol0 = 64 eps (|cw| + r)``)."""
+    ncol = wb.shape[1]
+    sn = math.sin(phi)
+    cs = sgn * math.cos(phi)
+    xt = cx + r * sn
+    u = (xt - x0) / dx
+    if not (u >= 0.0 and u < ncol - 1):
+        return 0.0, 0.0, 0.0
+    i = int(math.floor(u))
+    f = u - i
+    wi, wj = _tip_interval(wb, sgn, i, k)
+    g_hi = wi + (wj - wi) * f - (cw + r * cs)
+    if g_hi < 0.0:
+        return 0.0, 0.0, 0.0  # tip out of the material
+    step = -1 if sn > 0.0 else 1
+    delta = 64.0 * _EPS * ((abs(x0) + abs(cx) + r + ncol * dx) / dx + ncol)
+    tol0 = 64.0 * _EPS * (abs(cw) + r)
+    rho_hi = r
+    rho_lo, g_lo, last = _interval_exit(x0, dx, cx, cw, sn, cs, i, wi, wj, rho_hi)
+    while True:
+        if g_lo < 0.0:
+            return _crossing_chip(r, rho_lo, rho_hi, g_lo, g_hi, wi, wj, dx, sn, cs, sgn)
+        if last:
+            return r, 0.0, 0.0  # tool centre inside the material: the tooth is buried
+        rho_hi = rho_lo
+        g_hi = g_lo
+        i += step
+        if i < 0 or i >= ncol - 1:
+            return r - rho_hi, 0.0, 0.0  # left the grid: beyond it there is no material
+        j = _first_uncleared(wb, x0, dx, cx, cw, sn, cs, r, k, i, step, delta, tol0)
+        if j != i:  # i .. j - step cleared: the exact walk's values at the inner end of the last of them
+            p = j - step
+            rho_hi, g_hi, _ = _interval_exit(x0, dx, cx, cw, sn, cs, p, wb[k, p], wb[k, p + 1], r)
+            i = j
+            if i < 0 or i >= ncol - 1:
+                return r - rho_hi, 0.0, 0.0
+        wi = wb[k, i]
+        wj = wb[k, i + 1]
+        rho_lo, g_lo, last = _interval_exit(x0, dx, cx, cw, sn, cs, i, wi, wj, rho_hi)
+
+
+@njit(inline="always")
+def _chip_one_columnwise(wb, x0, dx, cx, cw, sgn, phi, r, k):  # pragma: no cover - numba
+    """The reference of :func:`_chip_one`: the same chip and derivatives ``(h, dh/dc_x, dh/dc_y)`` (m,
+    1, 1) by the walk of every column interval with the exact arithmetic (the kernel before the
+    cleared columns were skipped; kept for the tests and the benchmark of the skip)."""
     ncol = wb.shape[1]
     sn = math.sin(phi)
     cs = sgn * math.cos(phi)
@@ -312,6 +451,15 @@ def _chip_kernel(wb, x0, dx, cx, cw, sgn, phi, radius, h, d):  # pragma: no cove
 
 
 @njit(cache=True, nogil=True)
+def _chip_kernel_columnwise(wb, x0, dx, cx, cw, sgn, phi, radius, h, d):  # pragma: no cover - numba
+    """:func:`_chip_kernel` with the reference walk :func:`_chip_one_columnwise` (tests, benchmark)."""
+    n_teeth, n_discs = phi.shape
+    for j in range(n_teeth):
+        for k in range(n_discs):
+            h[j, k], d[j, k, 0], d[j, k, 1] = _chip_one_columnwise(wb, x0, dx, cx, cw, sgn, phi[j, k], radius[j], k)
+
+
+@njit(cache=True, nogil=True)
 def _remove_kernel(wb, x0, dx, cx0, cw0, cx1, cw1, sgn, phi0, phi1, radius, dtheta_max, w_top,
                    pend_i, pend_w, pend_a, pend_n, cull=True):  # pragma: no cover - numba
     # cull: skip the chords of a tip path that provably cannot reach the part (every chord vertex
@@ -367,13 +515,24 @@ def _remove_kernel(wb, x0, dx, cx0, cw0, cx1, cw1, sgn, phi0, phi1, radius, dthe
             nsub = int(math.ceil(abs(da) / dtheta_max))
             if nsub < 1:
                 nsub = 1
-            xa = cx0 + r * math.sin(a0)
-            wa = cw0 + sgn * r * math.cos(a0)
+            # the chord vertices' sines and cosines by turning the previous vertex's through da / nsub
+            # (four products instead of a sine and a cosine), recomputed directly every
+            # _ROTATION_RESTART vertices: each turn adds at most a few eps to their error
+            sa = math.sin(a0)
+            ca = math.cos(a0)
+            sd = math.sin(da / nsub)
+            cd = math.cos(da / nsub)
+            xa = cx0 + r * sa
+            wa = cw0 + sgn * r * ca
             for q in range(1, nsub + 1):
                 s = q / nsub
                 ang = a0 + s * da
-                xb = cx0 + s * (cx1 - cx0) + r * math.sin(ang)
-                wbv = cw0 + s * (cw1 - cw0) + sgn * r * math.cos(ang)
+                if q % _ROTATION_RESTART == 0:
+                    sa, ca = math.sin(ang), math.cos(ang)
+                else:
+                    sa, ca = sa * cd + ca * sd, ca * cd - sa * sd
+                xb = cx0 + s * (cx1 - cx0) + r * sa
+                wbv = cw0 + s * (cw1 - cw0) + sgn * r * ca
                 if wa <= w_top or wbv <= w_top:
                     if xa <= xb:
                         xl, wl, xr, wr = xa, wa, xb, wbv
