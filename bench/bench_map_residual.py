@@ -1,5 +1,6 @@
-"""Benchmark: the map's 300 Hz modal truncation with and without the static residual
-(``MapMethod(reduce_residual=...)``) against ``lobes.solve`` on the full model.
+"""Benchmark: the map's opt-in 300 Hz modal truncation with and without the static residual
+(``MapMethod(reduce_max_freq_hz=300.0, reduce_residual=...)``), and the map's default (the full
+model, ``--methods full``), against ``lobes.solve`` on the full model.
 
 The poses are those of ``tests/test_workspace.py::test_twenty_random_poses_of_a_placement_map_agree_with_solve``
 (rng seed 11, 20 of the reachable poses of a 400-pose placement map, 18-DOF orthogonal, 100
@@ -14,6 +15,7 @@ the band the cut excites (2 x the highest tooth-passing frequency, ``lobes.basis
     python bench/bench_map_residual.py                                 # aluminium, the 20 poses
     python bench/bench_map_residual.py --case tx200-steel --poses 0,9,17
     python bench/bench_map_residual.py --case tx200-steel --reports-only
+    python bench/bench_map_residual.py --case tx200-steel --poses 0,9,17 --methods full,plain
 """
 
 from __future__ import annotations
@@ -29,6 +31,9 @@ def main(argv=None) -> int:
     ap.add_argument("--case", default="tx200-aluminium", help="tx200-aluminium (default) or tx200-steel")
     ap.add_argument("--poses", default="", help="indices into the 20 picked poses, comma-separated (default all)")
     ap.add_argument("--reports-only", action="store_true", help="only the truncation reports (no lobes)")
+    ap.add_argument("--methods", default="plain,residual",
+                    help="comma list of plain (300 Hz truncation), residual (the same with the static residual), "
+                         "full (the map's default, no truncation); default plain,residual")
     args = ap.parse_args(argv)
 
     from robolobes import cases, linearize
@@ -44,14 +49,15 @@ def main(argv=None) -> int:
     if args.poses:
         pick = pick[[int(k) for k in args.poses.split(",")]]
     print(f"{args.case}: poses {[int(i) for i in pick]} of a 400-pose placement map, {len(pr.speeds_rpm)} speeds, "
-          "18-DOF orthogonal, truncation <= 300 Hz")
+          "18-DOF orthogonal; plain and residual: truncation <= 300 Hz, full: no truncation")
     robot = linearize.build_model(case.robot, "orthogonal")
     if args.reports_only:
         from robolobes.lobes.basis import band_edge_hz
         from robolobes.workspace import pose_structure
 
         print(f"band the cut excites: 0-{band_edge_hz(case.tool.teeth, float(max(pr.speeds_rpm))):.0f} Hz")
-        for name, meth in (("plain", MapMethod(reduce_residual=False)), ("residual", MapMethod(reduce_residual=True))):
+        for name, meth in (("plain", MapMethod(reduce_max_freq_hz=300.0)),
+                           ("residual", MapMethod(reduce_max_freq_hz=300.0, reduce_residual=True))):
             reps = [pose_structure(pr, meth, linearize.linearize(robot, table["theta"][i]), table["feed"][i])[1]
                     for i in pick]
             st = [r.static_compliance_rel_error for r in reps if r is not None]
@@ -62,13 +68,19 @@ def main(argv=None) -> int:
                   f"those below 1000 Hz: {sorted({round(f, -1) for f in dropped if f < 1000})}")
         return 0
     got, cpu = {}, {}
-    for name, meth in (("plain", MapMethod(reduce_residual=False)), ("residual", MapMethod(reduce_residual=True))):
+    methods = {"plain": MapMethod(reduce_max_freq_hz=300.0),
+               "residual": MapMethod(reduce_max_freq_hz=300.0, reduce_residual=True), "full": MapMethod()}
+    names = [k.strip() for k in args.methods.split(",") if k.strip()]
+    if not names or any(k not in methods for k in names):
+        ap.error(f"--methods must be a comma list of {', '.join(methods)}, got {args.methods!r}")
+    for name in names:
+        meth = methods[name]
         t0 = time.process_time()
         got[name] = compute_chunk(pr, meth, 0, table["theta"][pick], table["feed"][pick],
                                   np.ones(len(pick), bool)).depth_limit_m
         cpu[name] = time.process_time() - t0
-    print(f"compute_chunk CPU: plain {cpu['plain']:.1f} s, residual {cpu['residual']:.1f} s "
-          f"(ratio {cpu['residual'] / cpu['plain']:.2f})")
+    print("compute_chunk CPU: " + ", ".join(f"{k} {v:.1f} s" for k, v in cpu.items())
+          + "".join(f" (ratio {k} / {names[0]} {cpu[k] / cpu[names[0]]:.2f})" for k in names[1:]), flush=True)
     worst = {k: 0.0 for k in got}
     for k, i in enumerate(pick):
         lin = linearize.linearize(robot, table["theta"][i])

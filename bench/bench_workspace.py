@@ -6,7 +6,7 @@ under 10 minutes on this 2-core machine. Printed:
 
 1. the single-pose reference: ``lobes.solve`` on the full model at the Tab. 7 pose, same speeds,
    one core, measured in this process;
-2. the map (local pool of 2 processes, modal truncation <= 300 Hz), its wall time and the ratio
+2. the map (local pool of 2 processes, the full model unless ``--reduce-hz``), its wall time and the ratio
    ``n_reachable x t_single / t_map`` (how many times faster than solving the poses one by one);
 3. the projection of the map's time to 1000 reachable poses;
 4. a load-independent check: the CPU time (of this process) of ``compute_chunk`` at ``--cpu-poses``
@@ -36,13 +36,16 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=1000, help="poses of the placement grid (default 1000)")
     ap.add_argument("--n-rpm", type=int, default=100)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--reduce-hz", type=float, default=300.0, help="modal truncation (0: none)")
+    ap.add_argument("--reduce-hz", type=float, default=0.0,
+                    help="modal truncation of items 2-4, Hz (default 0: none, the full model, as the map's default)")
     ap.add_argument("--cpu-poses", type=int, default=6, help="poses of the CPU-time check (0: skip)")
     ap.add_argument("--case", default="tx200-aluminium", help="tx200-aluminium (default) or tx200-steel")
     ap.add_argument("--cpu-only", action="store_true", help="only item 4 (CPU per reachable pose): the default "
-                    "(refined, fast search) against the previous code's methods (one level m = 40, and refined, "
-                    "with the plain search) and the default with the static residual, in the same process, and "
-                    "the ratios")
+                    "(the full model, refined, fast search) against, in the same process, the same with one level "
+                    "m = 40, the opt-in truncation at --truncate-hz (the previous default), and that truncation with "
+                    "the static residual, and the ratios")
+    ap.add_argument("--truncate-hz", type=float, default=300.0, help="--cpu-only: the truncation compared (Hz)")
+    ap.add_argument("--plain-search", action="store_true", help="--cpu-only: also the default with the plain search")
     args = ap.parse_args(argv)
 
     from robolobes import cases, linearize
@@ -55,18 +58,23 @@ def main(argv=None) -> int:
         pr = MapProblem.make(case, "orthogonal", "placement", n=args.n, x_range_m=(-0.2, 0.2),
                              y_range_m=(-0.2, 0.2), speeds_rpm=speeds)
         print(f"{args.case}: {args.n} placement poses over 0.4 m x 0.4 m, {len(speeds)} speeds 2000-25000 rpm, "
-              "depths to 10 mm, 18-DOF orthogonal, truncation <= 300 Hz")
-        base = MapMethod(reduce_max_freq_hz=args.reduce_hz or None)
+              "depths to 10 mm, 18-DOF orthogonal")
+        base = MapMethod()
+        trunc = MapMethod(reduce_max_freq_hz=args.truncate_hz)
         from dataclasses import replace as _replace
-        c_new = _cpu_check(pr, base, None, args.cpu_poses, "default: refined, error estimate <= 1 %, fast search")
-        c_one = _cpu_check(pr, _replace(base, tol=None, search="plain"), None, args.cpu_poses,
-                           "previous default: one level m = 40 (no estimate), plain search")
-        c_ref = _cpu_check(pr, _replace(base, search="plain"), None, args.cpu_poses,
-                           "previous code refined (tol 0.01), plain search")
-        c_res = _cpu_check(pr, _replace(base, reduce_residual=True), None, args.cpu_poses,
-                           "default with the static residual (MapMethod(reduce_residual=True))")
-        print(f"   ratios: default / previous one level = {c_new / c_one:.2f}, default / previous refined = "
-              f"{c_new / c_ref:.2f}, with residual / default = {c_res / c_new:.2f}")
+        c_new = _cpu_check(pr, base, None, args.cpu_poses, "default: full model, refined, error estimate <= 1 %")
+        c_one = _cpu_check(pr, _replace(base, tol=None), None, args.cpu_poses,
+                           "full model, one level m = 40 (no estimate)")
+        c_tr = _cpu_check(pr, trunc, None, args.cpu_poses,
+                          f"opt-in truncation at {args.truncate_hz:g} Hz, refined (the previous default)")
+        c_res = _cpu_check(pr, _replace(trunc, reduce_residual=True), None, args.cpu_poses,
+                           f"truncation at {args.truncate_hz:g} Hz with the static residual")
+        print(f"   ratios: default / truncated = {c_new / c_tr:.2f}, default / one level = {c_new / c_one:.2f}, "
+              f"truncated with residual / truncated = {c_res / c_tr:.2f}")
+        if args.plain_search:
+            c_pl = _cpu_check(pr, _replace(base, search="plain"), None, args.cpu_poses,
+                              "default with the plain search")
+            print(f"   ratio plain search / default = {c_pl / c_new:.2f}")
         return 0
     robot = linearize.build_model(case.robot, "orthogonal")
     lin = linearize.linearize(robot, case.path.start_q_rad)
@@ -86,7 +94,8 @@ def main(argv=None) -> int:
     s = res.summary()
     n_ok = s["n_poses"] - s["n_unreachable"]
     print(f"2. map: {s['n_poses']} poses ({n_ok} reachable) x {s['n_speeds']} speeds over 0.4 m x 0.4 m, "
-          f"{args.workers} processes, truncation <= {args.reduce_hz:g} Hz: {t_map:.1f} s "
+          f"{args.workers} processes, {f'truncation <= {args.reduce_hz:g} Hz' if args.reduce_hz else 'full model'}: "
+          f"{t_map:.1f} s "
           f"({t_map / max(n_ok, 1):.2f} s per reachable pose)")
     # the issue: 1000 poses x 100 speeds in 600 s on two cores, where one pose took 3.3 s (6.6 s for
     # 200 speeds): the ratio below must reach 1000 x 3.3 / 600 = 5.5

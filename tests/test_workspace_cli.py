@@ -26,6 +26,25 @@ def test_map_cli_outputs_and_resume(tmp_path, capsys):
     assert main(SMALL + ["--out", str(out), "--json"]) == 0
     again = json.loads(capsys.readouterr().out)
     assert again["computed_poses"] == 0 and again["min_depth_limit_m"] == js["min_depth_limit_m"]
+    # the default is the full model: no truncation, so no truncation error
+    assert js["method"]["reduce_max_freq_hz"] is None
+    assert js["max_truncation_static_error"] is None and js["max_truncation_frf_error"] is None
+
+
+def test_map_cli_truncation_is_an_opt_in(tmp_path, capsys):
+    # --truncate-hz 300 reaches the method (map.json's method, the stored truncation errors), and
+    # a store of the full model is not resumed by it (other inputs: refused, exit 2)
+    # (the orthogonal model: the basic one has no mode above 142 Hz, so 300 Hz would drop nothing)
+    out = tmp_path / "t"
+    orth = SMALL + ["--variant", "orthogonal"]
+    assert main(orth + ["--truncate-hz", "300", "--out", str(out), "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["method"]["reduce_max_freq_hz"] == 300.0
+    # the 300 Hz truncation of the orthogonal model dropped 1.1e-3 to 1.4e-3 of the static
+    # compliance at 20 other placement poses (docs/guide/workspace.md): a decade either side here
+    assert 1e-4 < js["max_truncation_static_error"] < 1e-2
+    assert main(orth + ["--out", str(out), "--json"]) == 2
+    assert "other inputs" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("bad, words", [
@@ -37,6 +56,8 @@ def test_map_cli_outputs_and_resume(tmp_path, capsys):
     (["--rpm-min", "-3"], "--rpm-min"),
     (["--model", "nothing.toml"], "nothing.toml"),
     (["--tool-modes", "nothing.toml"], "nothing.toml"),
+    (["--truncate-hz", "0"], "--truncate-hz must be"),
+    (["--truncate-hz", "nan"], "--truncate-hz must be"),
 ])
 def test_map_cli_bad_input_exit_2_nothing_written(tmp_path, capsys, bad, words):
     out = tmp_path / "m"
@@ -73,6 +94,7 @@ def test_optimize_cli_json_contract(tmp_path, capsys):
               "tool_rotation_deg", "worst_pose_q_deg", "inputs_sha256"):
         assert k in js, k
     assert js["gain"] >= 1.0 and len(js["placement_offset_m"]) == 3
+    assert js["objective_model"].startswith("full model")   # the default: search and report on one model
     assert (out / "optimize.json").exists() and (out / "optimize.png").exists()
 
 
@@ -80,6 +102,7 @@ def test_optimize_cli_json_contract(tmp_path, capsys):
     (["--over", "everything"], "--over"),
     (["--n-s", "1"], "--n-s"),
     (["--x-range-mm", "10,20"], "must contain 0"),
+    (["--truncate-hz", "inf"], "--truncate-hz must be"),
 ])
 def test_optimize_cli_bad_input(tmp_path, capsys, bad, words):
     out = tmp_path / "o"

@@ -71,7 +71,11 @@ def test_a_store_of_other_inputs_is_refused_and_the_same_inputs_resume(problem, 
                                                                             prescan_m=None, chunk_poses=1))
     from dataclasses import replace
 
-    _refused(problem, path, "holds a map of other inputs", method=replace(FAST, reduce_residual=True))
+    truncated = replace(FAST, reduce_max_freq_hz=100.0)   # opt-in truncation (basic: modes 15.8-142 Hz): an input
+    _refused(problem, path, "holds a map of other inputs", method=truncated)
+    solve_map(problem, truncated, path=tmp_path / "t.zarr", scheduler="serial")
+    _refused(problem, tmp_path / "t.zarr", "holds a map of other inputs",
+             method=replace(truncated, reduce_residual=True))
     again = solve_map(problem, FAST, path=path, scheduler="serial")
     assert again.stats["computed_poses"] == 0
     np.testing.assert_array_equal(again.dataset["depth_limit_m"].values, first.dataset["depth_limit_m"].values)

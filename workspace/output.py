@@ -135,8 +135,18 @@ def _strict_json(opt, res, strict) -> dict:
     return js
 
 
-def optimize_json(opt, res, strict) -> dict:
-    """``optimize.json`` of an optimization ``res`` and its strict-limits companion ``strict``."""
+def _objective_model(method) -> str:
+    """Which structure the search evaluated (``method``: :class:`MapMethod`, None: the default)."""
+    hz = None if method is None else method.reduce_max_freq_hz
+    if hz is None:
+        return "full model (the search and the reported depths are the same model)"
+    return (f"modal truncation at {hz:g} Hz (the search only, not covered by the check: the reported depths are "
+            "the full model's, the choice of the optimum is the truncated model's)")
+
+
+def optimize_json(opt, res, strict, method=None) -> dict:
+    """``optimize.json`` of an optimization ``res`` and its strict-limits companion ``strict``;
+    ``method`` the :class:`MapMethod` of the search (None: the default, the full model)."""
     from .optimize import strict_violation
 
     base, best = res.baseline, res.best
@@ -156,6 +166,7 @@ def optimize_json(opt, res, strict) -> dict:
           "depth_along_pass_m": {"s_m": best.s_m, "baseline": base.depth_m, "optimum": best.depth_m},
           "strict_limits": opt.strict, "strict_optimum": _strict_json(opt, res, strict),
           "evaluations": res.stats["evaluations"],
+          "objective_model": _objective_model(method),
           "check": "minimum depths recomputed by SDM (m = 40) on the full, untruncated structure"}
     return js
 
