@@ -103,13 +103,15 @@ def forces_bench(tmp: Path, old_forces, ref: str) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--forces", action="store_true", help="also the force set")
+    ap.add_argument("--forces-only", action="store_true", help="the force set alone (not the FRF set)")
     ap.add_argument("--reference", default=OLD, help=f"commit whose identify/ is the reference (default {OLD})")
     args = ap.parse_args(argv)
     ref = args.reference
     with tempfile.TemporaryDirectory() as tmp:
         old_frf, old_forces = old_package(Path(tmp), ref)
-        frf_bench(Path(tmp), old_frf, ref)
-        if args.forces:
+        if not args.forces_only:
+            frf_bench(Path(tmp), old_frf, ref)
+        if args.forces or args.forces_only:
             forces_bench(Path(tmp), old_forces, ref)
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     return 0
