@@ -58,7 +58,9 @@ def test_generator_matches_robolobes_model():
              (Effects(joint_scale={3: (0.75, 0.6)}), (JointCorrection(3, 0.75, 0.6),)),
              (Effects(servo=(2, 50.0, 4e6, 2e3)), (ServoDrive(2, 50.0, 4e6, 2e3),)),
              (Effects(payload_factor=1.2), (PayloadMass(0.2 * 44.4),)),
-             (Effects(base_z=(1.6e8, 4e4)), (MountCompliance(kz_n_per_m=1.6e8, cz_n_s_per_m=4e4),))]
+             (Effects(base_z=(1.6e8, 4e4)), (MountCompliance(kz_n_per_m=1.6e8, cz_n_s_per_m=4e4),)),
+             (Effects(base_rock=(6e7, 8e7, 3e3, 5e3)),
+              (MountCompliance(krx_n_m_per_rad=6e7, kry_n_m_per_rad=8e7, crx_n_m_s_per_rad=3e3, cry_n_m_s_per_rad=5e3),))]
     for eff, els in pairs:
         gen, own = TX200(eff), build_model(case.robot, "basic", extra_elements=els)
         for k in range(len(POSE_OFFSETS_DEG)):
