@@ -38,7 +38,7 @@ import numpy as np
 
 from robolobes.cases.spec import ElementSpec
 
-from .effects import Effect, ModelState, Parameter, register
+from .effects import Effect, ModelState, Parameter, check_params, register
 
 __all__ = ["PoseMatrices", "StructuralEffect", "TcpModeEffect", "JointCorrectionEffect",
            "OrthogonalCorrectionEffect", "PayloadMassEffect", "ServoEffect", "MountZEffect", "MountRockEffect", "LoadKEffect",
@@ -515,6 +515,17 @@ for _j in range(1, 7):
     register(ServoEffect(_j))
 
 
+def _with_mount(model: ModelState, spec: ElementSpec) -> ModelState:
+    """``model`` with the ``mount_compliance`` keys of ``spec`` merged into the mount identification
+    already added (a robot has one mount element: ``mount_z`` and ``mount_rock`` share it), else with
+    ``spec`` added."""
+    for i, e in enumerate(model.elements):
+        if e.type == "mount_compliance":
+            merged = ElementSpec("mount_compliance", {**e.params, **spec.params})
+            return replace(model, elements=model.elements[:i] + (merged,) + model.elements[i + 1:])
+    return model.with_element(spec)
+
+
 MOUNT_Z_DETECT_N_PER_M = 3.7e9
 
 
@@ -565,6 +576,14 @@ class MountZEffect(StructuralEffect):
         return not any(e.type == "mount_compliance" for e in specs)
 
 
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
+        and ``mount_rock`` found together share it)."""
+        params = check_params(self, params)
+        for spec in self.element_specs(model, params):
+            model = _with_mount(model, spec)
+        return model
+
     @staticmethod
     def damping(params, mass_kg: float) -> float:
         """``c = 2 zeta sqrt(k M)``, N s/m, for the mass ``mass_kg`` on the mount."""
@@ -611,13 +630,12 @@ class MountZEffect(StructuralEffect):
 
 
 def _state_mass_kg(model: ModelState) -> float:
-    """Mass of the robot of ``model`` (every body and the base link), kg."""
+    """Mass of the robot of ``model`` (every body and the base link, counted once when a rocking
+    mount already carries it), kg."""
     import pinocchio as pin
 
-    from robolobes.linearize.model import base_inertia
-
     robot = model.robot()
-    return float(pin.computeTotalMass(robot.model)) + float(base_inertia(robot.spec).mass)
+    return _mounted_mass_kg(robot, float(pin.computeTotalMass(robot.model)))
 
 
 register(MountZEffect())
@@ -653,7 +671,8 @@ class MountRockEffect(StructuralEffect):
     A tool mode's small mass is not coupled to the rocking (as for ``mount_z``).
 
     Detection threshold (derived, :data:`MOUNT_ROCK_DETECT_N_M_PER_RAD`): the rocking softens the
-    whole robot at its TCP by ``|e x p_tcp|^2 / k`` (the TCP 1.5-2 m from the base), which shifts every
+    whole robot at its TCP by ``|e x p_tcp|^2 / k`` (TX200 set: the TCP 0.37-0.62 m from base x, 0.75-1.13 m from
+    base y), which shifts every
     robot peak; seen when some driving-point line changes by 3x the noise (9 % at 3 %): ``k <= 7.7e9``.
     """
 
@@ -677,6 +696,14 @@ class MountRockEffect(StructuralEffect):
     def applicable(self, model: ModelState) -> bool:
         specs = tuple(model.elements) + tuple(model.case.robot.elements or ())
         return not any(e.type == "mount_compliance" for e in specs)
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
+        and ``mount_rock`` found together share it)."""
+        params = check_params(self, params)
+        for spec in self.element_specs(model, params):
+            model = _with_mount(model, spec)
+        return model
 
     def element_specs(self, model, params):
         """The ``mount_compliance`` element (rocking only): ``krx = kry = k``, ``crx = cry = eta k``."""
