@@ -379,7 +379,14 @@ def diagnose(poses: list[PoseData], effects: list) -> dict:
             "extra_peak_log_ratio": float(mean[k]), "extra_peak_in_every_pose": every_pose,
             "extra_peak_direction_tcp": _peak_direction(poses, effects, f_peak),
             "residual_peaks": residual_peaks(poses, effects, edges),
-            "mount_mass_kg": float(poses[0].pm.mount_mass_kg)}
+            "mount_mass_kg": float(poses[0].pm.mount_mass_kg), "rock_inertia_kg_m2": _rock_inertia(poses[0].pm)}
+
+
+def _rock_inertia(pm) -> float:
+    """Mean inertia about base x and y of the mass on the mount at the pose ``pm``, kg m^2 (a rocking
+    mount's start values); 0 without it."""
+    inertia = pm.mount_inertia_kg_m2
+    return 0.0 if inertia is None else float(0.5 * (inertia[0, 0] + inertia[1, 1]))
 
 
 def residual_peaks(poses: list[PoseData], effects: list, edges: np.ndarray, n_peaks: int = RESIDUAL_PEAKS) -> list:

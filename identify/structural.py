@@ -22,7 +22,9 @@ costs a few microseconds instead of rebuilding and re-linearizing the pinocchio 
   ``payload_mass`` correction adds its weight to the gear torques and moves that stiffness with
   them, in either order (exact);
 * ``mount_z``: one coordinate more, the base's vertical translation, coupled to the others through
-  the robot's momentum Jacobian (:class:`MountZEffect`).
+  the robot's momentum Jacobian (:class:`MountZEffect`);
+* ``mount_rock``: two coordinates more, the base's rocking about base x and y, coupled to the others
+  through the robot's angular momentum about the base origin (:class:`MountRockEffect`).
 
 The consistency of each perturbation with its element is tested (tests/test_identify_frf.py).
 """
@@ -36,10 +38,11 @@ import numpy as np
 
 from robolobes.cases.spec import ElementSpec
 
-from .effects import Effect, ModelState, Parameter, register
+from .effects import Effect, ModelState, Parameter, check_params, register
 
 __all__ = ["PoseMatrices", "StructuralEffect", "TcpModeEffect", "JointCorrectionEffect",
-           "OrthogonalCorrectionEffect", "PayloadMassEffect", "ServoEffect", "MountZEffect", "LoadKEffect", "pose_matrices"]
+           "OrthogonalCorrectionEffect", "PayloadMassEffect", "ServoEffect", "MountZEffect", "MountRockEffect", "LoadKEffect",
+           "pose_matrices"]
 
 
 @dataclass(frozen=True)
@@ -63,6 +66,17 @@ class PoseMatrices:
         (:class:`MountZEffect`)
     mount_mass_kg : float
         Mass the mount carries: every body of the model plus the base link, kg.
+    angular_momentum_jacobian : array (3, n), kg m^2/rad, or None
+        The robot's angular momentum about the base frame's origin per unit of each coordinate's
+        velocity, base axes (what couples a rocking of the base in, :class:`MountRockEffect`).
+    mount_first_moment_kg_m : array (3,) or None
+        ``sum_i m_i c_i`` of the mass on the mount (base link included), base frame, kg m.
+    mount_inertia_kg_m2 : array (3, 3) or None
+        Inertia of the mass on the mount about the base frame's origin, base axes, kg m^2.
+    payload_com_m : array (3,) or None
+        The payload's centre of mass in the base frame, m (a payload correction's point mass).
+    tcp_m : array (3,) or None
+        The TCP's position in the base frame, m (a rocking moves it ``e x p``).
     gear_torque_n_m : array (n_joints,) or None
         The static gravity torque on each motion axis at the pose, N m (g = 9.81 m/s^2 even when the
         variant's dynamics omit gravity: what the gears carry, :class:`LoadKEffect`).
@@ -86,6 +100,11 @@ class PoseMatrices:
     payload_mass_kg: float
     momentum_jacobian: np.ndarray | None = None
     mount_mass_kg: float = 0.0
+    angular_momentum_jacobian: np.ndarray | None = None
+    mount_first_moment_kg_m: np.ndarray | None = None
+    mount_inertia_kg_m2: np.ndarray | None = None
+    payload_com_m: np.ndarray | None = None
+    tcp_m: np.ndarray | None = None
     gear_torque_n_m: np.ndarray | None = None
     load_slope_per_knm: np.ndarray | None = None
 
@@ -112,6 +131,7 @@ def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
     Jcom = pin.jacobianCenterOfMass(robot.model, data, np.asarray(lin.q))
     moving = float(data.mass[0])
     mounted = _mounted_mass_kg(robot, moving)
+    L_origin, first, inertia = _mount_rotation_terms(robot, data, np.asarray(lin.q), moving * np.asarray(Jcom))
     return PoseMatrices(M=np.asarray(lin.M), C=np.asarray(lin.C), K=np.asarray(lin.K), J=np.asarray(lin.J),
                         R_tcp=np.asarray(lin.R_tcp), motion_dofs=np.asarray(robot.motion_dofs),
                         virtual_dofs=virtual_dofs(robot.model) if vj else np.zeros(0, dtype=int),
@@ -119,7 +139,40 @@ def pose_matrices(robot, theta: np.ndarray) -> PoseMatrices:
                         virtual_k=vj[0].stiffness if vj else 0.0, virtual_d=vj[0].damping if vj else 0.0,
                         J_payload=J_payload, payload_mass_kg=spec.payload.mass_kg,
                         momentum_jacobian=moving * np.asarray(Jcom), mount_mass_kg=mounted,
+                        angular_momentum_jacobian=L_origin, mount_first_moment_kg_m=first,
+                        mount_inertia_kg_m2=inertia, payload_com_m=data.oMf[robot.flange_frame].translation + r,
+                        tcp_m=np.asarray(lin.p_tcp),
                         gear_torque_n_m=_gear_torque(robot, np.asarray(lin.q)))
+
+
+def _skew(r: np.ndarray) -> np.ndarray:
+    """``[r]x`` (3, 3): ``_skew(r) @ v = r x v``."""
+    return np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+
+
+def _mount_rotation_terms(robot, data, q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What a rocking of the base couples to, at link angles ``q`` (nq,) (``data``'s kinematics at
+    ``q``; ``P`` (3, n) the momentum Jacobian): the angular momentum Jacobian about the base origin
+    (3, n), kg m^2/rad; the first moment ``sum m c`` (3,), kg m, and the inertia about the origin
+    (3, 3), kg m^2, of the mass on the mount (every body plus the base link unless it already rides on
+    a mount), base axes. ``L_O = h_G + c x P``: pinocchio's centroidal map about the moving bodies'
+    centre of mass ``c``, moved to the origin."""
+    import pinocchio as pin
+
+    from robolobes.linearize.extra_elements import MountCompliance
+    from robolobes.linearize.model import base_inertia
+
+    Ag = np.asarray(pin.computeCentroidalMap(robot.model, data, q))
+    c = np.asarray(data.com[0])
+    L_origin = Ag[3:] + _skew(c) @ P
+    total = pin.Inertia.Zero()
+    for i in range(1, robot.model.njoints):
+        total = total + data.oMi[i].act(robot.model.inertias[i])
+    if not any(isinstance(e, MountCompliance) and e.axes for e in robot.elements):
+        total = total + base_inertia(robot.spec)
+    m, g = float(total.mass), np.asarray(total.lever)
+    inertia = np.asarray(total.inertia) + m * (float(g @ g) * np.eye(3) - np.outer(g, g))
+    return L_origin, m * g, inertia
 
 
 def _gear_torque(robot, q: np.ndarray) -> np.ndarray:
@@ -360,6 +413,13 @@ class PayloadMassEffect(StructuralEffect):
         if pm.momentum_jacobian is not None:     # the point mass's momentum (a mount sees it)
             n = pm.M.shape[0]
             out = replace(out, momentum_jacobian=_padded(pm.momentum_jacobian, n) + dm * _padded(pm.J_payload, n))
+        if pm.angular_momentum_jacobian is not None and pm.payload_com_m is not None \
+                and pm.mount_first_moment_kg_m is not None and pm.mount_inertia_kg_m2 is not None:
+            p, n = pm.payload_com_m, pm.M.shape[0]     # the point mass about the base origin (a rocking sees it)
+            out = replace(out, angular_momentum_jacobian=_padded(pm.angular_momentum_jacobian, n)
+                          + dm * _skew(p) @ _padded(pm.J_payload, n),
+                          mount_first_moment_kg_m=pm.mount_first_moment_kg_m + dm * p,
+                          mount_inertia_kg_m2=pm.mount_inertia_kg_m2 + dm * (float(p @ p) * np.eye(3) - np.outer(p, p)))
         return out
 
 
@@ -455,6 +515,17 @@ for _j in range(1, 7):
     register(ServoEffect(_j))
 
 
+def _with_mount(model: ModelState, spec: ElementSpec) -> ModelState:
+    """``model`` with the ``mount_compliance`` keys of ``spec`` merged into the mount identification
+    already added (a robot has one mount element: ``mount_z`` and ``mount_rock`` share it), else with
+    ``spec`` added."""
+    for i, e in enumerate(model.elements):
+        if e.type == "mount_compliance":
+            merged = ElementSpec("mount_compliance", {**e.params, **spec.params})
+            return replace(model, elements=model.elements[:i] + (merged,) + model.elements[i + 1:])
+    return model.with_element(spec)
+
+
 MOUNT_Z_DETECT_N_PER_M = 3.7e9
 
 
@@ -505,6 +576,14 @@ class MountZEffect(StructuralEffect):
         return not any(e.type == "mount_compliance" for e in specs)
 
 
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
+        and ``mount_rock`` found together share it)."""
+        params = check_params(self, params)
+        for spec in self.element_specs(model, params):
+            model = _with_mount(model, spec)
+        return model
+
     @staticmethod
     def damping(params, mass_kg: float) -> float:
         """``c = 2 zeta sqrt(k M)``, N s/m, for the mass ``mass_kg`` on the mount."""
@@ -540,22 +619,141 @@ class MountZEffect(StructuralEffect):
         M = _bordered(pm.M, m)
         M[:n, n] = M[n, :n] = P[2]
         ez = np.array([[0.0], [0.0], [1.0]])
-        return replace(pm, M=M, C=_bordered(pm.C, self.damping(params, m)), K=_bordered(pm.K, k),
-                       J=np.hstack([pm.J, ez]), J_payload=np.hstack([_padded(pm.J_payload, n), ez]),
-                       momentum_jacobian=np.hstack([P, m * ez]))
+        out = replace(pm, M=M, C=_bordered(pm.C, self.damping(params, m)), K=_bordered(pm.K, k),
+                      J=np.hstack([pm.J, ez]), J_payload=np.hstack([_padded(pm.J_payload, n), ez]),
+                      momentum_jacobian=np.hstack([P, m * ez]))
+        if pm.angular_momentum_jacobian is not None and pm.mount_first_moment_kg_m is not None:
+            # the angular momentum about the origin of the mass translating along z: S x e_z
+            Lz = np.cross(pm.mount_first_moment_kg_m, ez[:, 0])[:, None]
+            out = replace(out, angular_momentum_jacobian=np.hstack([_padded(pm.angular_momentum_jacobian, n), Lz]))
+        return out
 
 
 def _state_mass_kg(model: ModelState) -> float:
-    """Mass of the robot of ``model`` (every body and the base link), kg."""
+    """Mass of the robot of ``model`` (every body and the base link, counted once when a rocking
+    mount already carries it), kg."""
     import pinocchio as pin
 
-    from robolobes.linearize.model import base_inertia
-
     robot = model.robot()
-    return float(pin.computeTotalMass(robot.model)) + float(base_inertia(robot.spec).mass)
+    return _mounted_mass_kg(robot, float(pin.computeTotalMass(robot.model)))
 
 
 register(MountZEffect())
+
+
+# derived, not tuned (docs/guide/identify-answers.md, "The mount's rocking"): on the independent
+# generator's six TX200 poses (400 lines 2-300 Hz), the largest relative change |dH| / |H| a rocking
+# mount makes on a driving-point line (xx, yy, zz) falls as 1 / k, 7.0e8 / k at the most sensitive
+# pose; 3x the 3 % noise (0.09) is reached at k = 7.7e9 N m/rad
+MOUNT_ROCK_DETECT_N_M_PER_RAD = 7.7e9
+
+
+class MountRockEffect(StructuralEffect):
+    """The robot's base rocking on its mount about base x and y (element
+    :class:`~robolobes.linearize.extra_elements.MountCompliance`, ``krx, kry`` and ``crx, cry``).
+
+    Parameters: one rocking stiffness ``k`` for both axes and the damping time ``eta = c / k`` (s), so
+    ``crx = cry = eta k``. Isotropic because a base anchored by a ring of bolts is nearly so, and a
+    first parametrization: whether the six poses tell ``krx`` from ``kry`` was not measured. A damping
+    time, not a damping ratio: the rocking inertia (730-930 kg m^2 about base x and y over the TX200
+    set) changes with the pose, and the element holds one ``c``; at the rocking frequency ``f`` the
+    ratio is ``zeta = pi f eta``.
+
+    Perturbation (exact for the model alone and with joint, servo, payload and ``mount_z``
+    corrections, basic variant): two coordinates ``a_x, a_y`` more, each rotating every body on the
+    mount about its base axis ``e`` through the origin. The border of the mass matrix is ``e . L_O``,
+    ``L_O`` (3, n) the robot's angular momentum about the origin per unit velocity; the corner is
+    ``I_O`` (2 x 2 block of the inertia about the origin, base link included); a point ``p`` moves
+    ``e x p`` per unit angle (the TCP, the payload's centre of mass), the linear momentum ``e x S``
+    (``S = sum m c``). ``K' = diag(K, k, k)``, ``C' = diag(C, c, c)``. Gravity (gravity variant)
+    would take ``M g z_G`` (about 7e3 N m/rad on the TX200) off the rocking stiffness and couple it
+    to the joints; the perturbation omits it (below 1e-3 of the stiffness the data resolve).
+    A tool mode's small mass is not coupled to the rocking (as for ``mount_z``).
+
+    Detection threshold (derived, :data:`MOUNT_ROCK_DETECT_N_M_PER_RAD`): the rocking softens the
+    whole robot at its TCP by ``|e x p_tcp|^2 / k`` (TX200 set: the TCP 0.37-0.62 m from base x, 0.75-1.13 m from
+    base y), which shifts every
+    robot peak; seen when some driving-point line changes by 3x the noise (9 % at 3 %): ``k <= 7.7e9``.
+    """
+
+    name = "mount_rock"
+    doc = ("the robot's base rocking on its mount about base x and y (anchoring, floor): one rocking stiffness "
+           "and the damping time c / k")
+    parameters = (
+        Parameter("stiffness_n_m_per_rad", 1e5, 1e10, None, MOUNT_ROCK_DETECT_N_M_PER_RAD, log=True,
+                  doc="kz times the supports' squared radius (0.1-0.16 m^2 for a 0.6-0.8 m footprint): on "
+                      "isolators 1e5-1.6e6 (the TX200 rocking at 2-7 Hz), anchored on concrete 1e7-1.6e8 "
+                      "(18-70 Hz), a steel block 1.6e9; seen when <= 7.7e9"),
+        Parameter("damping_time_s", 3e-6, 2e-2, None, None, log=True,
+                  doc="c / k: a damping ratio of 0.3-50 % at a rocking mode of 10-300 Hz (zeta = pi f eta)"),
+    )
+    observed_by = {"frf": "every robot peak shifted, by an amount that depends on the pose (the TCP's distance "
+                          "from the base axes): some driving-point line changed by 3x the noise, "
+                          "TX200: k <= 7.7e9 N m/rad",
+                   "stability": "moves the robot's lobes"}
+    signatures = ("pose_shift", "static_offset")
+
+    def applicable(self, model: ModelState) -> bool:
+        specs = tuple(model.elements) + tuple(model.case.robot.elements or ())
+        return not any(e.type == "mount_compliance" for e in specs)
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
+        and ``mount_rock`` found together share it)."""
+        params = check_params(self, params)
+        for spec in self.element_specs(model, params):
+            model = _with_mount(model, spec)
+        return model
+
+    def element_specs(self, model, params):
+        """The ``mount_compliance`` element (rocking only): ``krx = kry = k``, ``crx = cry = eta k``."""
+        k = float(params["stiffness_n_m_per_rad"])
+        c = float(params["damping_time_s"] * k)
+        return (ElementSpec("mount_compliance", {"krx_n_m_per_rad": k, "kry_n_m_per_rad": k,
+                                                 "crx_n_m_s_per_rad": c, "cry_n_m_s_per_rad": c}),)
+
+    def guesses(self, diagnosis):
+        """A scan of the rigid robot's rocking frequency, 5-250 Hz, ``k = I (2 pi f)^2`` with ``I`` the
+        rocking inertia (``diagnosis["rock_inertia_kg_m2"]``), damping ratio 5 % there; ``fit``
+        optimizes from the cheapest two."""
+        inertia = float(diagnosis["rock_inertia_kg_m2"])
+        kp, ep = self.param("stiffness_n_m_per_rad"), self.param("damping_time_s")
+        out = []
+        for f in (5.0, 12.0, 25.0, 40.0, 60.0, 90.0, 150.0, 250.0):
+            w = 2 * math.pi * f
+            out.append({"stiffness_n_m_per_rad": float(np.clip(inertia * w ** 2, kp.lower, kp.upper)),
+                        "damping_time_s": float(np.clip(2 * 0.05 / w, ep.lower, ep.upper))})
+        return out
+
+    def perturb(self, pm, params):
+        if pm.angular_momentum_jacobian is None or pm.mount_inertia_kg_m2 is None \
+                or pm.mount_first_moment_kg_m is None or pm.payload_com_m is None or pm.momentum_jacobian is None:
+            raise ValueError("mount_rock needs the pose's momentum terms (pose_matrices)")
+        n = pm.M.shape[0]
+        k = params["stiffness_n_m_per_rad"]
+        c = params["damping_time_s"] * k
+        E = np.eye(3)[:, :2]                                   # the axes e_x, e_y (3, 2)
+        L = _padded(pm.angular_momentum_jacobian, n)
+        M = np.zeros((n + 2, n + 2))
+        M[:n, :n] = pm.M
+        M[n:, :n] = E.T @ L
+        M[:n, n:] = M[n:, :n].T
+        M[n:, n:] = E.T @ pm.mount_inertia_kg_m2 @ E
+        C, K = np.zeros_like(M), np.zeros_like(M)
+        C[:n, :n], K[:n, :n] = pm.C, pm.K
+        C[n:, n:], K[n:, n:] = c * np.eye(2), k * np.eye(2)
+        turn = lambda p: np.cross(E.T, p).T                    # e x p per axis (3, 2)
+        if pm.tcp_m is None:
+            raise ValueError("mount_rock needs the TCP position (pose_matrices)")
+        tcp = pm.tcp_m
+        S = pm.mount_first_moment_kg_m
+        return replace(pm, M=M, C=C, K=K, J=np.hstack([pm.J, turn(tcp)]),
+                       J_payload=np.hstack([_padded(pm.J_payload, n), turn(pm.payload_com_m)]),
+                       momentum_jacobian=np.hstack([_padded(pm.momentum_jacobian, n), turn(S)]),
+                       angular_momentum_jacobian=np.hstack([L, pm.mount_inertia_kg_m2 @ E]))
+
+
+register(MountRockEffect())
 
 
 # detection thresholds (stiffening per kN m), derived, not tuned: the load law is told apart from a

@@ -16,7 +16,7 @@ Tolerances asserted (and stated in docs/guide/identify-answers.md):
   on arm_bend, base_z, highpass and null seeds 1-5, with the residual of a model that identified
   nothing (the requirement's 20 %);
 * slow, long: 5 draws of joint + servo, of the tool-mode pairs, of the mount (alone and with a
-  joint), of axis 3's load-dependent gear stiffness (alone and with the payload mass off) and of each effect outside the library (the DAQ's high-pass, the arm's lateral bending),
+  joint), of the mount's rocking (alone and with a joint), of axis 3's load-dependent gear stiffness (alone and with the payload mass off) and of each effect outside the library (the DAQ's high-pass, the arm's lateral bending),
   at least 4 right; 20 nulls, at least 19 clean (tests/generators/draws.py states what
   "right" means); CI runs the first 2 of each, both right (``--draws 2``);
 * the provisional and replace steps of the selection on a toy whose single fits are not credible.
@@ -58,7 +58,9 @@ def test_generator_matches_robolobes_model():
              (Effects(joint_scale={3: (0.75, 0.6)}), (JointCorrection(3, 0.75, 0.6),)),
              (Effects(servo=(2, 50.0, 4e6, 2e3)), (ServoDrive(2, 50.0, 4e6, 2e3),)),
              (Effects(payload_factor=1.2), (PayloadMass(0.2 * 44.4),)),
-             (Effects(base_z=(1.6e8, 4e4)), (MountCompliance(kz_n_per_m=1.6e8, cz_n_s_per_m=4e4),))]
+             (Effects(base_z=(1.6e8, 4e4)), (MountCompliance(kz_n_per_m=1.6e8, cz_n_s_per_m=4e4),)),
+             (Effects(base_rock=(6e7, 8e7, 3e3, 5e3)),
+              (MountCompliance(krx_n_m_per_rad=6e7, kry_n_m_per_rad=8e7, crx_n_m_s_per_rad=3e3, cry_n_m_s_per_rad=5e3),))]
     for eff, els in pairs:
         gen, own = TX200(eff), build_model(case.robot, "basic", extra_elements=els)
         for k in range(len(POSE_OFFSETS_DEG)):
@@ -322,7 +324,8 @@ def test_noise_floor_within_20_percent_with_an_unexplained_residual(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "base_z+joint", "highpass", "arm_bend",
+@pytest.mark.parametrize("case", ["joint+servo", "sensor_gain", "base_z", "base_z+joint", "base_rock", "base_rock+joint",
+                                  "highpass", "arm_bend",
                                   "mode_xy+payload", "mode_xy+joint", "load_k", "load_k+payload"])
 def test_draws_right_in_at_least_4_of_5(tmp_path, case, draw_plan):
     # the tool-mode cases take 30-100 s of CPU per draw (bench/bench_identify_answers.py runs the same

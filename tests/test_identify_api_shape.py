@@ -248,11 +248,15 @@ def test_every_element_effect_gives_its_elements_for_a_model():
         if name == "mount_z":
             want = 2 * params["damping_ratio"] * math.sqrt(params["stiffness_n_per_m"] * 1045.0)
             np.testing.assert_allclose(got["cz_n_s_per_m"], want, rtol=1e-9)
+        if name == "mount_rock":     # both rocking axes, c = eta k (identify/structural.py's parametrization)
+            assert got["krx_n_m_per_rad"] == got["kry_n_m_per_rad"] == params["stiffness_n_m_per_rad"]
+            want = params["damping_time_s"] * params["stiffness_n_m_per_rad"]
+            np.testing.assert_allclose([got["crx_n_m_s_per_rad"], got["cry_n_m_s_per_rad"]], want, rtol=1e-9)
         if name.startswith("servo_a"):
             k = case.robot.joints[int(name[-1]) - 1].stiffness_n_m_per_rad
             w = math.sqrt((k + got["kp_n_m_per_rad"]) / got["rotor_inertia_kg_m2"])
             np.testing.assert_allclose(w / (2 * math.pi), params["rotor_freq_hz"], rtol=1e-9)
         if name == "joint_damping":
             assert [s.params["joint"] for s in specs] == [1, 2, 3, 4, 5, 6]
-    assert {"payload_mass", "mount_z", "tcp_mode", "tcp_mode_xy", "servo_a2", "joint_correction_a2",
+    assert {"payload_mass", "mount_z", "mount_rock", "tcp_mode", "tcp_mode_xy", "servo_a2", "joint_correction_a2",
             "joint_damping", "process_damping", "backlash"} <= set(checked)

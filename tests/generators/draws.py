@@ -8,7 +8,9 @@ user meets together; the tool-holder mode is in both radial directions, the usua
 library's 0.40 detection threshold or more, ``T`` in 600-1500 N m with ``c <= 2``; alone and with the
 payload mass off), ``sensor_gain`` (the hammer's calibration: since issue 20 the library's ``channel_scale``),
 ``base_z`` (a vertical floor compliance under the base, 40-80 Hz for the whole robot: the library's
-``mount_z`` since 2026-12-06) and ``base_z+joint`` (with a joint's stiffness off), ``highpass`` and
+``mount_z`` since 2026-12-06) and ``base_z+joint`` (with a joint's stiffness off), ``base_rock`` (the base
+rocking about base x and y on one stiffness, the rigid robot's rocking at 25-60 Hz on ~815 kg m^2, damping
+ratio 5 % there: the library's ``mount_rock``) and ``base_rock+joint``, ``highpass`` and
 ``arm_bend`` (effects no library element represents: the DAQ's first-order AC coupling at 0.5-2 Hz
 on the response channels; the arm bending sideways halfway between axes 2 and 3, 1.5e6-4e6 N m/rad,
 a mode at 35-55 Hz), ``null`` (nothing added).
@@ -34,6 +36,7 @@ What "right" means (:func:`judge`):
     beyond what a constant scale (``joint_correction_a3``) fits, so a joint correction in its place is
     not right;
   - the floor compliance k (``base_z``): ``mount_z`` with ``stiffness_n_per_m`` within 2 sigma of k or 3 %;
+  - the rocking k (``base_rock``): ``mount_rock`` with ``stiffness_n_m_per_rad`` within 2 sigma of k or 3 %;
   - the hammer's gain g (``sensor_gain``): ``channel_scale`` with every response channel's scale
     within 3 of its standard deviations (or its 3 % detection threshold, when wider) of ``1 / g`` (the
     hammer is the gauge, identify/chain_effects.py);
@@ -60,7 +63,8 @@ from .tx200 import K_JOINT, Effects, write_frf_set
 
 __all__ = ["CASES", "draw", "run_identify", "judge", "run_case"]
 
-CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "base_z+joint", "highpass",
+CASES = ("mode_xy+joint", "mode_xy+payload", "joint+servo", "sensor_gain", "base_z", "base_z+joint", "base_rock",
+         "base_rock+joint", "highpass",
          "arm_bend", "load_k", "load_k+payload", "null")
 OUTSIDE = ("highpass", "arm_bend")     # effects no library element represents
 # detection thresholds of the chain effects (identify/chain_effects.py), typed here: the floor of the
@@ -68,6 +72,10 @@ OUTSIDE = ("highpass", "arm_bend")     # effects no library element represents
 CHAIN_DETECT = {"scale_x": 0.01, "scale_y": 0.01, "scale_z": 0.01, "delay_s": 5e-6, "mass_kg": 0.005}
 N_POSES, N_LINES = 6, 400
 ROBOT_MASS_KG = 226 + 364 + 256 + 99 + 41 + 14 + 0.6 + 44.4
+# the robot's inertia about base x and y through the base origin, kg m^2: 728-927 over the six poses of a
+# set (the generator's mass matrix on its rocking coordinates), a round middle value sets the drawn
+# rocking frequency (the truth judged is the stiffness, not the frequency)
+ROCK_INERTIA_KG_M2 = 815.0
 
 
 def _either(rng, lo_hi_low, lo_hi_high) -> float:
@@ -127,6 +135,18 @@ def draw(case: str, seed: int) -> tuple[Effects, dict, float]:
         s = _either(rng, (0.6, 0.85), (1.2, 1.6))
         truth["axes"] = {j: s}
         return Effects(base_z=base, joint_scale={j: (s, 1.0)}), truth, noise
+    if case in ("base_rock", "base_rock+joint"):
+        w = 2 * math.pi * float(rng.uniform(25.0, 60.0))
+        k = ROCK_INERTIA_KG_M2 * w ** 2
+        truth["mount_rock"] = k
+        c = 2 * 0.05 * k / w                                # damping ratio 5 % at the rocking frequency
+        rock = (k, k, c, c)
+        if case == "base_rock":
+            return Effects(base_rock=rock), truth, noise
+        j = int(rng.integers(1, 4))
+        s = _either(rng, (0.6, 0.85), (1.2, 1.6))
+        truth["axes"] = {j: s}
+        return Effects(base_rock=rock, joint_scale={j: (s, 1.0)}), truth, noise
     if case in ("load_k", "load_k+payload"):
         kappa = float(rng.uniform(0.8, 1.8))              # per kN m
         T = float(rng.uniform(600.0, min(1500.0, 2000.0 / kappa)))
@@ -229,6 +249,7 @@ def judge(case: str, truth: dict, res: dict) -> tuple[bool, str]:
     used |= judge_axes(truth, ident, why)
     for truth_key, name, key, label in (("payload_factor", "payload_mass", "mass_scale", "payload scale"),
                                         ("mount_z", "mount_z", "stiffness_n_per_m", "mount k (N/m)"),
+                                        ("mount_rock", "mount_rock", "stiffness_n_m_per_rad", "rocking k (N m/rad)"),
                                         ("load_k", "load_k_a3", "stiffening_per_knm", "load_k kappa (per kN m)")):
         if truth_key in truth:
             used |= _judge_one(ident, name, key, truth[truth_key], label, why)

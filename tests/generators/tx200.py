@@ -22,6 +22,15 @@ Effects (``Effects``, all optional):
   joint spring, held by a PD loop to the motor angle.
 * ``base_z``: (stiffness N/m, damping N s/m): the robot's base on a vertical floor compliance (a
   prismatic joint under the base: a compliance outside the six joints, in no library element).
+* ``base_rock``: (krx N m/rad, kry N m/rad, crx N m s/rad, cry N m s/rad): the robot's base rocking on
+  its mount, two revolute joints under the base through the base frame's origin, about base x then
+  base y (an axis with stiffness ``inf`` gets no joint). Every body, the base link included, rides on
+  them. Gravity: this generator's dynamics omit it, so the rocking springs are ``k`` alone; a robot in
+  gravity loses ``M g z_G`` of rocking stiffness about each horizontal axis (``z_G`` the height of
+  the centre of mass above the base origin; the potential ``M g z_G'`` with ``z_G' = y_G sin a +
+  z_G cos a`` about x has ``d^2 / da^2 = -M g z_G``), 1045 kg x 9.81 x 0.6-0.8 m, below 1e4 N m/rad,
+  which is 2e-4 of the softest rocking stiffness drawn (tests/generators/draws.py): omitted here as
+  in robolobes' basic variant.
 * ``arm_bend``: (stiffness N m/rad, damping N m s/rad): lateral bending of the arm (link 2, between
   axes 2 and 3), a revolute joint about the arm's x axis halfway from axis 2 to axis 3 (the arm's
   mass stays on the proximal half, the rest of the chain bends): a compliance out of the plane of
@@ -108,6 +117,7 @@ class Effects:
     payload_factor: float = 1.0
     servo: tuple | None = None      # (axis, J kg m^2, kp N m/rad, kd N m s/rad)
     base_z: tuple | None = None     # (k N/m, c N s/m)
+    base_rock: tuple | None = None  # (krx, kry N m/rad, crx, cry N m s/rad); inf: no joint
     arm_bend: tuple | None = None   # (k N m/rad, c N m s/rad)
     sensor_gain: float = 1.0
     channel_gain: tuple = (1.0, 1.0, 1.0)
@@ -135,6 +145,11 @@ class TX200:
         if e.base_z is not None:        # the base on a vertical floor spring
             parent = model.addJoint(0, pin.JointModelPZ(), pin.SE3.Identity(), "floor_z")
             n_base = 1
+        for i, axis in enumerate(("x", "y")):      # the base rocking about base x, then y
+            if e.base_rock is not None and math.isfinite(e.base_rock[i]):
+                joint = pin.JointModelRX() if axis == "x" else pin.JointModelRY()
+                parent = model.addJoint(parent, joint, pin.SE3.Identity(), f"rock_{axis}")
+                n_base += 1
         base_inertia = pin.Inertia(MASS["base"], np.array(AG["base"]), _inertia_matrix(INERTIA["base"]))
         model.appendBodyToJoint(parent, base_inertia, pin.SE3.Identity())
         placement = pin.SE3(np.eye(3), np.array(AG["base"]) + np.array(GB["base"]))
@@ -202,6 +217,11 @@ class TX200:
         C[j, j] = d
         if e.base_z is not None:
             K[0, 0], C[0, 0] = e.base_z
+        if e.base_rock is not None:
+            for r, axis in enumerate(("x", "y")):
+                if math.isfinite(e.base_rock[r]):
+                    i = self.model.joints[self.model.getJointId(f"rock_{axis}")].idx_v
+                    K[i, i], C[i, i] = e.base_rock[r], e.base_rock[r + 2]
         if e.arm_bend is not None:
             i = self.model.joints[self.model.getJointId("arm_bend")].idx_v
             K[i, i], C[i, i] = e.arm_bend
