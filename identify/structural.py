@@ -529,7 +529,25 @@ def _with_mount(model: ModelState, spec: ElementSpec) -> ModelState:
 MOUNT_Z_DETECT_N_PER_M = 3.7e9
 
 
-class MountZEffect(StructuralEffect):
+class _MountEffect(StructuralEffect):
+    """What the mount's effects share: one ``mount_compliance`` element per robot, offered only to a
+    model without one, and extended by each mount effect found (``mount_z`` and ``mount_rock`` found
+    together share it)."""
+
+    def applicable(self, model: ModelState) -> bool:
+        specs = tuple(model.elements) + tuple(model.case.robot.elements or ())
+        return not any(e.type == "mount_compliance" for e in specs)
+
+    def apply(self, model: ModelState, params) -> ModelState:
+        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
+        and ``mount_rock`` found together share it)."""
+        params = check_params(self, params)
+        for spec in self.element_specs(model, params):
+            model = _with_mount(model, spec)
+        return model
+
+
+class MountZEffect(_MountEffect):
     """The robot's base on a vertical spring and damper (element
     :class:`~robolobes.linearize.extra_elements.MountCompliance`, ``kz_n_per_m`` and ``cz_n_s_per_m``).
 
@@ -571,18 +589,6 @@ class MountZEffect(StructuralEffect):
                    "stability": "shifts the lobes near its frequency"}
     signatures = ("extra_peak", "static_offset")
 
-    def applicable(self, model: ModelState) -> bool:
-        specs = tuple(model.elements) + tuple(model.case.robot.elements or ())
-        return not any(e.type == "mount_compliance" for e in specs)
-
-
-    def apply(self, model: ModelState, params) -> ModelState:
-        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
-        and ``mount_rock`` found together share it)."""
-        params = check_params(self, params)
-        for spec in self.element_specs(model, params):
-            model = _with_mount(model, spec)
-        return model
 
     @staticmethod
     def damping(params, mass_kg: float) -> float:
@@ -648,7 +654,7 @@ register(MountZEffect())
 MOUNT_ROCK_DETECT_N_M_PER_RAD = 7.7e9
 
 
-class MountRockEffect(StructuralEffect):
+class MountRockEffect(_MountEffect):
     """The robot's base rocking on its mount about base x and y (element
     :class:`~robolobes.linearize.extra_elements.MountCompliance`, ``krx, kry`` and ``crx, cry``).
 
@@ -693,17 +699,6 @@ class MountRockEffect(StructuralEffect):
                    "stability": "moves the robot's lobes"}
     signatures = ("pose_shift", "static_offset")
 
-    def applicable(self, model: ModelState) -> bool:
-        specs = tuple(model.elements) + tuple(model.case.robot.elements or ())
-        return not any(e.type == "mount_compliance" for e in specs)
-
-    def apply(self, model: ModelState, params) -> ModelState:
-        """``model`` with the mount's keys added to its one ``mount_compliance`` element (``mount_z``
-        and ``mount_rock`` found together share it)."""
-        params = check_params(self, params)
-        for spec in self.element_specs(model, params):
-            model = _with_mount(model, spec)
-        return model
 
     def element_specs(self, model, params):
         """The ``mount_compliance`` element (rocking only): ``krx = kry = k``, ``crx = cry = eta k``."""
