@@ -4,7 +4,7 @@ The draws and the rule that says whether an answer is right are in tests/generat
 (stated before any draw ran): the null set 19 of 20 clean (nothing identified, not unexplained), the
 pairs edge + runout and dynamometer + edge 4 of 5 right. Under ``--draws N`` the first N seeds run and
 the share is never loosened (tests/draw_counts.py). Counts and CPU: docs/guide/identify-answers.md,
-"Force draws".
+"Force draws" (the pairs on the generator's pass with its entry: seeds 1-5 of each right, 2026-12-06).
 """
 
 import pytest
@@ -30,12 +30,6 @@ def test_force_nulls_clean_in_at_least_19_of_20(tmp_path, draw_plan):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.xfail(strict=True, run=False, reason=(
-    "not yet shown, measured 2026-12-06 (not run: about 3-4 CPU minutes per draw): on the generator's pass "
-    "with its entry (the robot ringing after the entry, as in robolobes' pass) seed 1 of each pair is right "
-    "(edge+runout 0.81x the noise floor, was 1.62x; dynamometer+edge 0.70x, was 1.36x; every fit within "
-    "0.6 % of the truth); seeds 2-5 are listed in docs/guide/identify-answers.md, Force draws, as far as "
-    "they ran; 4 of 5 of each is not yet measured"))
 @pytest.mark.parametrize("case", [c for c in CASES if c != "null"])
 def test_force_pairs_right_in_at_least_4_of_5(tmp_path, draw_plan, case):
     plan = draw_plan(range(1, 6), 4)
