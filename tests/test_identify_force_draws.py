@@ -4,7 +4,7 @@ The draws and the rule that says whether an answer is right are in tests/generat
 (stated before any draw ran): the null set 19 of 20 clean (nothing identified, not unexplained), the
 pairs edge + runout and dynamometer + edge 4 of 5 right. Under ``--draws N`` the first N seeds run and
 the share is never loosened (tests/draw_counts.py). Counts and CPU: docs/guide/identify-answers.md,
-"Force draws".
+"Force draws" (the pairs on the generator's pass with its entry: seeds 1-5 of each right, 2026-12-06).
 """
 
 import pytest
@@ -30,15 +30,6 @@ def test_force_nulls_clean_in_at_least_19_of_20(tmp_path, draw_plan):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.xfail(strict=True, run=False, reason=(
-    "known shortfall, measured 2026-12-06 (not run: about 4 CPU minutes per draw): edge+runout 0 of 4 and "
-    "dynamometer+edge 0 of 5 right. Every fit is within 1 % of the truth, but the residual is called "
-    "unexplained at 1.11-1.72x the noise floor, growing with the edge coefficients. Bisected at seed 1 of "
-    "edge+runout: rigid, both models agree to 0.0005 N per bin; on the robot, robolobes' pass rings after "
-    "the entry (the robot's 15.8 and 25.1 Hz modes, tool motion off its periodic part by 8.7 um RMS in x), "
-    "which moves the edge force's exits revolution by revolution, 0.49 N per bin in the averages, while the "
-    "generator's data are a periodic steady state; against 0.42 N of noise per bin "
-    "(docs/guide/identify-answers.md, Force draws)"))
 @pytest.mark.parametrize("case", [c for c in CASES if c != "null"])
 def test_force_pairs_right_in_at_least_4_of_5(tmp_path, draw_plan, case):
     plan = draw_plan(range(1, 6), 4)

@@ -20,7 +20,12 @@ Tolerances asserted:
   independently; neither is the reference of the other. What remains is robolobes' own
   discretization (docs/guide/identify-answers.md);
 * the generator's dynamometer against scipy's lsim on its force at 40 samples per data sample: a
-  tenth of a bin's noise (reasons in the test).
+  tenth of a bin's noise (reasons in the test);
+* the generator's pass with its entry (``simulate_pass``: the independent TX200 in time from rest, the
+  feed ramp, the part's entry face) against robolobes' linearized pass on the same cut (edge forces of
+  about 90 N/mm and runout): the tool's motion off its periodic part over 0.25-0.40 s to a tenth of its
+  RMS on each axis, and the synchronous averages to 0.35 of a bin's noise as above (reasons in the test);
+* the pass's forces between samples (for the dynamometer) equal the samples' at the samples.
 """
 
 import math
@@ -199,7 +204,7 @@ def test_dynamometer_acts_on_the_continuous_force():
     spec = CutSpec()
     fn, zeta = 4670.8, 0.1677
     eff = ForceEffects(kte_n_per_m=81.46e3, kre_n_per_m=74.77e3, dynamometer=(fn, zeta))
-    t, got = measured_forces(spec, eff)
+    t, got = measured_forces(spec, eff, entry=False)
     u = 40
     fine = periodic_forces(spec, ForceEffects(kte_n_per_m=81.46e3, kre_n_per_m=74.77e3), samples=SAMPLES_PER_REV * u)
     rate = spec.spindle_rpm / 60.0 * SAMPLES_PER_REV
@@ -211,3 +216,79 @@ def test_dynamometer_acts_on_the_continuous_force():
     k = np.round(t * rate).astype(int) % SAMPLES_PER_REV
     first = np.array([int(np.argmax(k == b)) for b in range(SAMPLES_PER_REV)])
     assert np.sqrt(np.mean((got[first, :2] - want) ** 2)) <= 0.1 * BIN_NOISE_N
+
+
+def _off_periodic(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The part (n, k) of ``x`` (samples on the generator's grid over WINDOW_S) off its periodic part: minus a
+    linear trend and minus each bin's mean over the whole revolutions of the window."""
+    rate = CutSpec().spindle_rpm / 60.0 * SAMPLES_PER_REV
+    k = np.round(t * rate).astype(int)
+    sel = (t >= WINDOW_S[0] - 1e-9) & (t <= WINDOW_S[1] + 1e-9)
+    k, x, t = k[sel], x[sel], t[sel]
+    start = int(np.argmax(k % SAMPLES_PER_REV == 0))
+    n = (len(k) - start) // SAMPLES_PER_REV
+    x, t = x[start:start + n * SAMPLES_PER_REV], t[start:start + n * SAMPLES_PER_REV]
+    A = np.column_stack([np.ones_like(t), t])
+    res = x - A @ np.linalg.lstsq(A, x, rcond=None)[0]
+    return res - np.tile(res.reshape(n, SAMPLES_PER_REV, -1).mean(0), (n, 1))
+
+
+def _averages(t: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """One-revolution synchronous average (SAMPLES_PER_REV, 3) of ``f`` over the whole revolutions of WINDOW_S."""
+    rate = CutSpec().spindle_rpm / 60.0 * SAMPLES_PER_REV
+    sel = (t >= WINDOW_S[0] - 1e-9) & (t <= WINDOW_S[1] + 1e-9)
+    k, f = np.round(t[sel] * rate).astype(int), f[sel]
+    start = int(np.argmax(k % SAMPLES_PER_REV == 0))
+    n = (len(k) - start) // SAMPLES_PER_REV
+    return f[start:start + n * SAMPLES_PER_REV].reshape(n, SAMPLES_PER_REV, 3).mean(0)
+
+
+def test_pass_entry_matches_robolobes_pass():
+    # A second method for the generator's pass with its entry: robolobes' linearized pass (its own robot
+    # model, Newmark, eroded part; the model identify fits) on the same cut with the truth of edge+runout
+    # seed 1 (Kte 92.6, Kre 84.7 N/mm, tooth radii -11.2 and +11.2 um), where the robot's ringing after
+    # the entry moved the synchronous averages by 0.48 N per bin off the generator's periodic steady state.
+    # Tolerances: (1) the tool's motion off its periodic part (8.7 um RMS in x, 4.9 in y), difference at
+    # most a tenth of robolobes' RMS on each axis: that motion made the 0.48 N per bin, so a tenth of it
+    # is about 0.05 N, a tenth of a bin's noise; the generator's steady state (no such motion) fails it
+    # by 100 %. (2) the synchronous averages, as in test_generator_matches_robolobes_force_model: 0.35 of a
+    # bin's noise (the periodic generator was 0.48 N off here). Measured 2026-12-06: 0.047 and 0.069 um
+    # (0.5 and 1.4 %), 0.086 N.
+    from robolobes.cases import load_case
+    from robolobes.identify.effects import ModelState
+    from robolobes.identify.force_model import model_disc_count
+    from robolobes.timedomain import LinearizedNewmark, SimulationProblem
+    from robolobes.timedomain.drivers import run_linearized
+    from robolobes.timedomain.equations import PassSetup
+
+    from generators.forces import simulate_pass
+
+    kte, kre, radii = 92.59e3, 84.69e3, (-11.2e-6, 11.2e-6)
+    case = load_case("tx200-aluminium")
+    case = replace(case, law=replace(case.law, kte_n_per_m=kte, kre_n_per_m=kre), tool=replace(case.tool, runout_m=radii))
+    problem = SimulationProblem(ModelState(case=case).robot(), case, t_end_s=WINDOW_S[1])
+    rec = run_linearized(PassSetup(problem, LinearizedNewmark(n_discs=model_disc_count(case))), None)
+    run = simulate_pass(WINDOW_S[1], eff=ForceEffects(kte_n_per_m=kte, kre_n_per_m=kre, tooth_radius_m=radii))
+    t_ref = np.asarray(rec.t_s)
+    assert t_ref.shape == run.t_s.shape and np.abs(t_ref - run.t_s).max() < 1e-9
+    ref = _off_periodic(t_ref, np.asarray(rec.center_m))
+    gen = _off_periodic(run.t_s, run.centre)
+    rms_ref = np.sqrt(np.mean(ref ** 2, axis=0))
+    assert np.all(rms_ref > 3e-6)                      # the ringing is there (8.7 and 4.9 um)
+    assert np.all(np.sqrt(np.mean((gen - ref) ** 2, axis=0)) <= 0.1 * rms_ref)
+    d = _averages(run.t_s, run.force) - _averages(t_ref, -np.asarray(rec.force_tool_n))
+    assert np.sqrt(np.mean(d[:, :2] ** 2)) <= TOL_N
+
+
+def test_pass_forces_between_samples_are_the_samples_at_the_samples():
+    # fine_pass_forces propagates the robot between samples from each sample's state; at a sample the
+    # propagation is the identity, so its forces there are the pass's own, to rounding (1e-6 N). Up to
+    # 0.12 s: through the first contact (0.065 s) and the full engagement (0.147 s is beyond; the entry
+    # face bounds the chip throughout).
+    from generators.forces import fine_pass_forces, simulate_pass
+
+    eff = ForceEffects(kte_n_per_m=3e4, kre_n_per_m=2e4)
+    run = simulate_pass(0.12, eff=eff)
+    _, fine = fine_pass_forces(run, eff=eff, u=4)
+    assert np.abs(run.force).max() > 10.0
+    assert np.abs(fine[::4] - run.force).max() <= 1e-6
