@@ -32,6 +32,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from scipy.optimize import minimize_scalar
 
 from generators.forces import (
@@ -243,6 +244,7 @@ def _averages(t: np.ndarray, f: np.ndarray) -> np.ndarray:
     return f[start:start + n * SAMPLES_PER_REV].reshape(n, SAMPLES_PER_REV, 3).mean(0)
 
 
+@pytest.mark.slow  # 25-65 s: the default run stays under 10 minutes
 def test_pass_entry_matches_robolobes_pass():
     # A second method for the generator's pass with its entry: robolobes' linearized pass (its own robot
     # model, Newmark, eroded part; the model identify fits) on the same cut with the truth of edge+runout
@@ -280,6 +282,7 @@ def test_pass_entry_matches_robolobes_pass():
     assert np.sqrt(np.mean(d[:, :2] ** 2)) <= TOL_N
 
 
+@pytest.mark.slow  # 25-65 s: the default run stays under 10 minutes
 def test_pass_forces_between_samples_are_the_samples_at_the_samples():
     # fine_pass_forces propagates the robot between samples from each sample's state; at a sample the
     # propagation is the identity, so its forces there are the pass's own, to rounding (1e-6 N). Up to
