@@ -78,8 +78,10 @@ class Parameter:
         The value at which the effect vanishes (1 for a scale, 0 for an added mass); None when
         the effect has no neutral value (a mode is either there or not).
     detect : float or None
-        Smallest deviation from ``neutral`` (or smallest value, without a neutral) the default
-        measurement resolves: synthetic tests draw parameters beyond it.
+        Smallest deviation from ``neutral`` the default measurement resolves or, for a parameter
+        without a neutral value, the largest value it resolves (a stiffness, a frequency, a loop gain
+        beyond which the effect no longer shows): synthetic tests draw parameters on the resolved
+        side, and a fit beyond it is not kept (:mod:`identify.evidence`).
     log : bool
         Fit in log space (positive quantities spanning decades).
     doc : str

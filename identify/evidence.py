@@ -11,7 +11,11 @@ Rules (stated once, derived from the parameters' declarations, never tuned on ou
   bound. Pipelines may add their own physical checks (``extra_reasons``).
 * **Above its own threshold.** An effect whose parameters that have a neutral value and a detection
   threshold (``detect``) all lie within ``detect`` of neutral is below its own detection threshold:
-  not kept, whatever the held-out test says.
+  not kept, whatever the held-out test says. So is an effect with a parameter that has no neutral
+  value and lies beyond its ``detect``, the largest value the measurement resolves (a mount
+  stiffer than the band shows, a dynamometer mode or a low-pass above the frequencies it changes,
+  a servo loop too stiff to soften its axis); a pipeline may give that limit for its own data
+  (``trial.evidence["detect"]``, e.g. ``mount_z``'s from the model's mass and the set's band).
 * **Determined.** From the Fisher information ``F = J^T J / s^2`` of the final joint fit (its
   inverse is the reported covariance), in the fit's variables (log for log parameters): the
   combinations are the eigenvectors of the covariance; one is *determined* when its standard
@@ -65,28 +69,48 @@ def credibility(effect, params: dict, extra_reasons: list | None = None) -> tupl
     return (not reasons), reasons
 
 
-def below_threshold(effect, params: dict) -> bool:
-    """Whether every parameter with a neutral value and a ``detect`` threshold is within it of neutral
-    (False when the effect has no such parameter)."""
+def below_threshold(effect, params: dict, limits: dict | None = None) -> bool:
+    """Whether the fitted effect is below its own detection threshold (module doc): every parameter
+    with a neutral value and a ``detect`` threshold within it of neutral (False when the effect has no
+    such parameter), or a parameter without a neutral value beyond its limit, ``limits[name]`` (same
+    units as ``params``) or else its ``detect``."""
+    return bool(_within_neutral(effect, params)) or bool(_beyond_limits(effect, params, limits))
+
+
+def _within_neutral(effect, params: dict) -> list:
+    """The neutral-valued parameters, when every one of them is within ``detect`` of neutral, else []."""
     checked = [p for p in effect.parameters if p.neutral is not None and p.detect is not None and p.name in params]
-    if not checked:
-        return False
-    return all(abs(float(params[p.name]) - p.neutral) < p.detect for p in checked)
+    if checked and all(abs(float(params[p.name]) - p.neutral) < p.detect for p in checked):
+        return [f"|{p.name} - {p.neutral:g}| < {p.detect:g}" for p in checked]
+    return []
+
+
+def _beyond_limits(effect, params: dict, limits: dict | None) -> list:
+    """``"name = v > limit"`` for each parameter without a neutral value beyond its resolvable limit."""
+    limits = limits or {}
+    out = []
+    for p in effect.parameters:
+        if p.neutral is None and p.detect is not None and p.name in params:
+            lim = float(limits.get(p.name, p.detect))
+            if float(params[p.name]) > lim:
+                out.append(f"{p.name} = {float(params[p.name]):.4g} > {lim:.4g}, the largest the data resolve")
+    return out
 
 
 def accept(effect, trial) -> tuple[bool, str]:
     """The selection's ``accept``: credible and above threshold (reasons in words otherwise).
 
-    ``trial.evidence["not_credible_because"]`` (a list, optional) carries a pipeline's own checks."""
+    ``trial.evidence["not_credible_because"]`` (a list, optional) carries a pipeline's own checks;
+    ``trial.evidence["detect"]`` (a dict, optional) the data's own limits of parameters without a
+    neutral value (:func:`below_threshold`)."""
     if trial.evidence.get("screened_out"):
         return True, ""
     ok, reasons = credibility(effect, trial.params, trial.evidence.get("not_credible_because"))
     if not ok:
         return False, "not credible: " + "; ".join(reasons)
-    if below_threshold(effect, trial.params):
-        return False, "below its own detection threshold (" + ", ".join(
-            f"|{p.name} - {p.neutral:g}| < {p.detect:g}" for p in effect.parameters
-            if p.neutral is not None and p.detect is not None) + ")"
+    why = _within_neutral(effect, trial.params) or _beyond_limits(effect, trial.params, trial.evidence.get("detect"))
+    if why:
+        return False, "below its own detection threshold (" + ", ".join(why) + ")"
     return True, ""
 
 

@@ -576,6 +576,9 @@ class _Trials:
         ev = {"signatures": list(effect.signatures), "training_chi2": chi2,
               "per_pose_heldout_error": {pd.name: heldout_error(r[k], m[k]) for pd, k in
                                          zip(self.poses, _splits(self.poses))}}
+        limits = effect.detect_limits(self.poses)
+        if limits:
+            ev["detect"] = limits
         if isinstance(effect, TcpModeEffect):
             ev["extra_peak_hz"] = diag["extra_peak_hz"]
             ev["extra_peak_in_every_pose"] = diag["extra_peak_in_every_pose"]

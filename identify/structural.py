@@ -234,6 +234,11 @@ class StructuralEffect(Effect):
 
     stage = "element"
 
+
+    def detect_limits(self, poses) -> dict:
+        """The data's own limits of the parameters without a neutral value, ``{name: value}`` (their
+        units), for the FRF poses ``poses`` (list of ``PoseData``); ``{}``: each parameter's ``detect``."""
+        return {}
     def perturb(self, pm: PoseMatrices, params: dict) -> PoseMatrices:
         """The pose's matrices with the effect added (effects compose: apply one after the other)."""
         raise NotImplementedError
@@ -594,6 +599,14 @@ class MountZEffect(_MountEffect):
     def damping(params, mass_kg: float) -> float:
         """``c = 2 zeta sqrt(k M)``, N s/m, for the mass ``mass_kg`` on the mount."""
         return 2 * params["damping_ratio"] * math.sqrt(params["stiffness_n_per_m"] * mass_kg)
+
+    def detect_limits(self, poses) -> dict:
+        """``k <= M (2 pi f_max)^2``, N/m: the mount's mode inside the set's band (class doc), with ``M``
+        the mass on the mount (``pm.mount_mass_kg``, kg) and ``f_max`` the highest measured line (Hz) of
+        ``poses``; 3.7e9 for the TX200's 1045 kg and 300 Hz."""
+        mass = float(poses[0].pm.mount_mass_kg)
+        w_max = max(float(np.max(pd.omega)) for pd in poses)
+        return {"stiffness_n_per_m": mass * w_max ** 2}
 
     def element_specs(self, model, params):
         """The ``mount_compliance`` element (z only): ``kz`` and ``cz = 2 zeta sqrt(kz M)``, ``M`` the

@@ -184,6 +184,49 @@ def test_credibility_bounds_and_physical_range():
     assert below_threshold(E, {"kte_n_per_m": 4.9e3}) and not below_threshold(E, {"kte_n_per_m": 5.1e3})
 
 
+def test_a_parameter_without_neutral_is_below_threshold_beyond_its_resolved_limit():
+    # detect of a parameter without a neutral value is the largest value the data resolve (a mount
+    # stiffer than the band shows): a fit beyond it is not kept; the data's own limit, when a pipeline
+    # gives one, replaces the declared one. Accept says why in words.
+    from types import SimpleNamespace
+
+    from robolobes.identify.evidence import accept
+
+    class E:
+        parameters = (Parameter("stiffness_n_per_m", 1e6, 1e10, None, 3.7e9, log=True),
+                      Parameter("damping_ratio", 0.003, 0.5, log=True))
+
+    assert below_threshold(E, {"stiffness_n_per_m": 4e9, "damping_ratio": 0.05})
+    assert not below_threshold(E, {"stiffness_n_per_m": 3e9, "damping_ratio": 0.05})
+    assert not below_threshold(E, {"stiffness_n_per_m": 4e9, "damping_ratio": 0.05}, {"stiffness_n_per_m": 5e9})
+    beyond = SimpleNamespace(params={"stiffness_n_per_m": 4e9, "damping_ratio": 0.05}, evidence={})
+    ok, why = accept(E, beyond)
+    assert not ok and "below its own detection threshold" in why and "3.7e+09" in why
+    assert accept(E, SimpleNamespace(params=beyond.params, evidence={"detect": {"stiffness_n_per_m": 5e9}}))[0]
+
+
+def test_mount_z_detect_limit_is_the_mass_on_the_mount_times_the_band_squared():
+    # M (2 pi f_max)^2 (MountZEffect doc): the mount's mode inside the measured band. 1045 kg and lines
+    # up to 300 Hz: 3.713e9 N/m, the declared 3.7e9; a 500 kg robot measured to 150 Hz: 4.44e8. The
+    # closed form typed here; rounding only: rtol 1e-12.
+    from types import SimpleNamespace
+
+    from robolobes.identify.effects import REGISTRY, effects_for
+
+    from robolobes.identify.structural import MountZEffect
+
+    effects_for("frf")
+    mount = REGISTRY["mount_z"]
+    assert isinstance(mount, MountZEffect)
+    for mass, f_max, want in ((1045.0, 300.0, 1045.0 * (2 * math.pi * 300.0) ** 2),
+                              (500.0, 150.0, 500.0 * (2 * math.pi * 150.0) ** 2)):
+        poses = [SimpleNamespace(pm=SimpleNamespace(mount_mass_kg=mass), omega=2 * math.pi * np.linspace(2.0, f, 50))
+                 for f in (f_max / 2, f_max)]
+        got = mount.detect_limits(poses)["stiffness_n_per_m"]
+        assert got == pytest.approx(want, rel=1e-12)
+    assert 1045.0 * (2 * math.pi * 300.0) ** 2 == pytest.approx(3.7e9, rel=0.01)
+
+
 def test_determined_reports_the_combination_only():
     pa = Parameter("a_m", -3e-5, 3e-5, neutral=0.0, detect=1.5e-6)
     pb = Parameter("b_m", -3e-5, 3e-5, neutral=0.0, detect=1.5e-6)
