@@ -117,6 +117,20 @@ def _lags(spec: CutSpec, j: int) -> list:
     return out
 
 
+def _tooth_at_stock_face(spec: CutSpec, eff: ForceEffects, phase: np.ndarray, z: np.ndarray, theta_j: float,
+                         j: int, y: np.ndarray) -> tuple:
+    """Tooth ``j``'s edge elements at heights ``z`` (S,) m and spindle angles ``phase`` (M,): ``(phi, sin phi,
+    cos phi, r_j, h)`` with ``phi`` (M, S) rad, ``r_j`` the tooth radius (m) and ``h`` (M, S) m the chip bounded by
+    the uncut stock's face alone, the tool centre at ``y`` (M, 1) m: the ray ``c + rho n`` meets
+    ``y = y_stock`` at ``rho = (y_stock - c_y) / cos(phi)``; ``-inf`` where the ray points away from it."""
+    phi = np.mod(phase[:, None] + theta_j - 2 * z[None, :] * math.tan(spec.helix_rad) / spec.diameter_m, 2 * math.pi)
+    sin, cos = np.sin(phi), np.cos(phi)
+    r_j = spec.diameter_m / 2 + eff.tooth_radius_m[j]
+    y_stock = -spec.diameter_m / 2 + spec.ae_m         # the uncut stock's face (down milling: material at y < it)
+    below = cos < 0
+    return phi, sin, cos, r_j, np.where(below, r_j - (y_stock - y) / np.where(below, cos, -1.0), -np.inf)
+
+
 def _forces_on_workpiece(spec: CutSpec, eff: ForceEffects, phase: np.ndarray, r: np.ndarray | None,
                          n_slices: int) -> np.ndarray:
     """Forces on the workpiece (M, 3), N, at spindle angles ``phase`` (M,) = ``Omega t`` of one revolution on a
@@ -128,20 +142,13 @@ def _forces_on_workpiece(spec: CutSpec, eff: ForceEffects, phase: np.ndarray, r:
     db = spec.ap_m / n_slices
     z = (np.arange(n_slices) + 0.5) * db
     R = spec.diameter_m / 2
-    y_stock = -R + spec.ae_m                       # the uncut stock's face (down milling: material at y < it)
     dr = np.zeros((m, 2)) if r is None else r
     dr_dt = _derivative(dr, spec.omega_rad_s)
     theta = _theta(spec)
     n = len(spec.pitch_rad)
     out = np.zeros((m, 3))
     for j in range(n):
-        phi = np.mod(phase[:, None] + theta[j] - 2 * z[None, :] * math.tan(spec.helix_rad) / spec.diameter_m,
-                     2 * math.pi)
-        sin, cos = np.sin(phi), np.cos(phi)
-        r_j = R + eff.tooth_radius_m[j]
-        # the stock's face: the ray c + rho n meets y = y_stock at rho = (y_stock - c_y) / cos(phi)
-        below = cos < 0
-        h = np.where(below, r_j - (y_stock - dr[:, 1:2]) / np.where(below, cos, -1.0), -np.inf)
+        phi, sin, cos, r_j, h = _tooth_at_stock_face(spec, eff, phase, z, theta[j], j, dr[:, 1:2])
         for k, ang in enumerate(_lags(spec, j), start=1):
             shift = ang / (2 * math.pi) * m                  # samples between the two teeth
             h = np.minimum(h, _chip_behind(spec, phi, r_j, R + eff.tooth_radius_m[(j - k) % n], ang,
@@ -477,18 +484,12 @@ def _forces_in_pass(spec: CutSpec, eff: ForceEffects, phase: np.ndarray, now: np
     db = spec.ap_m / n_slices
     z = (np.arange(n_slices) + 0.5) * db
     R = spec.diameter_m / 2
-    y_stock = -R + spec.ae_m
     theta = _theta(spec)
     n = len(spec.pitch_rad)
     out = np.zeros((len(phase), 3))
     X, Y = now[:, 0:1], now[:, 1:2]
     for j in range(n):
-        phi = np.mod(phase[:, None] + theta[j] - 2 * z[None, :] * math.tan(spec.helix_rad) / spec.diameter_m,
-                     2 * math.pi)
-        sin, cos = np.sin(phi), np.cos(phi)
-        r_j = R + eff.tooth_radius_m[j]
-        below = cos < 0
-        h = np.where(below, r_j - (y_stock - Y) / np.where(below, cos, -1.0), -np.inf)
+        phi, sin, cos, r_j, h = _tooth_at_stock_face(spec, eff, phase, z, theta[j], j, Y)
         ahead = sin > 0
         tip_in = X + r_j * sin > x_entry_m
         h = np.minimum(h, np.where(ahead, r_j - (x_entry_m - X) / np.where(ahead, sin, 1.0),
