@@ -345,11 +345,14 @@ def tool_force_cut_frame(phi_rad: np.ndarray, f_tra: np.ndarray) -> np.ndarray:
     return np.stack(np.broadcast_arrays(fx, fy, fz), axis=-1)
 
 
-def directional_matrix(phi_rad: np.ndarray, law: CuttingLaw) -> np.ndarray:
+def directional_matrix(phi_rad: np.ndarray, law: CuttingLaw, rotation_rad: np.ndarray | float | None = None) -> np.ndarray:
     """Linear force sensitivity of one edge element to the dynamic displacement.
 
     ``d(force on tool) = db * D(phi) @ (r(t) - r(t - tau))`` for an engaged edge, where ``r`` is the
     tool displacement in ``(x_c, y_c)``; edge coefficients do not enter (they do not depend on h).
+    The chip's sensitivity is the ray direction ``u = (sin phi, cos phi)``; with ``rotation_rad``
+    (``alpha``, rad, broadcast with ``phi``) it is ``u + alpha du/dphi``, the first-order tilt of the
+    regenerated surface against the ray (:mod:`lobes.chip_direction`); the force direction is unchanged.
 
     Returns
     -------
@@ -360,7 +363,11 @@ def directional_matrix(phi_rad: np.ndarray, law: CuttingLaw) -> np.ndarray:
     s, c = np.sin(phi), np.cos(phi)
     kt, kr, ka = law.ktc_pa, law.krc_pa, law.kac_pa
     fvec = np.stack([-kt * c - kr * s, kt * s - kr * c, np.full_like(phi, ka)], axis=-1)  # (...,3)
-    n = np.stack([s, c], axis=-1)  # (..., 2)
+    if rotation_rad is None:
+        n = np.stack([s, c], axis=-1)  # (..., 2)
+    else:
+        a = np.asarray(rotation_rad, dtype=float)
+        n = np.stack([s + a * c, c - a * s], axis=-1)
     return fvec[..., :, None] * n[..., None, :]
 
 

@@ -30,6 +30,7 @@ from robolobes.cases.milling import (ANGLE_TOL_RAD, CuttingLaw, Cut, PeriodName,
 from robolobes.core.validate import readonly
 
 from ._errors import LobeError
+from .chip_direction import feed_per_radian_m, surface_rotation_rad
 
 __all__ = ["DirectionalPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
 
@@ -103,11 +104,13 @@ class DirectionalPlan:
     group_f: np.ndarray
     k_force: int
     rule: QuadratureRule = "gauss"
+    surface_tilt: bool = False
+    tooth_chip_m: np.ndarray | None = None
 
     @classmethod
     def build(cls, tool: Tool, cut: Cut, law: CuttingLaw, *, m: int, quadrature: int, slices: int,
               period: PeriodChoice = "auto", k_force: int = 3,
-              rule: QuadratureRule = "gauss") -> "DirectionalPlan":
+              rule: QuadratureRule = "gauss", surface_tilt: bool = False) -> "DirectionalPlan":
         st, ex = engagement_rad(tool, cut)
         regs = regeneration(tool, cut)
         cutting = [r for r in regs if r.cuts]
@@ -150,7 +153,8 @@ class DirectionalPlan:
         return cls(tool=tool, cut=cut, law=law, period_rad=period_rad, period_name=name, m=int(m), quadrature=int(quadrature),
                    slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=readonly(angles),
                    tooth_group=readonly(grp, int), group_delay_rad=readonly(gd),
-                   group_r=readonly(rs, int), group_f=readonly(fs), k_force=int(k_force), rule=rule)
+                   group_r=readonly(rs, int), group_f=readonly(fs), k_force=int(k_force), rule=rule,
+                   surface_tilt=bool(surface_tilt), tooth_chip_m=readonly([r.chip_m for r in cutting]))
 
     @property
     def n_groups(self) -> int:
@@ -210,8 +214,8 @@ class DirectionalPlan:
         if self.tool.helix_rad == 0:
             # W is linear in the depth: compute per unit depth once
             unit = np.zeros((len(steps), self.n_groups, self.k_force, 2))
-            for th, g in zip(self.tooth_angle_rad, self.tooth_group):
-                unit[:, g] += self._step_average(a0 + th)
+            for th, g, hj in zip(self.tooth_angle_rad, self.tooth_group, self._chips()):
+                unit[:, g] += self._step_average(a0 + th, hj)
             return b[:, None, None, None, None] * unit[None]
         # helix: the lag of each slice depends on the depth. Batched callers often repeat a depth
         # (a coarse scan evaluates one depth at every speed): compute each distinct depth once.
@@ -225,9 +229,9 @@ class DirectionalPlan:
         for c0 in range(0, len(b), chunk):
             bc = b[c0:c0 + chunk]
             psi = self.tool.lag_rad(bc[:, None] * zfrac[None, :])  # (Bc, ns)
-            for th, g in zip(self.tooth_angle_rad, self.tooth_group):
+            for th, g, hj in zip(self.tooth_angle_rad, self.tooth_group, self._chips()):
                 start = a0[None, None, :] + th - psi[:, :, None]  # (Bc, ns, P)
-                avg = self._step_average(start).sum(axis=1)  # (Bc, P, k, 2)
+                avg = self._step_average(start, hj).sum(axis=1)  # (Bc, P, k, 2)
                 out[c0:c0 + chunk, :, g] += avg * (bc / ns)[:, None, None, None]
         return out
 
@@ -238,14 +242,27 @@ class DirectionalPlan:
             return (np.arange(q) + 0.5) / q, np.full(q, 1.0 / q)
         return _gauss_nodes(q)
 
-    def _step_average(self, start: np.ndarray) -> np.ndarray:
+    def _chips(self) -> np.ndarray:
+        """Static chip of each cutting tooth, m (plans built without it: zeros, unused)."""
+        return np.zeros(len(self.tooth_angle_rad)) if self.tooth_chip_m is None else self.tooth_chip_m
+
+    def _directional(self, phi: np.ndarray, chip_m: float) -> np.ndarray:
+        """``D(phi)`` (..., k_force, 2); with ``surface_tilt`` the chip direction turned by the
+        regenerated surface's tilt (:mod:`lobes.chip_direction`) for a tooth of static chip ``chip_m``."""
+        rot = None
+        if self.surface_tilt:
+            rot = surface_rotation_rad(phi, chip_m, self.tool.radius_m, feed_per_radian_m(self.tool, self.cut))
+        return directional_matrix(phi, self.law, rot)[..., :self.k_force, :]
+
+    def _step_average(self, start: np.ndarray, chip_m: float = 0.0) -> np.ndarray:
         """Average of ``g(phi) D(phi)`` over one step for an edge whose angle at the step start is
-        ``start`` (array (..., P), rad): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`)."""
+        ``start`` (array (..., P), rad) of a tooth with static chip ``chip_m`` (m, used only with
+        ``surface_tilt``): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`)."""
         k, dphi = self.k_force, self.step_rad
         nodes, wts = self._nodes()
         if self.rule == "midpoint":
             phi = start[..., None] + nodes * dphi  # (..., P, q)
-            D = directional_matrix(phi, self.law)[..., :k, :]
+            D = self._directional(phi, chip_m)
             D = D * in_cut(phi, self.phi_st, self.phi_ex)[..., None, None]
             return np.einsum("...qij,q->...ij", D, wts)
         # Gauss: integrate only over the engaged part of the step (smooth integrand there)
@@ -259,6 +276,6 @@ class DirectionalPlan:
             if not sel.any():
                 continue
             phi = lo[sel][:, None] + nodes[None, :] * ln[sel][:, None]  # (n_sel, q)
-            D = directional_matrix(phi, self.law)[..., :k, :]
+            D = self._directional(phi, chip_m)
             acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
         return acc

@@ -78,11 +78,12 @@ def entry_shift_impulses(problem: LobeProblem, m: int, slices: int, period_rad: 
 
 
 def entry_shift_exponent(problem: LobeProblem, method: SemiDiscretization | None = None,
-                         with_entry: bool = True) -> FloquetExponent:
+                         with_entry: bool = True, surface_tilt: bool = False) -> FloquetExponent:
     """The Floquet exponent of ``problem`` with the entry-shift term (``with_entry=False``: without
-    it, the same dense SDM), at ``m`` and ``2 m``, Richardson-extrapolated, 1/s."""
+    it, the same dense SDM), at ``m`` and ``2 m``, Richardson-extrapolated, 1/s. ``surface_tilt``:
+    the dynamic chip along the regenerated surface's normal (:mod:`lobes.chip_direction`)."""
     def radius(engine, rpm, depth):
         m = engine.plan.m
         imp = entry_shift_impulses(problem, m, engine.plan.slices, engine.plan.period_rad) if with_entry else None
         return float(np.max(np.abs(np.linalg.eigvals(engine.monodromy_dense(rpm, depth, impulses=imp)))))
-    return two_level_exponent(problem, method, radius)
+    return two_level_exponent(problem, method, radius, surface_tilt=surface_tilt)

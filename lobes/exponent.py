@@ -35,7 +35,8 @@ class FloquetExponent:
     m: int
 
 
-def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = None) -> FloquetExponent:
+def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = None,
+                     surface_tilt: bool = False) -> FloquetExponent:
     """Floquet exponent of ``problem`` at its own cut (``cut.spindle_rpm``, ``cut.ap_m``).
 
     Parameters
@@ -43,20 +44,26 @@ def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = N
     problem : LobeProblem
     method : SemiDiscretization, optional
         The coarse level (default ``SemiDiscretization(m=40)``); the fine level doubles ``m``.
+    surface_tilt : bool
+        The dynamic chip along the regenerated surface's normal (:mod:`lobes.chip_direction`);
+        default False, the linear model of the lobes.
     """
-    return two_level_exponent(problem, method, lambda engine, rpm, depth: float(engine.multipliers([rpm], [depth])[0][0]))
+    return two_level_exponent(problem, method, lambda engine, rpm, depth: float(engine.multipliers([rpm], [depth])[0][0]),
+                              surface_tilt=surface_tilt)
 
 
-def two_level_exponent(problem: LobeProblem, method: SemiDiscretization | None, spectral_radius) -> FloquetExponent:
+def two_level_exponent(problem: LobeProblem, method: SemiDiscretization | None, spectral_radius,
+                       surface_tilt: bool = False) -> FloquetExponent:
     """ln|mu| / T at ``m`` and ``2 m`` (``method.m``, default 40), Richardson-extrapolated, 1/s, with
     ``spectral_radius(engine, rpm, depth_m)`` the largest multiplier's modulus of one
-    :class:`~robolobes.lobes.sdm.SDMEngine` at the problem's own cut."""
+    :class:`~robolobes.lobes.sdm.SDMEngine` at the problem's own cut (``surface_tilt``: passed to
+    the engine, :mod:`lobes.chip_direction`)."""
     method = SemiDiscretization(m=40) if method is None else method
     rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
     rates = []
     period = math.nan
     for m in (method.m, 2 * method.m):
-        engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6))
+        engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6), surface_tilt=surface_tilt)
         period = float(engine.period_s(np.array([rpm]))[0])
         rates.append(math.log(spectral_radius(engine, rpm, depth)) / period)
     ext = richardson(rates[0], rates[1])

@@ -185,7 +185,10 @@ class _Structure:
 class SDMEngine:
     """Monodromy matrices of one problem (all speeds, all depths) for one semi-discretization."""
 
-    def __init__(self, problem: LobeProblem, method: SemiDiscretization, depth_max_m: float):
+    def __init__(self, problem: LobeProblem, method: SemiDiscretization, depth_max_m: float,
+                 surface_tilt: bool = False):
+        """``surface_tilt``: the dynamic chip along the regenerated surface's normal, not the ray
+        (:mod:`lobes.chip_direction`; default False, the linear model of the lobes)."""
         self.problem = problem
         self.method = method
         ss = problem.structure.state_space()
@@ -197,7 +200,8 @@ class SDMEngine:
         if problem.tool.helix_rad == 0:
             slices = 1
         self.plan = DirectionalPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
-                                      slices=slices, period=method.period, k_force=k, rule=method.rule)
+                                      slices=slices, period=method.period, k_force=k, rule=method.rule,
+                                      surface_tilt=surface_tilt)
         self.k = k
         self.ns = ss.n_states
         self.A = ss.A
