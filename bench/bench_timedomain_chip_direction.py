@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 import warnings
 from dataclasses import fields, replace
+from pathlib import Path
 
 import numpy as np
 import robolobes.linearize as L
@@ -31,7 +33,6 @@ from robolobes.lobes import DirectionalPlan, LobeProblem, PhysicalStructure, Sem
 from robolobes.lobes.chip_direction import feed_per_radian_m, surface_rotation_rad
 from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.lobes.exponent import floquet_exponent, two_level_exponent
-from robolobes.timedomain.workpiece import Workpiece
 
 ALU_LIMIT_M = 5.09e-3
 # (factor, fz mm) -> (dy um, eroded rate 1/s, its SE), bench_timedomain_entry_feed.py (docs tables)
@@ -41,31 +42,10 @@ ERODED = {(0.8, 0.015): (10.47, -0.2183, 0.0087), (0.8, 0.03): (20.93, -0.1814, 
           (1.1, 0.06): (57.46, +0.3990, 0.0117)}
 
 
-def chip_jacobians(tool, cut, angles_deg, revs=3, chord_tol_m=1e-10):
-    """The workpiece's (h, dh/dc) of each tooth at ``angles_deg`` during the last of ``revs``
-    revolutions of a vibration-free cut in 1 deg steps: dict (tooth, deg) -> (h, (2,))."""
-    R, om = tool.radius_m, cut.omega_rad_s
-    v = feed_per_radian_m(tool, cut) * om
-    x0 = 4e-3  # tool centre 4 mm inside a 10 mm part: the first revolution cuts the block's edge
-    wp = Workpiece(tool, cut, x_entry_m=0.0, part_length_m=10e-3, discs=1, dx_m=1e-6, chord_tol_m=chord_tol_m)
-    th = np.round(np.degrees(tool.tooth_angle_rad)).astype(int)
-    rad = np.full(tool.teeth, R)
-    out = {}
-    for i in range(360 * revs):
-        a0, a1 = math.radians(i), math.radians(i + 1)
-        c0, c1 = np.array([x0 + v * a0 / om, 0.0]), np.array([x0 + v * a1 / om, 0.0])
-        ph1 = (a1 + np.radians(th))[:, None]
-        if i >= 360 * (revs - 1):  # trial evaluation at the step end, before its removal (as a run)
-            for j in range(tool.teeth):
-                deg = (i + 1 + th[j]) % 360
-                if deg in angles_deg:
-                    h, d = wp.chip(c1, ph1, rad)
-                    out[(j, deg)] = (float(h[j, 0]), d[j, 0].copy())
-        wp.remove(c0, c1, (a0 + np.radians(th))[:, None], ph1, rad)
-    return out
-
-
 def jacobian_part(base, tool):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from generators.ideal_cut import chip_jacobians
+
     for fz_mm in (0.015, 0.03, 0.06):
         cut = replace(base.cut, feed_per_tooth_m=fz_mm * 1e-3, ap_m=4e-3)
         jac = chip_jacobians(tool, cut, {105, 120, 135, 150, 165, 175})
