@@ -4,7 +4,7 @@ Two parts. (1) The eroded part's chip derivative in the tool centre (``Workpiece
 walk) after a vibration-free straight cut (1 deg steps, three revolutions in the part), against the ray
 ``u`` of the linear model and against ``u + alpha du/dphi`` (the closed form of the module), for both
 teeth of the TX200 aluminium tool at 105-175 deg. (2) At the aluminium cut near its limit (basic model,
-straight tool, ap = factor x 5.09 mm) and the radial depth narrowed by the eroded runs' mean normal
+straight tool and, at 0.8x, the helical one, ap = factor x 5.09 mm) and the radial depth narrowed by the eroded runs' mean normal
 deflection dy, the SDM exponent (m = 40 / 80, Richardson) without and with the entry shift and the
 tilt, next to the eroded rates; dy and the eroded rates are those printed by
 ``bench/bench_timedomain_entry_feed.py`` (docs/guide/timedomain-convergence.md, straight tool tables).
@@ -40,6 +40,8 @@ ERODED = {(0.8, 0.015): (10.47, -0.2183, 0.0087), (0.8, 0.03): (20.93, -0.1814, 
           (0.8, 0.06): (41.76, -0.0956, 0.0197), (0.8, 0.12): (83.02, +0.0993, 0.0306),
           (1.1, 0.015): (14.49, +0.1629, 0.0082), (1.1, 0.03): (28.90, +0.2399, 0.0131),
           (1.1, 0.06): (57.46, +0.3990, 0.0117)}
+# the helical tool (30 deg), 0.8x, same source
+ERODED_HELIX = {(0.8, 0.03): (20.92, -0.1795, 0.0155), (0.8, 0.06): (41.77, -0.0955, 0.0199)}
 
 
 def jacobian_part(base, tool):
@@ -79,11 +81,12 @@ def _delay_estimate(problem, method):
     return two_level_exponent(problem, method, radius, surface_tilt=True).value_per_s
 
 
-def sdm_part(base, tool, structure):
-    sdm = SemiDiscretization(m=40)
+def sdm_part(base, tool, structure, eroded):
+    sdm = SemiDiscretization(m=40, axial_slices=32)
     print("factor, fz mm, dy um: eroded +- SE; SDM at ae - dy: plain, +entry shift, +tilt, +both; eroded minus "
           "+both; the tilt's effect, with the delayed instant's estimate", flush=True)
-    for (factor, fz_mm), (dy_um, rate, se) in ERODED.items():
+    print(f"tool: helix {math.degrees(tool.helix_rad):g} deg", flush=True)
+    for (factor, fz_mm), (dy_um, rate, se) in eroded.items():
         cut = replace(base.cut, feed_per_tooth_m=fz_mm * 1e-3, ap_m=factor * ALU_LIMIT_M,
                       ae_m=base.cut.ae_m - dy_um * 1e-6)
         p = LobeProblem(structure, tool, cut, base.law)
@@ -111,7 +114,8 @@ def main(argv=None) -> int:
     if not a.skip_sdm:
         robot = L.build_model(base.robot, "basic")
         structure = PhysicalStructure.from_linear(L.linearize(robot, base.path.start_q_rad), base.cut.feed_direction)
-        sdm_part(base, tool, structure)
+        sdm_part(base, tool, structure, ERODED)
+        sdm_part(base, base.tool, structure, ERODED_HELIX)
     print(f"CPU {time.process_time() - c0:.1f} s")
     return 0
 

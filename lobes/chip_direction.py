@@ -19,13 +19,13 @@ A displacement of the tool (or of the surface) moves the chip by its component a
 derivative of its chip in the tool centre; ``tests/test_lobes_chip_direction.py`` checks it there). It
 multiplies the regenerative difference, like ``u``. It is of the relative order ``fz / R`` (0.006 in the
 TX200 aluminium cut) but turns ``u`` towards the direction whose directional matrix does not cancel over
-the engagement, so it moves the exponent near that cut's limit by about 1.6 1/s per mm of feed
+the engagement, so it moves the exponent near that cut's limit by 1.6-2.1 1/s per mm of feed
 (``bench/bench_timedomain_chip_direction.py``).
 
 Not included: the time at which the previous tooth cut the point differs from ``t - tau_j`` by
 ``(h_j / (R Omega)) cos(phi)`` (the same turn ``psi - phi``); at a chatter frequency well below the tooth
 frequency it scales the regenerative difference by ``1 - (fz N / (2 pi R)) cos(phi)`` (estimated in the
-bench: 5 % of the tilt's effect).
+bench: 5-7 % of the tilt's effect).
 """
 
 from __future__ import annotations
