@@ -85,6 +85,11 @@ class DirectionalPlan:
         Delay in steps ``r + f`` (integer part >= 1, fraction in [0, 1)).
     k_force : int
         Force components carried (2, or 3 when the axial coefficient is non-zero).
+    surface_tilt : bool
+        The dynamic chip along the regenerated surface's normal instead of the ray (the first-order
+        ``fz / R`` turn of :mod:`lobes.chip_direction`); default False, the linear model of the lobes.
+    tooth_chip_m : array (Nc,) or None
+        Static chip of each cutting tooth, m (:func:`cases.milling.regeneration`); the tilt uses it.
     """
 
     tool: Tool
