@@ -280,7 +280,8 @@ def test_straight_tool_growth_rate_equals_the_floquet_rate(tx200_robot, factor):
     # disc in the time domain) they must agree within 0.05 1/s or 3 measured SE, whichever is
     # larger (unchanged). Measured with this estimator (eroded; SDM at ae - dy; with the entry
     # term): 0.3x -1.5422 +- 0.0201, -1.5323, -1.5297 (dy 7.55 um); 1.1x +0.2377 +- 0.0137, +0.1351,
-    # +0.1835 (dy 28.90 um); with both terms (bench/bench_timedomain_chip_direction.py) +0.2472.
+    # +0.1835 (dy 28.90 um); with both terms (7 Dec 2026): 0.3x -1.5114 (eroded -1.5422: -0.031, within
+    # 3 SE = 0.060; the entry term alone left -0.013), 1.1x +0.2472 (eroded +0.2375: -0.010).
     robot = tx200_robot("basic")
     op, run, g, ref = _alu_near_limit(robot, factor, helix=False)
     dy, sigma, sigma_entry, sigma_both = _like_with_like(robot, run)
@@ -304,7 +305,7 @@ def test_eroded_excess_over_the_lobes_scales_with_the_feed(tx200_robot):
     # 5 %, the SDM's own second-order part); (3) with the tilt of the regenerated surface too
     # (lobes/chip_direction.py, +0.047 and +0.094 1/s, bench_timedomain_chip_direction.py) the
     # eroded rate equals the SDM within the criterion of the straight-tool test (0.05 1/s or 3 SE):
-    # measured with the bench's estimator -0.008 and -0.016 1/s.
+    # measured with this test's estimator -0.0122 and -0.0113 1/s (SE 0.013 and 0.020).
     robot = tx200_robot("basic")
     excess, entry = [], []
     for fz in (3e-5, 6e-5):
