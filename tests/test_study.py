@@ -83,6 +83,13 @@ def test_damping_cross_check_wording_follows_the_brackets():
     assert "dy =" not in s and "this bracket" not in s
     s = prose.damping_cross_check((12.19, 12.34), (12.5, None), (None, 12.0), 1e-6, (11.9, 12.1))
     assert "open" in s and "this bracket and the eroded part's overlap" in s
+    s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
+                                  (11.78, 11.9))
+    assert "With the feed terms" in s and "entry shift" in s
+    assert "brackets it in [x11.78, x11.9] (0.12 wide); this bracket and the eroded part's overlap" in s
+    s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
+                                  (11.7, 11.8))
+    assert "[x11.7, x11.8] (0.1 wide); this bracket and the eroded part's are disjoint" in s
     assert prose.bracket_width(12.0, 12.5) == 0.5 and prose.bracket_width(None, 12.0) is None
 
 
