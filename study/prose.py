@@ -80,13 +80,18 @@ def bracket_text(lo: float | None, hi: float | None) -> str:
 
 
 def brackets_relation(a: tuple, b: tuple) -> str:
-    """"overlap", "are disjoint" or "cannot be compared" for two [unstable, stable] brackets."""
+    """"overlap", "are disjoint" or "cannot be compared" for two [unstable, stable] brackets; disjoint
+    brackets that share an end (one's stable side is the other's unstable side) say so."""
     (alo, ahi), (blo, bhi) = a, b
     if ahi is None or bhi is None:
         return "cannot be compared"
     alo = -math.inf if alo is None else alo
     blo = -math.inf if blo is None else blo
-    return "overlap" if max(alo, blo) < min(ahi, bhi) else "are disjoint"
+    if max(alo, blo) < min(ahi, bhi):
+        return "overlap"
+    shared = ahi if ahi == blo else bhi if bhi == alo else None
+    return "are disjoint" if shared is None else \
+        f"are disjoint, adjacent at x{shared:.4g} (stable by one method, unstable by the other)"
 
 
 def bracket_width(lo: float | None, hi: float | None) -> float | None:

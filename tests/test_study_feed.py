@@ -85,7 +85,7 @@ def test_feed_terms_probe_without_feed_is_the_plain_sdm():
 
 def test_feed_terms_shift_doubles_with_the_feed():
     # first order in fz / R (0.006 here): the shift from the plain SDM at 2 fz is twice that at fz, to
-    # the second-order share (measured 3 % here, 8 % on the steel study); bounds [1.8, 2.2]
+    # the second-order share (ratio 2.005 measured here, 1.84 on the steel study at x11.67); bounds [1.8, 2.2]
     def exponent(fz):
         c = _case(fz)
         return compute.feed_terms_probe(LobeProblem(_structure(1.55), c.tool, c.cut, c.law), METHOD)[1]["exponent_per_s"]
@@ -100,7 +100,8 @@ def test_damping_by_lobes_with_feed_terms_at_zero_feed_gives_the_plain_verdicts(
     feed = compute.damping_by_lobes(settings, _Lins(), _case(1e-9), None, dy_m=0.0, feed_terms=True)
     assert feed.method == "lobes at ae - dy, feed terms" and plain.method == "lobes at ae - dy"
     assert feed.bracket == plain.bracket
-    assert 1.5 <= plain.bracket[0] < plain.bracket[1] <= 1.6, plain.bracket  # the limits above
+    lo, hi = plain.bracket
+    assert lo is not None and hi is not None and 1.5 <= lo < hi <= 1.6, plain.bracket  # the limits above
     assert [(p.scale, p.verdict.status) for p in feed.probes] == [(p.scale, p.verdict.status) for p in plain.probes]
     for p in feed.probes:
         assert p.verdict.status != "undetermined" and p.info["ae_m"] == 4e-3
