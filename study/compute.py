@@ -574,8 +574,9 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
     dy = eroded_deflection(d_td)
     d_lobes_dy = (None if dy is None else
                   damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy, seed=d_td.bracket))
-    d_feed = (None if dy is None else
-              damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy, seed=d_td.bracket, feed_terms=True))
+    d_feed = (None if d_lobes_dy is None else  # seeded where the plain SDM at ae - dy crossed: fewer costly probes
+              damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy,
+                               seed=d_td.bracket + d_lobes_dy.bracket, feed_terms=True))
     runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache, lins)
     facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
                                                       == (mat, "basic", "start")),
