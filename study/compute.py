@@ -28,6 +28,7 @@ import numpy as np
 
 from robolobes import cases
 from robolobes.core.io import provenance, to_jsonable
+from robolobes.core.verdict import Verdict
 from robolobes.linearize.summary import modes_summary
 from robolobes.linearize.kinematics import JointLimitWarning
 from robolobes.linearize.model import VARIANTS
@@ -40,7 +41,7 @@ from .settings import LOBE_RANGES_RPM, MATERIALS, PAPER, POSES, StudySettings
 
 __all__ = ["compute_study", "load_inputs", "study_poses", "compute_modes", "compute_operating_points",
            "compute_diagrams", "compute_absolute_limits", "bracket_search", "damping_by_lobes",
-           "damping_by_time_domain", "damping_by_delay", "lobes_tool", "eroded_deflection", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
+           "damping_by_time_domain", "damping_by_delay", "feed_terms_probe", "exponent_verdict", "lobes_tool", "eroded_deflection", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
 
 Progress = Callable[[float], None]
 
@@ -221,30 +222,58 @@ def bracket_search(check: Callable[[float], DampingProbe], scales, tol: float, m
 
 
 def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic", dy_m: float | None = None,
-                     seed: tuple = ()) -> DampingSearch:
+                     seed: tuple = (), feed_terms: bool = False) -> DampingSearch:
     """Damping bracket by the lobes: stable when the SDM limit at the cut speed exceeds the cut
     depth beyond its discretization error bound (Tab. 7 pose).
 
     ``dy_m``: the SDM at the radial depth ``ae - dy_m`` instead of the nominal ``ae`` (the eroded
     part's engagement: its tool cuts deflected by its mean normal deflection ``dy``; method
-    "lobes at ae - dy"). ``seed``: scales tried besides ``settings.damping_scales``."""
+    "lobes at ae - dy"). ``feed_terms``: the eroded part's linearization instead, the SDM with the
+    entry shift and the surface tilt (:func:`feed_terms_probe`; method "lobes at ae - dy, feed
+    terms"). ``seed``: scales tried besides ``settings.damping_scales``."""
     from robolobes.lobes.sdm import SemiDiscretization
-    from robolobes.lobes.solver import stability
     method = SemiDiscretization(m=settings.sdm_m)
     case = steel if dy_m is None else replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_m))
+    probe = feed_terms_probe if feed_terms else limit_probe
 
     def check(scale):
         lin, st = lins.structure(steel, variant, "start", theta_start, damping_scale=scale)
-        op = stability(_lobe_problem(st, case), method)
-        return DampingProbe(scale, as_verdict(op.verdict), {
-            "depth_limit_m": op.depth_limit_m, "depth_limit_error_m": op.depth_limit_error_m, "margin": op.margin,
-            "spectral_radius": op.spectral_radius, "bifurcation": str(op.limit_bifurcation),
-            "chatter_freq_hz": op.limit_chatter_freq_hz, "slowest_decay_per_s": _slowest_decay(lin),
-            "ae_m": case.cut.ae_m})
+        verdict, info = probe(_lobe_problem(st, case), method)
+        return DampingProbe(scale, verdict, {**info, "slowest_decay_per_s": _slowest_decay(lin),
+                                             "ae_m": case.cut.ae_m})
 
     scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
-    return bracket_search(check, scales, settings.damping_tol, "lobes" if dy_m is None else "lobes at ae - dy",
-                          variant)
+    name = "lobes" if dy_m is None else "lobes at ae - dy" + (", feed terms" if feed_terms else "")
+    return bracket_search(check, scales, settings.damping_tol, name, variant)
+
+
+def limit_probe(problem, method) -> tuple:
+    """The lobes' verdict of ``problem`` (SDM limit against the cut depth) and its numbers."""
+    from robolobes.lobes.solver import stability
+    op = stability(problem, method)
+    return as_verdict(op.verdict), {
+        "depth_limit_m": op.depth_limit_m, "depth_limit_error_m": op.depth_limit_error_m, "margin": op.margin,
+        "spectral_radius": op.spectral_radius, "bifurcation": str(op.limit_bifurcation),
+        "chatter_freq_hz": op.limit_chatter_freq_hz}
+
+
+def feed_terms_probe(problem, method) -> tuple:
+    """The verdict of ``problem`` by the sign of its Floquet exponent with the entry shift and the
+    surface tilt (:func:`~robolobes.lobes.entry_shift.entry_shift_exponent`, Richardson from m and
+    2m): "undetermined" when |exponent| is not above its Richardson error. Info: the exponent and
+    its error, 1/s."""
+    from robolobes.lobes.entry_shift import entry_shift_exponent
+    e = entry_shift_exponent(problem, method, with_entry=True, surface_tilt=True)
+    return exponent_verdict(e.value_per_s, e.error_per_s), {
+        "exponent_per_s": e.value_per_s, "exponent_error_per_s": e.error_per_s}
+
+
+def exponent_verdict(value_per_s: float, error_per_s: float) -> Verdict:
+    """Stable / unstable by the sign of a Floquet exponent, "undetermined" when ``|value| <= error``."""
+    if abs(value_per_s) <= error_per_s:
+        return Verdict("undetermined", f"exponent {value_per_s:+.3g} 1/s within its Richardson error "
+                                       f"{error_per_s:.2g} 1/s")
+    return Verdict.from_stable(value_per_s < 0, f"exponent {value_per_s:+.3g} ± {error_per_s:.2g} 1/s")
 
 
 def eroded_deflection(d: DampingSearch) -> float | None:
@@ -545,6 +574,9 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
     dy = eroded_deflection(d_td)
     d_lobes_dy = (None if dy is None else
                   damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy, seed=d_td.bracket))
+    d_feed = (None if d_lobes_dy is None else  # seeded where the plain SDM at ae - dy crossed: fewer costly probes
+              damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy,
+                               seed=d_td.bracket + d_lobes_dy.bracket, feed_terms=True))
     runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache, lins)
     facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
                                                       == (mat, "basic", "start")),
@@ -558,7 +590,7 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
         cases={k: c.name for k, c in cs.items()}, notes=NOTES, modes=modes, operating_points=ops,
         diagrams=diagrams, absolute_limits=absolute, td_linearized=settings.td_linearized, time_domain=runs,
         damping_lobes=d_lobes, damping_time_domain=d_td, damping_delay=d_delay,
-        damping_lobes_eroded=d_lobes_dy, eroded_deflection_m=dy,
+        damping_lobes_eroded=d_lobes_dy, damping_lobes_feed=d_feed, eroded_deflection_m=dy,
         paper_damping_scale=float(paper["steel"]["stabilizing_damping_scale"]),
         tab10=tab10_rows(paper, runs), roughness=roughness_rows(paper, runs), facts=facts,
         wall_s=time.perf_counter() - t0, generated=time.strftime("%Y-%m-%d %H:%M"),

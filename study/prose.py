@@ -80,13 +80,18 @@ def bracket_text(lo: float | None, hi: float | None) -> str:
 
 
 def brackets_relation(a: tuple, b: tuple) -> str:
-    """"overlap", "are disjoint" or "cannot be compared" for two [unstable, stable] brackets."""
+    """"overlap", "are disjoint" or "cannot be compared" for two [unstable, stable] brackets; disjoint
+    brackets that share an end (one's stable side is the other's unstable side) say so."""
     (alo, ahi), (blo, bhi) = a, b
     if ahi is None or bhi is None:
         return "cannot be compared"
     alo = -math.inf if alo is None else alo
     blo = -math.inf if blo is None else blo
-    return "overlap" if max(alo, blo) < min(ahi, bhi) else "are disjoint"
+    if max(alo, blo) < min(ahi, bhi):
+        return "overlap"
+    shared = ahi if ahi == blo else bhi if bhi == alo else None
+    return "are disjoint" if shared is None else \
+        f"are disjoint, adjacent at x{shared:.4g} (stable by one method, unstable by the other)"
 
 
 def bracket_width(lo: float | None, hi: float | None) -> float | None:
@@ -100,12 +105,13 @@ def _width_text(br: tuple) -> str:
 
 
 def damping_cross_check(lobes: tuple, delay: tuple, eroded: tuple, dy_m: float | None = None,
-                        lobes_at_dy: tuple | None = None) -> str:
+                        lobes_at_dy: tuple | None = None, feed_terms: tuple | None = None) -> str:
     """Like with like. The delay-based bracket (the lobes' linear problem, fixed engagement at the
     nominal radial depth) against the lobes' ("overlap" / "are disjoint" by
     :func:`brackets_relation`), with each bracket's width; then the eroded part's bracket, whose
     engagement moves with the tool's mean normal deflection ``dy_m`` (m), against the lobes' at the
-    nominal ae and, given ``lobes_at_dy``, against the SDM's at ``ae - dy``."""
+    nominal ae, given ``lobes_at_dy``, against the SDM's at ``ae - dy`` and, given ``feed_terms``,
+    against the SDM's at ``ae - dy`` with the entry shift and the surface tilt."""
     out = (f"Like with like, the delay-based time domain (the lobes' linear problem: the same linearized "
            f"structure and cut, the engagement fixed at the nominal radial depth) brackets it in "
            f"{bracket_text(*delay)} ({_width_text(delay)}; the lobes' is {_width_text(lobes)}): the two "
@@ -118,8 +124,13 @@ def damping_cross_check(lobes: tuple, delay: tuple, eroded: tuple, dy_m: float |
             f"the SDM at the radial depth ae - dy, not at the nominal ae")
     if lobes_at_dy is None:
         return out + "."
-    return (out + f". The SDM at ae - dy brackets it in {bracket_text(*lobes_at_dy)} ({_width_text(lobes_at_dy)}); "
+    out += (f". The SDM at ae - dy brackets it in {bracket_text(*lobes_at_dy)} ({_width_text(lobes_at_dy)}); "
             f"this bracket and the eroded part's {brackets_relation(lobes_at_dy, eroded)}.")
+    if feed_terms is None:
+        return out
+    return (out + f" With the feed terms of the eroded part's linearization (the entry shift and the tilt of "
+            f"the regenerated surface), the SDM at ae - dy brackets it in {bracket_text(*feed_terms)} "
+            f"({_width_text(feed_terms)}); this bracket and the eroded part's {brackets_relation(feed_terms, eroded)}.")
 
 
 def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float, td_label: str = "the time domain") -> str:

@@ -154,7 +154,7 @@ class DampingSearch:
     as not stable (it would move the bracket up, never down). None: no such probe.
     """
 
-    method: str                  # "lobes", "time domain" or "delay-based time domain"
+    method: str                  # "lobes", "time domain", "delay-based time domain", "lobes at ae - dy[, feed terms]"
     variant: str
     probes: tuple                # DampingProbe, by increasing scale
     largest_unstable: float | None
@@ -246,6 +246,7 @@ class StudyResult:
     identify_facts: dict | None = None
     damping_delay: DampingSearch | None = None  # the delay-based time domain's (None: not computed)
     damping_lobes_eroded: DampingSearch | None = None  # the lobes' at ae - dy, the eroded part's engagement
+    damping_lobes_feed: DampingSearch | None = None  # the SDM at ae - dy with the entry shift and surface tilt
     eroded_deflection_m: float | None = None    # that dy: the eroded runs' mean normal deflection, m   # {"tab10": ..., "steel": ...} (study.force_facts); None: not computed
 
     # ---- look-ups -------------------------------------------------------------------------------

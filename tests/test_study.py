@@ -83,6 +83,17 @@ def test_damping_cross_check_wording_follows_the_brackets():
     assert "dy =" not in s and "this bracket" not in s
     s = prose.damping_cross_check((12.19, 12.34), (12.5, None), (None, 12.0), 1e-6, (11.9, 12.1))
     assert "open" in s and "this bracket and the eroded part's overlap" in s
+    s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
+                                  (11.78, 11.9))
+    assert "With the feed terms" in s and "entry shift" in s
+    assert "brackets it in [x11.78, x11.9] (0.12 wide); this bracket and the eroded part's overlap" in s
+    s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
+                                  (11.7, 11.8))
+    assert "[x11.7, x11.8] (0.1 wide); this bracket and the eroded part's are disjoint" in s
+    s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
+                                  (11.72, 11.84))
+    assert "this bracket and the eroded part's are disjoint, adjacent at x11.84 (stable by one method" in s
+    assert prose.brackets_relation((1.0, 2.0), (3.0, 4.0)) == "are disjoint"
     assert prose.bracket_width(12.0, 12.5) == 0.5 and prose.bracket_width(None, 12.0) is None
 
 
@@ -251,8 +262,15 @@ def test_delay_based_bracket_overlaps_the_lobes_and_every_bracket_is_narrow(quic
     ae = compute.load_inputs()[0]["steel"].cut.ae_m
     for p in sd["lobes_at_ae_minus_dy"]["probes"].values():
         assert_allclose(p["ae_m"], ae - sd["eroded_deflection_m"], rtol=1e-12)
-    lo, hi = br["lobes_at_ae_minus_dy"]
-    assert lo is not None and hi is not None and 0 < hi - lo <= 0.15
+    for k in ("lobes_at_ae_minus_dy", "lobes_at_ae_minus_dy_feed_terms"):
+        lo, hi = br[k]
+        assert lo is not None and hi is not None and 0 < hi - lo <= 0.15, (k, lo, hi)
+    # the SDM at ae - dy with the feed terms: at the same radial depth, each probe decided by the sign
+    # of its exponent beyond its Richardson error
+    for sc, p in sd["lobes_at_ae_minus_dy_feed_terms"]["probes"].items():
+        assert_allclose(p["ae_m"], ae - sd["eroded_deflection_m"], rtol=1e-12)
+        e, err = p["exponent_per_s"], p["exponent_error_per_s"]
+        assert p["verdict"] == ("undetermined" if abs(e) <= err else "stable" if e < 0 else "unstable"), (sc, p)
 
 
 def test_quick_report_states_the_cross_check(quick):
