@@ -25,8 +25,12 @@ matrices at the nodes, interpolation of the delayed values) on the angles only. 
     (I - a Q H) Y = C x0 - a Q Kp Y_prev,    x(T) = E x0 + a P H Y - a P Kp Y_prev
 
 Only the previous-period nodes that some delayed value reads are kept in the state (the others
-add zero multipliers). Straight tools only (a helix moves the element boundaries with the depth):
-a helical tool is refused.
+add zero multipliers). Helical tool: ``W`` is integrated analytically along the depth
+(:func:`node_directional`); it is continuous with kinks where the edge's ends enter and leave
+the cut. The elements cover the bottom edge's cutting interval widened by the lag of the largest
+depth; the kinks at the top edge's entry and exit move with the depth and fall inside elements
+(there the convergence in the nodes is algebraic, not spectral), and ``H``, ``Kp`` are
+assembled per depth (``Q H`` etc. per pair).
 """
 
 from __future__ import annotations
@@ -150,23 +154,39 @@ class Layout:
     """Angular layout of the elements and nodes over one principal period (speed-independent).
 
     ``bounds`` (E, 2) element ends as spindle angles in ``[0, period]``, rad; ``alpha`` (M,) node
-    angles; ``elem`` (M,) element of each node; ``H`` (M, k, M, 2) per unit depth: ``f_i = sum_j
-    H[i, :, j] r_j`` from this period's nodes; ``Kp`` (M, k, R, 2): the delayed part from the
-    previous period's nodes ``prev`` (R,) (indices into the nodes).
+    angles; ``elem`` (M,) element of each node; ``cols``, ``weights`` (G, M, n): the delayed
+    displacement of group ``g`` at node ``i`` is ``sum_l weights[g, i, l] Z[cols[g, i, l]]`` with
+    ``Z = [Y, Y_prev]`` (2M nodes); ``prev`` (R,): the previous period's nodes read by some delayed
+    value (indices into the nodes).
     """
 
     bounds: np.ndarray
     alpha: np.ndarray
     elem: np.ndarray
-    H: np.ndarray
-    Kp: np.ndarray
+    cols: np.ndarray
+    weights: np.ndarray
     prev: np.ndarray
 
+    def force_matrices(self, Wg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``H`` (B, kM, 2M) and ``Kp`` (B, kM, 2R) of ``F = H Y - Kp Y_prev`` from the directional
+        matrices at the nodes ``Wg`` (B, M, G, k, 2), N/m (depth included)."""
+        B, M, G, k, _ = Wg.shape
+        D = np.zeros((B, M, k, 2 * M, 2))
+        i = np.arange(M)
+        D[:, i, :, i, :] = -Wg.sum(axis=2).transpose(1, 0, 2, 3)
+        for g in range(G):
+            for col, w in zip(self.cols[g].T, self.weights[g].T):  # one interpolation node at a time
+                D[:, i, :, col, :] += (w[:, None, None, None] * Wg[:, :, g].transpose(1, 0, 2, 3))
+        H = -D[:, :, :, :M].reshape(B, M * k, 2 * M)
+        Kp = D[:, :, :, M + self.prev].reshape(B, M * k, 2 * len(self.prev))
+        return H, Kp
 
-def element_layout(plan: DirectionalPlan, n: int, elements: int) -> Layout:
-    """Elements on the cutting intervals, nodes, and the force matrices per unit depth (straight tool)."""
+
+def element_layout(plan: DirectionalPlan, n: int, elements: int, lag_rad: float = 0.0) -> Layout:
+    """Elements on the cutting intervals (the bottom edge's, widened by the helix lag ``lag_rad`` of
+    the largest depth), their Gauss-Legendre nodes and the interpolation of the delayed values."""
     P = plan.period_rad
-    cuts = _cutting_intervals(plan)
+    cuts = _cutting_intervals(plan, lag_rad)
     edges = sorted({0.0, P} | {e for iv in cuts for e in iv})
     segs = []
     for a, b in zip(edges[:-1], edges[1:]):
@@ -178,58 +198,73 @@ def element_layout(plan: DirectionalPlan, n: int, elements: int) -> Layout:
     bounds = np.array(segs)
     u, _ = _gauss01(n)
     alpha = (bounds[:, :1] + u[None] * (bounds[:, 1:] - bounds[:, :1])).reshape(-1)
-    elem = np.repeat(np.arange(len(bounds)), n)
-    M, k = len(alpha), plan.k_force
-    Wg = _node_directional(plan, alpha)  # (M, G, k, 2)
-    H = np.zeros((M, k, M, 2))
-    H[np.arange(M), :, np.arange(M), :] = Wg.sum(axis=1)
-    D = np.zeros((M, k, 2 * M, 2))  # delayed: columns [this period | previous period]
+    M = len(alpha)
+    cols = np.zeros((plan.n_groups, M, n), int)
+    weights = np.zeros((plan.n_groups, M, n))
     for g, delay in enumerate(plan.group_delay_rad):
         beta = alpha - delay
         back = np.floor(beta / P + 1e-12).astype(int)  # periods back: 0 or -1
         if np.any(back < -1):
             raise LobeError("a regenerative delay longer than the principal period is not supported by Collocation")
-        e = np.searchsorted(bounds[:, 1], beta - back * P, side="left").clip(0, len(bounds) - 1)
-        s = (beta - back * P - bounds[e, 0]) / (bounds[e, 1] - bounds[e, 0])
-        lw = lagrange(u, s)  # (M, n)
-        col = e[:, None] * n + np.arange(n)[None] + np.where(back < 0, M, 0)[:, None]
-        for i in range(M):
-            if np.any(Wg[i, g]):
-                D[i, :, col[i], :] += lw[i][:, None, None] * Wg[i, g][None]
-    H -= D[:, :, :M]
-    prev = np.flatnonzero(np.any(D[:, :, M:] != 0, axis=(0, 1, 3)))
-    return Layout(bounds=bounds, alpha=alpha, elem=elem, H=H, Kp=D[:, :, M + prev], prev=prev)
+        beta = beta - back * P
+        e = np.searchsorted(bounds[:, 1], beta, side="left").clip(0, len(bounds) - 1)
+        weights[g] = lagrange(u, (beta - bounds[e, 0]) / (bounds[e, 1] - bounds[e, 0]))
+        cols[g] = e[:, None] * n + np.arange(n)[None] + np.where(back < 0, M, 0)[:, None]
+    prev = np.unique(cols[cols >= M]) - M
+    return Layout(bounds=bounds, alpha=alpha, elem=np.repeat(np.arange(len(bounds)), n), cols=cols,
+                  weights=weights, prev=prev)
 
 
-def _cutting_intervals(plan: DirectionalPlan) -> list[tuple[float, float]]:
-    """Angular intervals of ``[0, period]`` in which some tooth cuts (one per tooth and turn)."""
+def _cutting_intervals(plan: DirectionalPlan, lag_rad: float) -> list[tuple[float, float]]:
+    """Angular intervals of ``[0, period]`` in which some tooth may cut (one per tooth and turn)."""
     P, out = plan.period_rad, []
     for th in plan.tooth_angle_rad:
         for turn in range(-2, 3):
             lo = plan.phi_st - th + 2 * math.pi * turn
-            hi = plan.phi_ex - th + 2 * math.pi * turn
+            hi = plan.phi_ex + lag_rad - th + 2 * math.pi * turn
             a, b = max(lo, 0.0), min(hi, P)
             if b > a:
                 out.append((a, b))
     return out
 
 
-def _node_directional(plan: DirectionalPlan, alpha: np.ndarray) -> np.ndarray:
-    """Directional matrix per unit depth of each delay group at the node angles: (M, G, k, 2), N/m^2."""
-    out = np.zeros((len(alpha), plan.n_groups, plan.k_force, 2))
+def node_directional(plan: DirectionalPlan, alpha: np.ndarray, depth_m: np.ndarray, points: int = 8) -> np.ndarray:
+    """Directional matrices of each delay group at the node angles ``alpha`` (M,): (B, M, G, k, 2), N/m.
+
+    Straight tool: ``a g(phi) D(phi)`` summed over the group's teeth. Helical tool (lag
+    ``psi(z) = kappa z``): the integral along the depth ``int_0^a g(phi - kappa z) D(phi - kappa z)
+    dz = (1 / kappa) int_(phi - kappa a)^phi g D``, by ``points`` Gauss-Legendre points on the
+    engaged part (a smooth trigonometric integrand: exact to rounding; continuous in ``phi``, with
+    kinks where an end of the edge enters or leaves the cut). ``depth_m`` (B,), m.
+    """
+    depth = np.asarray(depth_m, dtype=float).reshape(-1)
+    k = plan.k_force
+    out = np.zeros((len(depth), len(alpha), plan.n_groups, k, 2))
+    kappa = float(plan.tool.lag_rad(1.0))
+    x, w = _gauss01(points)
     for th, g in zip(plan.tooth_angle_rad, plan.tooth_group):
         phi = alpha + th
-        D = directional_matrix(phi, plan.law)[..., :plan.k_force, :]
-        out[:, g] += D * in_cut(phi, plan.phi_st, plan.phi_ex)[:, None, None]
+        if kappa == 0:
+            D = directional_matrix(phi, plan.law)[..., :k, :] * in_cut(phi, plan.phi_st, plan.phi_ex)[:, None, None]
+            out[:, :, g] += depth[:, None, None, None] * D[None]
+            continue
+        hi = np.mod(phi, 2 * math.pi)[None, :] + np.zeros((len(depth), 1))  # (B, M)
+        lo = hi - kappa * depth[:, None]
+        for shift in (-2 * math.pi, 0.0, 2 * math.pi):
+            a = np.maximum(lo, plan.phi_st + shift)
+            ln = np.minimum(hi, plan.phi_ex + shift) - a
+            sel = ln > 0
+            if sel.any():
+                pts = a[sel][:, None] + x[None] * ln[sel][:, None]
+                D = directional_matrix(pts, plan.law)[..., :k, :]
+                out[sel, g] += np.einsum("nqij,q->nij", D, w) * (ln[sel] / kappa)[:, None, None]
     return out
 
 
 class CollocationEngine:
     """Monodromy matrices of one problem (all speeds, all depths) for one collocation."""
 
-    def __init__(self, problem: LobeProblem, method: Collocation, depth_max_m: float = math.inf):
-        if problem.tool.helix_rad > 0:
-            raise LobeError("Collocation supports straight tools only (helix_rad = 0); use RefinedSDM for a helix")
+    def __init__(self, problem: LobeProblem, method: Collocation, depth_max_m: float = 0.01):
         self.problem, self.method = problem, method
         ss = problem.structure.state_space()
         ss.check_stable()
@@ -239,7 +274,10 @@ class CollocationEngine:
         self.plan = DirectionalPlan.build(problem.tool, problem.cut, law, m=1 << 20, quadrature=1, slices=1,
                                           k_force=k)
         self.k, self.ns = k, ss.n_states
-        self.layout = element_layout(self.plan, method.nodes, method.elements)
+        self.helix = problem.tool.helix_rad > 0
+        self.depth_max_m = float(depth_max_m)
+        lag = float(problem.tool.lag_rad(self.depth_max_m))
+        self.layout = element_layout(self.plan, method.nodes, method.elements, lag)
         lam, V = np.linalg.eig(ss.A)
         self.lam, self.V = lam, V
         self.Bz = np.linalg.solve(V, ss.B[:, :k])   # (ns, k) complex
@@ -278,9 +316,10 @@ class CollocationEngine:
         M, ns, k = self.M, self.ns, self.k
         full = np.zeros((len(a), ns, n), complex)
         part = np.zeros((len(a), ns, n, n), complex)
-        for h in np.unique(np.round(b - a, 15)):
-            sel = np.flatnonzero(np.abs((b - a) - h) <= 1e-12 * max(h, 1e-300))
-            full[sel], part[sel] = kernel_weights(lam, float(h), n)
+        key = np.round((b - a) / (b - a).max(), 12)  # elements of equal length share their weights
+        for kv in np.unique(key):
+            sel = np.flatnonzero(key == kv)
+            full[sel], part[sel] = kernel_weights(lam, float((b - a)[sel[0]]), n)
         e, loc = lay.elem, np.arange(M) % n
         lag = np.maximum(t[:, None] - b[e][None, :], 0.0)  # (M_i, M_j): only earlier elements are used
         qz = np.exp(lam[None, None, :] * lag[..., None]) * full[e, :, loc][None]
@@ -297,24 +336,35 @@ class CollocationEngine:
 
     def _compute_speed(self, rpm: float) -> tuple[np.ndarray, ...]:
         E, C, Q, P = self.propagators(rpm)
-        lay, M, R, k = self.layout, self.M, self.R, self.k
-        H = lay.H.reshape(k * M, 2 * M)
-        Kp = lay.Kp.reshape(k * M, 2 * R)
-        return E, C, Q @ H, Q @ Kp, P @ H, P @ Kp
+        if self.helix:  # the force matrices depend on the depth: products per pair
+            return E, C, Q, P
+        H, Kp = self.layout.force_matrices(node_directional(self.plan, self.layout.alpha, np.ones(1)))
+        return E, C, Q @ H[0], Q @ Kp[0], P @ H[0], P @ Kp[0]
+
+    def _products(self, rpm: np.ndarray, depth: np.ndarray):
+        """``E, C, a QH, a QKp, a PH, a PKp`` stacked over the pairs (depth ``a`` included)."""
+        mats = [self.speed_matrices(r) for r in rpm]
+        stack = lambda i: np.stack([m_[i] for m_ in mats])
+        if not self.helix:
+            a = depth[:, None, None]
+            return (stack(0), stack(1)) + tuple(a * stack(i) for i in range(2, 6))
+        H, Kp = self.layout.force_matrices(node_directional(self.plan, self.layout.alpha, depth))
+        Q, P = stack(2), stack(3)
+        return stack(0), stack(1), Q @ H, Q @ Kp, P @ H, P @ Kp
 
     # ----- monodromy ---------------------------------------------------------------------------
     def monodromy(self, rpm, depth_m) -> np.ndarray:
         """Monodromy matrices (B, ns + 2R, ns + 2R) on ``(x0, Y_prev)`` at paired speeds/depths (B,)."""
         rpm = np.asarray(rpm, dtype=float).reshape(-1)
         depth = np.asarray(depth_m, dtype=float).reshape(-1)
-        mats = [self.speed_matrices(r) for r in rpm]
-        E, C, QH, QKp, PH, PKp = (np.stack([m_[i] for m_ in mats]) for i in range(6))
-        a = depth[:, None, None]
-        G = np.eye(2 * self.M)[None] - a * QH
-        Ysol = np.linalg.solve(G, np.concatenate([C, -a * QKp], axis=2))  # (B, 2M, ns + 2R)
-        top = a * (PH @ Ysol)
+        if len(depth) and float(depth.max()) > self.depth_max_m * (1 + 1e-12):
+            raise LobeError(f"depth {float(depth.max())} m beyond the engine's depth_max_m {self.depth_max_m} m")
+        E, C, QH, QKp, PH, PKp = self._products(rpm, depth)
+        G = np.eye(2 * self.M)[None] - QH
+        Ysol = np.linalg.solve(G, np.concatenate([C, -QKp], axis=2))  # (B, 2M, ns + 2R)
+        top = PH @ Ysol
         top[:, :, :self.ns] += E
-        top[:, :, self.ns:] -= a * PKp
+        top[:, :, self.ns:] -= PKp
         rows = (2 * self.layout.prev[:, None] + np.arange(2)[None]).reshape(-1)
         return np.concatenate([top, Ysol[:, rows]], axis=1)
 
