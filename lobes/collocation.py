@@ -47,7 +47,7 @@ from robolobes.core.validate import integer
 from ._errors import LobeError
 from .directional import DirectionalPlan
 from .problem import LobeProblem
-from .sdm import Search, chatter_branch, eigenvector_of
+from .sdm import Search, chatter_branch, eigenvector_of, phi_exps
 from .structure import StateSpace
 
 __all__ = ["Collocation", "CollocationEngine", "kernel_weights", "element_layout", "node_directional"]
@@ -135,26 +135,45 @@ def kernel_weights(lam: np.ndarray, h: float, n: int) -> tuple[np.ndarray, np.nd
     c_jp s^p``, ``int_0^(h u) e^(lam (h u - s)) (s / h)^p ds = h u^(p+1) p! phi_(p+1)(lam h u)``,
     and ``phi_1 .. phi_n`` of ``w`` are the first row of the exponential of the
     ``(n + 1) x (n + 1)`` matrix with ``w`` in the corner and ones on the superdiagonal (Sidje
-    1998), by scipy's expm (batched over modes and upper limits). ``lam`` (K,) complex, 1/s; ``h`` s.
+    1998), by :func:`lobes.sdm.phi_exps` (batched scaling and squaring) of its real ``2 (n + 1)``
+    form. ``lam`` (K,) complex, 1/s; ``h`` s.
 
     Returns ``full`` (K, n) and ``part`` (K, n, n), complex, s.
     """
-    from scipy.linalg import expm
-
-    u, _ = _gauss01(n)
     lam = np.asarray(lam, dtype=complex)
+    up = np.flatnonzero(lam.imag >= 0)
+    down = np.flatnonzero(lam.imag < 0)
+    if len(down) and len(up) < len(lam):  # conjugate poles: conjugate weights
+        pair = up[np.argmin(np.abs(lam[down, None].conj() - lam[None, up]), axis=1)]
+        if np.allclose(lam[pair], lam[down].conj(), rtol=1e-12, atol=0.0):
+            f, p = kernel_weights(lam[up], h, n)
+            full = np.empty((len(lam), n), complex)
+            part = np.empty((len(lam), n, n), complex)
+            full[up], part[up] = f, p
+            where = np.searchsorted(up, pair)
+            full[down], part[down] = f[where].conj(), p[where].conj()
+            return full, part
+    u, _ = _gauss01(n)
     ends = np.concatenate([u, [1.0]])                  # (n + 1,) upper limits (fractions of the element)
     w = lam[:, None] * h * ends[None, :]               # (K, n + 1)
     Z = np.zeros(w.shape + (n + 1, n + 1), complex)
     Z[..., 0, 0] = w
     Z[..., np.arange(n), np.arange(1, n + 1)] = 1.0
-    phi = expm(Z)[..., 0, 1:]                         # (K, n + 1, n): phi_1 .. phi_n
+    phi = _expm_complex(Z.reshape(-1, n + 1, n + 1)).reshape(Z.shape)[..., 0, 1:]  # (K, n + 1, n): phi_1..phi_n
     p = np.arange(n)
     fact = np.array([math.factorial(int(q)) for q in p], dtype=float)
     mono = h * ends[None, :, None] ** (p + 1) * fact * phi  # (K, n + 1, n): integrals of (s/h)^p
     coef = np.linalg.inv(np.vander(u, n, increasing=True))  # (p, j): l_j(s) = sum_p coef[p, j] s^p
     val = mono @ coef                                  # (K, n + 1, n)
     return val[:, n], val[:, :n]
+
+
+def _expm_complex(Z: np.ndarray) -> np.ndarray:
+    """``expm`` of complex matrices (P, n, n) through their real form ``[[Re, -Im], [Im, Re]]``."""
+    n = Z.shape[-1]
+    R = np.block([[Z.real, -Z.imag], [Z.imag, Z.real]])
+    E = phi_exps(R, np.zeros((1, 2 * n, 0)))[0]
+    return E[:, :n, :n] + 1j * E[:, n:, :n]
 
 
 def kernel_weights_quadrature(lam: np.ndarray, h: float, n: int, sub: int = 64, points: int = 24):
