@@ -303,11 +303,16 @@ def node_directional(plan: DirectionalPlan, alpha: np.ndarray, depth_m: np.ndarr
     return out
 
 
+#: Depth caps of a helical tool's layouts (depth_max / 2^j, j < _CAPS).
+_CAPS = 6
+
+
 class CollocationEngine:
     """Monodromy matrices of one problem (all speeds, all depths) for one collocation."""
 
-    def __init__(self, problem: LobeProblem, method: Collocation, depth_max_m: float = 0.01):
+    def __init__(self, problem: LobeProblem, method: Collocation, depth_max_m: float = 0.01, caps: bool = True):
         self.problem, self.method = problem, method
+        self._subs: dict[int, CollocationEngine] = {}
         ss = problem.structure.state_space()
         ss.check_stable()
         self.ss: StateSpace = ss
@@ -318,6 +323,9 @@ class CollocationEngine:
         self.k, self.ns = k, ss.n_states
         self.helix = problem.tool.helix_rad > 0
         self.depth_max_m = float(depth_max_m)
+        # helix: the cutting intervals widen with the depth; pairs are evaluated on the layout of
+        # the smallest depth cap depth_max / 2^j (j < _CAPS) above their depth (smaller monodromy)
+        self.capped = caps and self.helix
         lag = float(problem.tool.lag_rad(self.depth_max_m))
         self.layout = element_layout(self.plan, method.nodes, method.elements, lag)
         lam, V = np.linalg.eig(ss.A)
@@ -410,12 +418,36 @@ class CollocationEngine:
         rows = (2 * self.layout.prev[:, None] + np.arange(2)[None]).reshape(-1)
         return np.concatenate([top, Ysol[:, rows]], axis=1)
 
+    def _groups(self, depth: np.ndarray) -> list[tuple["CollocationEngine", np.ndarray]]:
+        """(engine, index array) per depth cap used by the pairs of depths ``depth`` (B,)."""
+        if not self.capped:
+            return [(self, np.arange(len(depth)))]
+        with np.errstate(divide="ignore"):
+            j = np.floor(np.log2(self.depth_max_m / np.maximum(depth, 1e-300)) - 1e-12)
+        j = np.clip(j, 0, _CAPS - 1).astype(int)
+        out = []
+        for jj in np.unique(j):
+            if jj == 0:
+                out.append((self, np.flatnonzero(j == 0)))
+                continue
+            if int(jj) not in self._subs:
+                self._subs[int(jj)] = CollocationEngine(self.problem, self.method, self.depth_max_m * 2.0 ** -int(jj),
+                                                        caps=False)
+            out.append((self._subs[int(jj)], np.flatnonzero(j == jj)))
+        return out
+
     def spectra(self, rpm, depth_m) -> np.ndarray:
-        """All Floquet multipliers (B, ns + 2R) complex at paired speeds/depths (B,)."""
+        """All Floquet multipliers (B, N) complex at paired speeds/depths (B,); pairs on a smaller
+        depth cap's layout are padded with zero multipliers to the widest."""
         rpm = np.asarray(rpm, dtype=float).reshape(-1)
+        depth = np.asarray(depth_m, dtype=float).reshape(-1)
         if len(rpm) == 0:
             return np.zeros((0, self.n_red), complex)
-        return np.linalg.eigvals(self.monodromy(rpm, depth_m))
+        parts = [(j, np.linalg.eigvals(e.monodromy(rpm[j], depth[j]))) for e, j in self._groups(depth)]
+        out = np.zeros((len(rpm), max(ev.shape[1] for _, ev in parts)), complex)
+        for j, ev in parts:
+            out[j, :ev.shape[1]] = ev
+        return out
 
     def multipliers(self, rpm, depth_m):
         """Spectral radius (B,) and critical multiplier (B,) complex."""
@@ -429,10 +461,15 @@ class CollocationEngine:
         The frequency branch is the one nearest the damped frequency of the structural pole that
         dominates the tool motion of the critical solution's state ``x0`` (as in the SDM)."""
         rpm = np.asarray(rpm, dtype=float).reshape(-1)
+        depth = np.asarray(depth_m, dtype=float).reshape(-1)
         self.critical_evaluations += len(rpm)
-        if len(rpm) == 0:
-            return np.zeros(0), np.zeros(0, complex), np.zeros(0)
-        U = self.monodromy(rpm, depth_m)
+        rho, mu, freq = np.zeros(len(rpm)), np.zeros(len(rpm), complex), np.zeros(len(rpm))
+        for e, j in self._groups(depth) if len(rpm) else ():
+            rho[j], mu[j], freq[j] = e._critical(rpm[j], depth[j])
+        return rho, mu, freq
+
+    def _critical(self, rpm: np.ndarray, depth: np.ndarray):
+        U = self.monodromy(rpm, depth)
         ev = np.linalg.eigvals(U)
         mu = ev[np.arange(len(ev)), np.argmax(np.abs(ev), axis=1)]
         z = eigenvector_of(U, mu)
