@@ -229,7 +229,7 @@ def element_layout(plan: DirectionalPlan, n: int, elements: int, lag_rad: float 
     the largest depth), their Gauss-Legendre nodes and the interpolation of the delayed values."""
     P = plan.period_rad
     cuts = _cutting_intervals(plan, lag_rad)
-    edges = sorted({0.0, P} | {e for iv in cuts for e in iv})
+    edges = sorted({0.0, P} | {e for iv in cuts for e in iv} | set(_kink_edges(plan, lag_rad)))
     segs = []
     for a, b in zip(edges[:-1], edges[1:]):
         if b - a > 1e-12 * P and any(lo <= 0.5 * (a + b) <= hi for lo, hi in cuts):
@@ -255,6 +255,23 @@ def element_layout(plan: DirectionalPlan, n: int, elements: int, lag_rad: float 
     prev = np.unique(cols[cols >= M]) - M
     return Layout(bounds=bounds, alpha=alpha, elem=np.repeat(np.arange(len(bounds)), n), cols=cols,
                   weights=weights, prev=prev)
+
+
+def _kink_edges(plan: DirectionalPlan, lag_rad: float) -> list[float]:
+    """Element edges at the helix kinks: the bottom edge's entry and exit (lag 0), and around the
+    top edge's, ``lag`` later with ``lag`` in ``(lag_rad / 2, lag_rad]`` for the depths of a cap
+    (:data:`_CAPS`): edges at both ends of that range keep each such kink in a short element."""
+    if lag_rad <= 0:
+        return []
+    P, out = plan.period_rad, []
+    for th in plan.tooth_angle_rad:
+        for turn in range(-2, 3):
+            for phi in (plan.phi_st, plan.phi_ex):
+                for lag in (0.0, lag_rad / 2, lag_rad):
+                    e = phi + lag - th + 2 * math.pi * turn
+                    if 0 < e < P:
+                        out.append(e)
+    return out
 
 
 def _cutting_intervals(plan: DirectionalPlan, lag_rad: float) -> list[tuple[float, float]]:
