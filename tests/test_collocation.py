@@ -122,3 +122,22 @@ def test_refusals():
 
     with pytest.raises(LobeError, match="Collocation"):
         stability(problem(0.05), Collocation())
+
+
+def test_helix_matches_sdm():
+    # helical tool (30 deg; kinks of the depth-integrated W at the edges' entries and exits): the
+    # SDM fast path (a second method) at m = 160/320 with 64 axial slices, Richardson in m. Its
+    # errors: |mu_320 - mu_160| / 3 in m, and the slices' (midpoint rule along the depth, second
+    # order) below |mu(64 slices) - mu(32 slices)|; tolerance: their sum. Collocation at 8 nodes:
+    # on the layout of its depth cap (kink in a short element) and exactly at the depth (no cap)
+    p = problem(0.5, directions=((1.0, 0.0), (0.0, 1.0)), tool=Tool(diameter_m=0.01, teeth=2, helix_rad=math.radians(30)),
+                mode="up")
+    rpm, depth = 9000.0, 1e-3
+    mu = {(m, s): complex(SDMEngine(p, SemiDiscretization(m=m, axial_slices=s), 0.01).multipliers([rpm], [depth])[1][0])
+          for m, s in ((160, 64), (320, 64), (320, 32))}
+    rich = mu[320, 64] + (mu[320, 64] - mu[160, 64]) / 3
+    tol = abs(mu[320, 64] - mu[160, 64]) / 3 + abs(mu[320, 64] - mu[320, 32])
+    for eng in (CollocationEngine(p, Collocation(nodes=8), 0.01),
+                CollocationEngine(p, Collocation(nodes=8), depth, caps=False)):
+        got = complex(eng.multipliers([rpm], [depth])[1][0])
+        assert abs(got - rich) <= tol, (got, rich, tol)
