@@ -141,8 +141,8 @@ def kernel_weights(lam: np.ndarray, h: float, n: int) -> tuple[np.ndarray, np.nd
     Returns ``full`` (K, n) and ``part`` (K, n, n), complex, s.
     """
     lam = np.asarray(lam, dtype=complex)
-    up = np.flatnonzero(lam.imag >= 0)
-    down = np.flatnonzero(lam.imag < 0)
+    up = np.flatnonzero(np.imag(lam) >= 0)
+    down = np.flatnonzero(np.imag(lam) < 0)
     if len(down) and len(up) < len(lam):  # conjugate poles: conjugate weights
         pair = up[np.argmin(np.abs(lam[down, None].conj() - lam[None, up]), axis=1)]
         if np.allclose(lam[pair], lam[down].conj(), rtol=1e-12, atol=0.0):
@@ -171,7 +171,8 @@ def kernel_weights(lam: np.ndarray, h: float, n: int) -> tuple[np.ndarray, np.nd
 def _expm_complex(Z: np.ndarray) -> np.ndarray:
     """``expm`` of complex matrices (P, n, n) through their real form ``[[Re, -Im], [Im, Re]]``."""
     n = Z.shape[-1]
-    R = np.block([[Z.real, -Z.imag], [Z.imag, Z.real]])
+    re, im = np.real(Z), np.imag(Z)
+    R = np.block([[re, -im], [im, re]])
     E = phi_exps(R, np.zeros((1, 2 * n, 0)))[0]
     return E[:, :n, :n] + 1j * E[:, n:, :n]
 

@@ -76,16 +76,16 @@ def test_multipliers_match_dense_sdm(aD, rpm, depth, levels):
 def test_variable_pitch_and_three_teeth_match_dense_sdm():
     # variable pitch (principal period: one revolution, two delays) and a 3-tooth slot (two teeth
     # cut at once); dense SDM m = 80/160, Richardson; tolerance as above, at least 1e-6
-    cases = [(Tool(diameter_m=0.01, teeth=2, pitch_rad=(2.8, 2 * math.pi - 2.8)), 0.5, "up", 9000.0, 0.3e-3),
-             (Tool(diameter_m=0.01, teeth=3), 1.0, "down", 9000.0, 1e-3)]
-    for tool, aD, mode, rpm, depth in cases:
-        p = problem(aD, tool=tool, mode=mode)
+    cases = [(problem(0.5, tool=Tool(diameter_m=0.01, teeth=2, pitch_rad=(2.8, 2 * math.pi - 2.8)), mode="up"), 0.3e-3),
+             (problem(1.0, tool=Tool(diameter_m=0.01, teeth=3)), 1e-3)]
+    rpm = 9000.0
+    for p, depth in cases:
         mus = [_critical(np.linalg.eigvals(SDMEngine(p, SemiDiscretization(m=m), 0.01).monodromy_dense(rpm, depth)))
                for m in (80, 160)]
         est = abs(mus[1] - mus[0]) / 3
         rich = mus[1] + (mus[1] - mus[0]) / 3
         mu = complex(CollocationEngine(p, Collocation(nodes=8, elements=8)).multipliers([rpm], [depth])[1][0])
-        assert abs(mu - rich) <= max(est, 1e-6), (tool, mu, rich, est)
+        assert abs(mu - rich) <= max(est, 1e-6), (p.tool, mu, rich, est)
 
 
 def test_limit_converges_fast_in_the_nodes():
