@@ -395,10 +395,11 @@ class CollocationEngine:
         same = e[None, :] == e[:, None]
         ii, jj = np.nonzero(same)
         qz[ii, jj] = part[e[ii], :, loc[ii], loc[jj]]
-        Q = np.einsum("ak,ijk,kb->iajb", self.Sz, qz, self.Bz).real.reshape(2 * M, k * M)
+        # Q[i, :, j, :] = Sz diag(qz[i, j]) Bz, as one batched product (BLAS)
+        Q = (self.Sz @ (qz[..., None] * self.Bz)).real.transpose(0, 2, 1, 3).reshape(2 * M, k * M)
         pz = np.exp(lam[None, :] * (T - b[e])[:, None]) * full[e, :, loc]  # (M, ns)
-        P = np.einsum("sk,jk,kb->sjb", self.V, pz, self.Bz).real.reshape(ns, k * M)
-        C = np.einsum("ak,ik,kn->ian", self.Sz, np.exp(np.outer(t, lam)), self.Vi).real.reshape(2 * M, ns)
+        P = (self.V @ (pz[..., None] * self.Bz)).real.transpose(1, 0, 2).reshape(ns, k * M)
+        C = ((self.Sz[None] * np.exp(np.outer(t, lam))[:, None, :]) @ self.Vi).real.reshape(2 * M, ns)
         E = (self.V * np.exp(lam * T)[None]) @ self.Vi
         return E.real, C, Q, P
 
