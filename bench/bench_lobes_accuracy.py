@@ -56,10 +56,10 @@ def methods():
 
 def collocations():
     return [
-        ("Collocation 6 nodes x 4 elements, check 8 nodes (default)", Collocation()),
-        ("Collocation 6 nodes x 8 elements, check 8 nodes", Collocation(elements=8)),
-        ("Collocation 8 nodes x 4 elements, check 10 nodes", Collocation(nodes=8)),
-        ("Collocation 6 nodes x 4 elements, one level", Collocation(check_nodes=0)),
+        ("Collocation 6/8 nodes x 8 elements (default)", Collocation()),
+        ("Collocation 6/8 nodes x 4 elements", Collocation(elements=4)),
+        ("Collocation 8/10 nodes x 8 elements", Collocation(nodes=8)),
+        ("Collocation 6 nodes x 8 elements, one level", Collocation(check_nodes=0)),
     ]
 
 
