@@ -12,7 +12,8 @@ with :meth:`PhysicalStructure.from_linear`), a :class:`ModalStructure` (hammer-t
 :func:`basis_for` make one by a loop-perturbation rule with a static residual mode). Methods:
 :class:`RefinedSDM` (the default: SDM levels refined per speed until the error estimate is below
 1 %, :mod:`lobes.refine`), :class:`SemiDiscretization` (one level of the first-order SDM, or the
-exact-free-decay scheme) and :class:`ZeroOrder` (Altintas-Budak). Conventions: :mod:`cases.milling`.
+exact-free-decay scheme), :class:`ZeroOrder` (Altintas-Budak) and :class:`Collocation` (force
+collocation on the cutting intervals, :mod:`lobes.collocation`; a second method, not the default). Conventions: :mod:`cases.milling`.
 """
 
 if __name__ != "robolobes.lobes":  # this folder imported by itself (from the repository root): a second copy
@@ -29,6 +30,7 @@ from .modal_fit import ModalFit, fit_modal
 from .structure import (ComplexMode, Mode, ModalStructure, PhysicalStructure, ReducedStructure, StateSpace, Structure,
                         TruncationReport, in_series)
 from .zoa import ZeroOrder
+from .collocation import Collocation
 from .basis import BasisInfo, basis_for, reduced_basis
 
 __all__ = [
@@ -36,5 +38,5 @@ __all__ = [
     "StateSpace", "Structure", "TruncationReport", "SemiDiscretization", "RefinedSDM", "ZeroOrder", "Method",
     "solve", "stability", "LobeResult", "StabilityPoint", "Verdict", "Bifurcation", "classify_multiplier",
     "DirectionalPlan", "average_directional_matrix", "depth_verdict", "ComplexMode", "MeasuredStructure", "ModalFit",
-    "fit_modal", "in_series", "BasisInfo", "basis_for", "reduced_basis",
+    "fit_modal", "in_series", "BasisInfo", "basis_for", "reduced_basis", "Collocation",
 ]

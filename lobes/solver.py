@@ -16,6 +16,7 @@ from robolobes.core.validate import finite, integer, readonly
 
 from ._errors import LobeError
 from .problem import LobeProblem
+from .collocation import Collocation, CollocationEngine
 from .refine import RefinedSDM, combine_levels, level_pairs, same_lobe
 from .sdm import Bifurcation, SDMEngine, SemiDiscretization, classify_multiplier
 from .zoa import ZOAEngine, ZeroOrder
@@ -23,13 +24,14 @@ from .zoa import ZOAEngine, ZeroOrder
 __all__ = ["Method", "LobeResult", "StabilityPoint", "solve", "stability", "depth_verdict", "Verdict",
            "ProgressCallback"]
 
-Method = Union[RefinedSDM, SemiDiscretization, ZeroOrder]
+Method = Union[RefinedSDM, SemiDiscretization, ZeroOrder, Collocation]
 ProgressCallback = Callable[[int, int], None]
 
 
 def _check_method(method) -> None:
-    if not isinstance(method, (RefinedSDM, SemiDiscretization, ZeroOrder)):
-        raise LobeError(f"method must be RefinedSDM(...), SemiDiscretization(...) or ZeroOrder(...), got {method!r}")
+    if not isinstance(method, (RefinedSDM, SemiDiscretization, ZeroOrder, Collocation)):
+        raise LobeError(f"method must be RefinedSDM(...), SemiDiscretization(...), ZeroOrder(...) or Collocation(...), "
+                        f"got {method!r}")
 
 
 def _check_speeds(speeds_rpm) -> np.ndarray:
@@ -673,6 +675,9 @@ def solve(problem: LobeProblem, method: Method | None = None, speeds_rpm=None, *
     if isinstance(method, ZeroOrder):
         depth, freq, bif, err = _zoa_diagram(problem, method, rpm, depth_max, progress)
         status, m_final = np.full(len(rpm), "no-estimate"), np.zeros(len(rpm), int)
+    elif isinstance(method, Collocation):
+        depth, freq, bif, err, status, m_final = _colloc_diagram(problem, method, rpm, depth_max, coarse_points,
+                                                                 rtol, stats, progress, chunk)
     elif isinstance(method, RefinedSDM):
         depth, freq, bif, err, status, m_final = _refined_diagram(problem, method, rpm, depth_max, coarse_points,
                                                                   rtol, stats, progress, chunk)
@@ -714,6 +719,34 @@ def _level_stats(stats: dict, eng: SDMEngine, method: SemiDiscretization) -> Non
     stats.update(m=method.m, scheme=method.scheme, steps_per_period=method.m, quadrature=method.quadrature,
                  axial_slices=eng.plan.slices, principal_period=eng.plan.period_name, engaged_steps=len(eng.cand))
     stats["monodromy_size"] = max(stats.get("monodromy_size", 0), eng.n_red)
+
+
+def _colloc_diagram(problem: LobeProblem, method: Collocation, rpm: np.ndarray, depth_max: float,
+                    coarse_points: int, rtol: float, stats: dict, progress, chunk: int | None):
+    """Collocation at ``nodes`` and, unless ``check_nodes == 0``, at ``nodes + check_nodes`` per
+    element (searched from the first level's limits): the finer level's limits, chatter
+    frequencies, bifurcations, the error estimate ``|b_fine - b_coarse|`` (m), statuses (converged:
+    same lobe and estimate <= ``tol`` of the value) and the nodes per element used."""
+    S = len(rpm)
+    levels = [method.nodes] + ([method.nodes + method.check_nodes] if method.check_nodes else [])
+    out, start = [], None
+    for i, n in enumerate(levels):
+        eng = CollocationEngine(problem, replace(method, nodes=n), depth_max)
+        stats.update(nodes=n, elements=method.elements, principal_period=eng.plan.period_name)
+        stats["monodromy_size"] = max(stats.get("monodromy_size", 0), eng.n_red)
+        out.append(_sdm_limits(eng, rpm, depth_max, coarse_points, rtol, stats, progress, chunk,  # type: ignore[arg-type]
+                               i * S, len(levels) * S, start=start))
+        start = out[-1][0]
+    depth, freq, bif = out[-1]
+    if len(out) == 1:
+        return depth, freq, bif, np.full(S, np.nan), np.full(S, "no-estimate"), np.full(S, levels[0])
+    (d1, f1, b1), T = out[0], eng.period_s(rpm)
+    same = same_lobe(b1, f1, bif, freq, T)
+    with np.errstate(invalid="ignore"):
+        err = np.where(d1 == depth, 0.0, np.abs(depth - d1))
+        ok = same & (np.isinf(depth) & np.isinf(d1) | (np.isfinite(depth) & (err <= method.tol * depth)))
+    err = np.where(np.isfinite(err), err, np.inf)
+    return depth, freq, bif, err, np.where(ok, "converged", "unconverged"), np.full(S, levels[-1])
 
 
 def _refined_diagram(problem: LobeProblem, method: RefinedSDM, rpm: np.ndarray, depth_max: float,
@@ -815,6 +848,8 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     dmax = _check_depth("depth_max_m", depth_max_m if depth_max_m is not None else max(10 * depth, 0.01))
     if isinstance(method, ZeroOrder):
         return _zoa_point(problem, method, dmax)
+    if isinstance(method, Collocation):
+        raise LobeError("stability() does not support Collocation yet; use solve(problem, Collocation(), [rpm])")
     refined = isinstance(method, RefinedSDM)
     sdm = method.base if isinstance(method, RefinedSDM) else method
     tol = method.tol if isinstance(method, RefinedSDM) else RefinedSDM().tol
