@@ -27,7 +27,12 @@ different lobes, or only one of them finds a limit -- the callers flag the resul
 trusting any estimate (``lobes.solver``). The bound for ``p >= 1`` would ask for ``sqrt(3)``
 times more steps for no accuracy gain.
 
-Non-finite levels: where both levels are equal (e.g. both ``inf``, "no stability limit found"),
+Geometrically converging methods (the collocation of ``lobes.collocation``, whose error falls by a
+large factor per added node rather than as a power of the step) have no order to extrapolate with:
+:func:`level_change` keeps the fine value and takes the whole change ``|fine - coarse|`` as its
+error, an estimate of the coarse level's error and so a conservative one of the fine level's.
+
+Non-finite levels (both functions): where both levels are equal (e.g. both ``inf``, "no stability limit found"),
 ``value`` is that and ``error`` 0; where one is not finite and they differ, ``value = fine`` and
 ``error = inf`` (the two levels do not agree on what they found).
 """
@@ -40,7 +45,7 @@ import numpy as np
 
 from .errors import BadInput
 
-__all__ = ["Extrapolation", "richardson"]
+__all__ = ["Extrapolation", "level_change", "richardson"]
 
 
 class Extrapolation(NamedTuple):
@@ -81,3 +86,27 @@ def richardson(coarse, fine, *, order: float = 2.0, ratio: float = 2.0) -> Extra
     if value.ndim == 0:
         return Extrapolation(float(value), float(error))
     return Extrapolation(value, error)
+
+
+def level_change(coarse, fine) -> Extrapolation:
+    """The fine level with the whole change between two levels as its error (module doc), for a
+    method that converges geometrically in its level (no order to extrapolate with).
+
+    Parameters
+    ----------
+    coarse, fine : float or array (same shape)
+        The quantity at the coarser and at the finer level (any unit; the results share it).
+
+    Returns
+    -------
+    Extrapolation(value, error)
+        ``value = fine``, ``error = |fine - coarse|``; non-finite levels as :func:`richardson`.
+    """
+    b1 = np.asarray(coarse, dtype=float)
+    b2 = np.asarray(fine, dtype=float)
+    both = np.isfinite(b1) & np.isfinite(b2)
+    with np.errstate(invalid="ignore"):
+        error = np.where(both, np.abs(b2 - b1), np.where(b1 == b2, 0.0, np.inf))
+    if b2.ndim == 0:
+        return Extrapolation(float(b2), float(error))
+    return Extrapolation(b2, error)

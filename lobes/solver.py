@@ -9,6 +9,7 @@ from typing import Callable, Union, cast
 
 import numpy as np
 
+from robolobes.core.numerics import level_change
 from robolobes.core.validate import shown
 from robolobes.core.threads import blas_single_threaded
 from robolobes.core.verdict import Verdict
@@ -742,10 +743,9 @@ def _colloc_diagram(problem: LobeProblem, method: Collocation, rpm: np.ndarray, 
         return depth, freq, bif, np.full(S, np.nan), np.full(S, "no-estimate"), np.full(S, levels[0])
     (d1, f1, b1), T = out[0], eng.period_s(rpm)
     same = same_lobe(b1, f1, bif, freq, T)
+    err = np.asarray(level_change(d1, depth).error)
     with np.errstate(invalid="ignore"):
-        err = np.where(d1 == depth, 0.0, np.abs(depth - d1))
         ok = same & (np.isinf(depth) & np.isinf(d1) | (np.isfinite(depth) & (err <= method.tol * depth)))
-    err = np.where(np.isfinite(err), err, np.inf)
     return depth, freq, bif, err, np.where(ok, "converged", "unconverged"), np.full(S, levels[-1])
 
 

@@ -13,7 +13,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from robolobes.core.errors import BadInput
-from robolobes.core.numerics import richardson
+from robolobes.core.numerics import level_change, richardson
 
 
 def seq(L, c, p, h):
@@ -72,3 +72,22 @@ def test_non_finite_levels():
 def test_bad_parameters(kw, match):
     with pytest.raises(BadInput, match=match):
         richardson(1.0, 2.0, **kw)
+
+
+def test_level_change_of_a_geometric_sequence():
+    # b(n) = L + c q^n (geometric convergence in the level n, q = 0.1): the change between levels
+    # n and n + 1 is |c| q^n (1 - q) = 9 |b(n + 1) - L|, so the whole change bounds the fine level's
+    # error by a factor 9 (closed form); the value is the fine level itself.
+    L, c, q = 2.0, 0.5, 0.1
+    coarse, fine = L + c * q**3, L + c * q**4
+    v, e = level_change(coarse, fine)
+    assert v == fine
+    assert_allclose(e, abs(c) * q**3 * (1 - q), rtol=1e-9)  # 1e-9: rounding of 2 + 5e-4 - (2 + 5e-5)
+    assert_allclose(e / abs(fine - L), (1 - q) / q, rtol=1e-9)
+
+
+def test_level_change_non_finite_levels():
+    # as richardson: equal non-finite levels have error 0, differing ones inf (NaN differs from itself)
+    v, e = level_change(np.array([np.inf, 1.0, np.nan, 1.0]), np.array([np.inf, np.inf, np.nan, 1.5]))
+    assert_allclose(v, [np.inf, np.inf, np.nan, 1.5])
+    assert_allclose(e, [0.0, np.inf, np.inf, 0.5])
