@@ -177,21 +177,6 @@ def _expm_complex(Z: np.ndarray) -> np.ndarray:
     return E[:, :n, :n] + 1j * E[:, n:, :n]
 
 
-def kernel_weights_quadrature(lam: np.ndarray, h: float, n: int, sub: int = 64, points: int = 24):
-    """:func:`kernel_weights` by composite Gauss-Legendre quadrature (``sub`` sub-intervals of
-    ``points`` points per upper limit): an independent check of it for ``|lam h| / sub`` <~ 1."""
-    u, _ = _gauss01(n)
-    xq, wq = _gauss01(points)
-    lam = np.asarray(lam, dtype=complex)
-    ends = np.concatenate([u, [1.0]])
-    frac = ((np.arange(sub)[:, None] + xq[None, :]) / sub).reshape(-1)
-    pts = ends[:, None] * frac[None]                               # (n + 1, sub * points)
-    wts = ends[:, None] * np.tile(wq / sub, sub)[None]
-    ker = np.exp(lam[:, None, None] * h * (ends[None, :, None] - pts[None]))
-    val = h * np.einsum("keq,eq,eqj->kej", ker, wts, lagrange(u, pts))
-    return val[:, n], val[:, :n]
-
-
 @dataclass(frozen=True, eq=False)
 class Layout:
     """Angular layout of the elements and nodes over one principal period (speed-independent).

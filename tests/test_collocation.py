@@ -16,12 +16,30 @@ from test_lobes_accuracy import lobe_problem
 
 from robolobes.cases.milling import Tool
 from robolobes.lobes import LobeError, solve
-from robolobes.lobes.collocation import Collocation, CollocationEngine, kernel_weights, kernel_weights_quadrature
+from robolobes.lobes.collocation import Collocation, CollocationEngine, kernel_weights, lagrange
 from robolobes.lobes.sdm import SDMEngine, SemiDiscretization
 
 
 def _critical(ev: np.ndarray) -> complex:
     return complex(ev[np.argmax(np.abs(ev))])
+
+
+def kernel_weights_quadrature(lam, h: float, n: int, sub: int = 64, points: int = 24):
+    """The integrals of ``kernel_weights`` by composite Gauss-Legendre quadrature (``sub``
+    sub-intervals of ``points`` points per upper limit) on the product-form Lagrange basis: an
+    independent check of the phi-function route for ``|lam h| / sub`` <~ 1."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    u = (x + 1) / 2
+    xq, wq = np.polynomial.legendre.leggauss(points)
+    xq, wq = (xq + 1) / 2, wq / 2
+    lam = np.asarray(lam, dtype=complex)
+    ends = np.concatenate([u, [1.0]])
+    frac = ((np.arange(sub)[:, None] + xq[None, :]) / sub).reshape(-1)
+    pts = ends[:, None] * frac[None]                               # (n + 1, sub * points)
+    wts = ends[:, None] * np.tile(wq / sub, sub)[None]
+    ker = np.exp(lam[:, None, None] * h * (ends[None, :, None] - pts[None]))
+    val = h * np.einsum("keq,eq,eqj->kej", ker, wts, lagrange(u, pts))
+    return val[:, n], val[:, :n]
 
 
 def test_kernel_weights_match_quadrature():
