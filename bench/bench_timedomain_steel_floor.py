@@ -10,12 +10,18 @@ the eroded part) at joint-damping scales around the study's bracket, prints per 
 * the chip-loss fraction of the verdict (teeth out of the cut);
 * the SDM exponent with the feed terms (entry shift + surface tilt) at ae - dy (the committed quick
   study's dy, ``docs/study-results.json``): the like-with-like reference (a second method);
-* the slopes d(rate)/d(scale) of both, least squares over the scales.
+* the slopes d(rate)/d(scale) of both, least squares over the scales;
+* the run's own mean normal deflection and the one when the teeth meet the part
+  (:func:`entry_deflection`), and the SDM with the feed terms at ae minus the latter.
 
-Variants (``--dx``, ``--t-end``): the column spacing of the part (default 1 um; ``fz/45`` and
-``fz/90`` make the feed per tooth a whole number of columns) and the simulated time (default 5.5 s).
-Usage: python bench/bench_timedomain_steel_floor.py [--dx 1e-6] [--t-end 5.5] [--scales 11.6,11.84]
-(about 40 s of CPU per 5.5 s run at 1 um columns on this machine; the SDM about 5 s per scale).
+Variants: ``--dx`` the column spacing of the part (default 1 um; ``fz/45`` and ``fz/90`` make the
+feed per tooth a whole number of columns), ``--t-end`` the simulated time (default 5.5 s),
+``--deg`` the step, ``--kick-nm`` a velocity kick at full engagement (``LinearizedNewmark.kick_m_s``,
+as a normal amplitude at the flip frequency), ``--feed-factor`` the feed per tooth (the SDM then
+takes dy from each run; lengthen ``--t-end``: full engagement comes later).
+Usage: python bench/bench_timedomain_steel_floor.py [--kick-nm 100] [--scales 11.6,11.84] ...
+(about a minute for the five default scales: 1-3 s of CPU per 5.5 s run, about 5 s per SDM
+exponent; the compiled loop's first call in a fresh cache adds about 40 s).
 """
 
 from __future__ import annotations
@@ -74,6 +80,31 @@ def floor_numbers(r, window_s: float) -> dict:
             "loss": s.get("chip_loss_fraction")}
 
 
+def run_deflection(r) -> float:
+    """Mean normal deflection of a run over its steady window, m."""
+    t0, t1 = r.summary.to_json()["steady_window_s"]
+    t = np.asarray(r.t_s)
+    return float(np.mean(np.asarray(r.tcp_deviation_m)[(t >= t0) & (t <= t1), 1]))
+
+
+def entry_deflection(r, bins: int = 90) -> float:
+    """Normal deflection when the teeth meet the part, m: the synchronous average (tooth period,
+    ``bins`` phases over the steady window) of the deflection at the phase where the synchronous
+    cutting force rises most (an estimate: the helix spreads the entry over about 11 deg)."""
+    from robolobes.cases.milling import principal_period
+    t0, t1 = r.summary.to_json()["steady_window_s"]
+    case = r.problem.case
+    tp, _ = principal_period(case.tool, case.cut)
+    t = np.asarray(r.t_s)
+    sel = (t >= t0) & (t <= t1)
+    b = np.floor((((t[sel] - t0) / tp) % 1.0) * bins).astype(int)
+    f = np.linalg.norm(np.asarray(r.force_tool_n)[sel, :2], axis=1)
+    y = np.asarray(r.tcp_deviation_m)[sel, 1]
+    fa = np.bincount(b, f, bins) / np.bincount(b, None, bins)
+    ya = np.bincount(b, y, bins) / np.bincount(b, None, bins)
+    return float(ya[(int(np.argmax(np.roll(fa, -1) - fa)) + 1) % bins])
+
+
 def sdm_exponent(settings, lins, steel, theta, scale: float, dy_m: float) -> float:
     """The SDM exponent with entry shift and surface tilt at ae - dy, 1/s."""
     from robolobes.lobes.sdm import SemiDiscretization
@@ -97,6 +128,8 @@ def main() -> None:
     ap.add_argument("--deg", type=float, default=2.0, help="spindle rotation per step, deg")
     ap.add_argument("--kick-nm", type=float, default=0.0, help="velocity kick, as a normal amplitude at the flip")
     ap.add_argument("--kick-at", type=float, default=None, help="time of the kick, s (default: full engagement)")
+    ap.add_argument("--feed-factor", type=float, default=1.0,
+                    help="feed per tooth times this; the SDM then takes dy from each run itself")
     ap.add_argument("--no-sdm", action="store_true")
     a = ap.parse_args()
     scales = [float(s) for s in a.scales.split(",")]
@@ -104,6 +137,8 @@ def main() -> None:
     dy = json.loads(RESULTS.read_text())["steel_damping"]["eroded_deflection_m"]
     cs, pas, _ = compute.load_inputs()
     steel, theta, lins = cs["steel"], compute.study_poses(pas)["start"], Linearizations()
+    if a.feed_factor != 1.0:
+        steel = replace(steel, cut=replace(steel.cut, feed_per_tooth_m=steel.cut.feed_per_tooth_m * a.feed_factor))
     fz = steel.cut.feed_per_tooth_m
     print(f"dx {a.dx * 1e6:.5f} um (fz / dx = {fz / a.dx:.4f}), {a.deg:g} deg per step, t_end {a.t_end} s, "
           f"kick {a.kick_nm:g} nm at {a.kick_at or 'full engagement'}, dy {dy * 1e6:.2f} um")
@@ -115,7 +150,12 @@ def main() -> None:
         t = time.process_time()
         r = eroded_run(lins, steel, sc, a.dx, a.t_end, a.kick_nm * 1e-9, a.kick_at, a.deg)
         cpu = time.process_time() - t
-        e = float("nan") if a.no_sdm else sdm_exponent(settings, lins, steel, theta, sc, dy)
+        dy_sc = dy if a.feed_factor == 1.0 else run_deflection(r)
+        e = float("nan") if a.no_sdm else sdm_exponent(settings, lins, steel, theta, sc, dy_sc)
+        dy_in = entry_deflection(r)
+        e_in = float("nan") if a.no_sdm else sdm_exponent(settings, lins, steel, theta, sc, dy_in)
+        print(f"       dy {run_deflection(r) * 1e6:.2f} um (mean of this run), {dy_in * 1e6:.2f} um at the "
+              f"entry: SDM-feed at ae - that {e_in:+.3f} 1/s")
         sdms.append(e)
         for w in rates:  # the study's 2 s companion window, then the whole run
             f = floor_numbers(r, w)
