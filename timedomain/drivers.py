@@ -89,7 +89,7 @@ def run_full(S: PassSetup, progress, method: NonlinearNewmark | None = None) -> 
 
 def run_linearized_python(S: PassSetup, progress) -> Records:
     """The linearized path in Python (:func:`timedomain.newmark.integrate`): the reference of the
-    compiled loop :mod:`timedomain.fastpath` (tests/test_fastpath.py), ~10x slower."""
+    compiled loop :mod:`timedomain.fastpath` (tests/test_fastpath.py), ~10x slower; without the kick."""
     residual, const, center, q0, last, accepted = linear_system_python(S)
     opts = NewmarkOptions(atol=np.full(len(q0), DEFAULT_ATOL_M), rtol=DEFAULT_RTOL, max_iter=DEFAULT_MAX_ITER)
     return _run_newmark(S, residual, q0, center, lambda q, t: None, last, progress, opts, constant_tangent=const,
@@ -97,10 +97,13 @@ def run_linearized_python(S: PassSetup, progress) -> Records:
 
 
 def run_linearized(S: PassSetup, progress) -> Records:
-    """The linearized path, compiled (:func:`timedomain.fastpath.run_linear_milling`)."""
+    """The linearized path, compiled (:func:`timedomain.fastpath.run_linear_milling`), with the
+    method's velocity kick (``LinearizedNewmark.kick_m_s``, at the start of full engagement unless
+    ``kick_at_s`` is given)."""
     from .fastpath import run_linear_milling  # numba: compiled or loaded on first use
 
+    t_kick = S.steady[0] if S.kick_at_s is None else S.kick_at_s
     run = run_linear_milling(linear_system_data(S), S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega,
-                             progress=progress, exact_entry_exit=S.exact_entry_exit)
+                             progress=progress, exact_entry_exit=S.exact_entry_exit, kick=(t_kick, S.kick_m_s))
     return Records(t_s=run.t_s, force_tool_n=run.force_tool_n, center_m=run.center_m,
                    tcp_m=np.full((len(run.t_s), 3), np.nan), stats=run.stats)

@@ -108,6 +108,9 @@ class PassSetup:
         self.milling = MillingForce(tool, case.law, cut, self.workpiece)
         #: whether entries and exits inside a step are integrated exactly (:mod:`timedomain.entry_exit`)
         self.exact_entry_exit = getattr(method, "entry_exit", "exact") == "exact"
+        #: velocity kick of the linearized path, m/s, and its time, s (None: full engagement)
+        self.kick_m_s = float(getattr(method, "kick_m_s", 0.0))
+        self.kick_at_s = getattr(method, "kick_at_s", None)
         # motor angles on a fine table (0.2 ms; linear interpolation error ~ dt^2/8 |thetadd| ~ 1e-8 rad)
         n_tab = max(3, int(math.ceil(max(self.t_end, self.h) / 2e-4)) + 1)
         self.t_tab = np.linspace(0.0, max(self.t_end, self.h) + self.h, n_tab)

@@ -671,17 +671,32 @@ class _Loop:
                     chunks=self.chunks, python_fallback_steps=fb["steps"], python_fallback_substeps=fb["substeps"])
 
 
-def _run_chunks(loop: _Loop, chunk: int, system: tuple, tool_part: tuple, factors: tuple, progress) -> None:
+def _apply_kick(loop: _Loop, system: tuple, v_m_s: float) -> None:
+    """Add the minimum-norm joint velocity that moves the tool centre at ``v_m_s`` along the cut
+    frame's y (``Jc dv = (0, v)``); the acceleration changes by ``-M^-1 C dv`` (the force depends on
+    the position only), so the state stays consistent."""
+    M, C, Jc = system[0], system[1], system[4]
+    dv = np.linalg.pinv(Jc)[:, 1] * v_m_s
+    loop.v_n[:] += dv
+    loop.a_n[:] -= np.linalg.solve(M, C @ dv)
+
+
+def _run_chunks(loop: _Loop, chunk: int, system: tuple, tool_part: tuple, factors: tuple, progress,
+                kick: tuple[int, float] | None = None) -> None:
     """Run the kernel chunk by chunk to the end, redoing failed steps with the Python fallback;
-    Ctrl-C lands between chunks as :class:`NewmarkInterrupted`."""
+    Ctrl-C lands between chunks as :class:`NewmarkInterrupted`. ``kick``: (step, normal velocity
+    m/s) applied once the run has reached that step (:func:`_apply_kick`)."""
     lu, piv, Z, JcZ = factors
     (M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab, idx, k_motion, backlash, d0) = system
     (offset, radius, db, law_arr, wb, x0, dx, sgn, dtheta_max, w_top, pend_i, pend_w, pend_a, pend_n) = tool_part
     n_steps, h, omega = loop.n_steps, loop.h, loop.omega
+    k_kick = -1 if kick is None or kick[1] == 0.0 else int(kick[0])
     k = 0
     try:
         while k < n_steps:
-            k1 = min(n_steps, k + chunk)
+            if k == k_kick:
+                _apply_kick(loop, system, kick[1])  # type: ignore[index]
+            k1 = min(n_steps, k + chunk, k_kick if k < k_kick else n_steps)
             status = _run_chunk(k, k1, h, omega, int(loop.max_iter), float(loop.atol), float(loop.rtol),
                                 lu, piv, M, C, K_rest, JtRt, Jc, c_off, dt_tab, s_tab, f_nom_tab,
                                 idx, k_motion, backlash, d0,
@@ -708,7 +723,7 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
                        progress: Callable[[float], None] | None = None, chunk_steps: int | None = None,
                        atol: float = DEFAULT_ATOL_M, rtol: float = DEFAULT_RTOL,
                        max_iter: int = DEFAULT_MAX_ITER, fallback_halvings: int = 12,
-                       exact_entry_exit: bool = True) -> LinearRun:
+                       exact_entry_exit: bool = True, kick: tuple[float, float] | None = None) -> LinearRun:
     """Integrate the linearized path from rest (``dq = v = 0`` at t = 0) over ``n_steps`` steps.
 
     Parameters
@@ -739,6 +754,10 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
     exact_entry_exit : bool
         Integrate the edge elements that enter or leave the part inside a step over their engaged
         part (default; :mod:`timedomain.entry_exit`); False samples the force at the step ends.
+    kick : (float, float), optional
+        ``(t_s, v_m_s)``: at the grid time nearest ``t_s`` the tool centre's normal (cut-frame y)
+        velocity jumps by ``v_m_s`` (minimum-norm joint velocity, acceleration kept consistent).
+        None or ``v_m_s = 0``: no kick, the run is bit for bit the same.
 
     Returns
     -------
@@ -765,7 +784,8 @@ def run_linear_milling(data, milling: MillingForce, *, h_s: float, n_steps: int,
     factors = _factorized(K, C, M, JtRt, Jc, h)
     loop = _Loop(data, milling, h, n_steps, omega, K, C, M, atol=atol, rtol=rtol, max_iter=max_iter,
                  fallback_halvings=fallback_halvings, exact=exact_entry_exit)
-    _run_chunks(loop, chunk, system, tool_part, factors, progress)
+    k_kick = None if kick is None else (int(round(float(kick[0]) / h)), float(kick[1]))
+    _run_chunks(loop, chunk, system, tool_part, factors, progress, k_kick)
     t = np.arange(n_steps + 1) * h
     return LinearRun(t_s=t, force_tool_n=loop.rec_f, center_m=loop.rec_c, q=loop.q_n, v=loop.v_n, a=loop.a_n,
                      stats=loop.stats())

@@ -91,7 +91,24 @@ class LinearizedNewmark(_NewmarkMethod):
         integrated over its engaged part of the step (:mod:`timedomain.entry_exit`). "sampled": the
         force is sampled at the step ends only, a plain Newmark step (first order at each entry and
         exit; for comparison).
+    kick_m_s : float
+        Velocity kick, m/s (default 0: none): at ``kick_at_s`` the joint velocities jump by the
+        minimum-norm change that moves the tool centre at this speed along the cut frame's normal
+        (y), the acceleration kept consistent. The eroded part otherwise starts from rest, and near
+        a stability limit its regenerative mode can stay under the motion forced by the pass (the
+        part's column grid): a kick lifts it above that floor (bench/bench_timedomain_steel_floor.py).
+    kick_at_s : float, optional
+        Time of the kick, s, >= 0 (default: the start of full engagement); rounded to the time grid.
     """
+
+    kick_m_s: float = 0.0
+    kick_at_s: float | None = None
+
+    def __post_init__(self):
+        super().__post_init__()
+        finite("kick_m_s", self.kick_m_s, error=SimulationError)
+        if self.kick_at_s is not None:
+            finite("kick_at_s", self.kick_at_s, nonneg=True, error=SimulationError)
 
 
 @dataclass(frozen=True)
