@@ -49,7 +49,24 @@ def test_kick_moves_the_centre_at_the_asked_normal_speed(tx200_robot):
     assert abs(d[1, 0]) < 0.03 * v * S.h
 
 
-@pytest.mark.parametrize("kw", [dict(kick_m_s=float("nan")), dict(kick_m_s=1e-4, kick_at_s=-1.0)])
+@pytest.mark.parametrize("kw", [dict(kick_m_s=float("nan")), dict(kick_m_s=1e-4, kick_at_s=-1.0),
+                                dict(kick_m_s=2.0)])
 def test_bad_kick_is_refused(kw):
     with pytest.raises(SimulationError):
         LinearizedNewmark(**kw)
+
+
+def test_kick_after_the_run_is_refused_before_the_run(tx200_robot):
+    # the run ends at 0.2 s: a kick at 0.3 s would never be applied
+    with pytest.raises(SimulationError, match="after the run's end"):
+        _records(tx200_robot, LinearizedNewmark(kick_m_s=1e-4, kick_at_s=0.3))
+
+
+def test_python_reference_refuses_a_kick(tx200_robot):
+    from robolobes.timedomain.drivers import run_linearized_python
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        S = PassSetup(SimulationProblem(tx200_robot("basic"), STEEL, t_end_s=T_END_S),
+                      LinearizedNewmark(kick_m_s=1e-4, kick_at_s=KICK_AT_S))
+    with pytest.raises(SimulationError, match="no velocity kick"):
+        run_linearized_python(S, None)

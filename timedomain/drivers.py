@@ -12,7 +12,7 @@ import numpy as np
 from .equations import PassSetup, full_system, linear_system_data, linear_system_python
 from .fastpath import DEFAULT_ATOL_M, DEFAULT_MAX_ITER, DEFAULT_RTOL
 from .newmark import NewmarkOptions, integrate
-from .problem import NonlinearNewmark
+from .problem import NonlinearNewmark, SimulationError
 
 __all__ = ["Records", "run_full", "run_linearized_python", "run_linearized"]
 
@@ -89,7 +89,10 @@ def run_full(S: PassSetup, progress, method: NonlinearNewmark | None = None) -> 
 
 def run_linearized_python(S: PassSetup, progress) -> Records:
     """The linearized path in Python (:func:`timedomain.newmark.integrate`): the reference of the
-    compiled loop :mod:`timedomain.fastpath` (tests/test_fastpath.py), ~10x slower; without the kick."""
+    compiled loop :mod:`timedomain.fastpath` (tests/test_fastpath.py), ~10x slower; it has no velocity
+    kick and refuses one."""
+    if S.kick_m_s != 0.0:
+        raise SimulationError("the Python reference of the linearized path has no velocity kick; valid: kick_m_s = 0")
     residual, const, center, q0, last, accepted = linear_system_python(S)
     opts = NewmarkOptions(atol=np.full(len(q0), DEFAULT_ATOL_M), rtol=DEFAULT_RTOL, max_iter=DEFAULT_MAX_ITER)
     return _run_newmark(S, residual, q0, center, lambda q, t: None, last, progress, opts, constant_tangent=const,

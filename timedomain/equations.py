@@ -122,6 +122,14 @@ class PassSetup:
         pe = self.pas.part_entry_s + tool.diameter_m
         px = self.pas.part_exit_s - tool.diameter_m
         self.steady = (float(self.pas.time_at_s(pe)), float(self.pas.time_at_s(max(pe, px))))
+        self._check_kick()
+
+    def _check_kick(self) -> None:
+        """Refuse a velocity kick that would fall after the run's end (before any work is done)."""
+        t_kick = self.steady[0] if self.kick_at_s is None else float(self.kick_at_s)
+        if self.kick_m_s != 0.0 and t_kick > self.t_end:
+            raise SimulationError(f"the velocity kick at t = {t_kick:.6g} s falls after the run's end "
+                                  f"(t_end_s = {self.t_end:.6g} s); valid: kick_at_s <= t_end_s, or a longer run")
 
     def theta(self, t: float) -> np.ndarray:
         """Motor angles at time t (s), (n_joints,), rad, from the table."""

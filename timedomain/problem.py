@@ -92,13 +92,14 @@ class LinearizedNewmark(_NewmarkMethod):
         force is sampled at the step ends only, a plain Newmark step (first order at each entry and
         exit; for comparison).
     kick_m_s : float
-        Velocity kick, m/s (default 0: none): at ``kick_at_s`` the joint velocities jump by the
+        Velocity kick, m/s, in [-1, 1] (default 0: none): at ``kick_at_s`` the joint velocities jump by the
         minimum-norm change that moves the tool centre at this speed along the cut frame's normal
         (y), the acceleration kept consistent. The eroded part otherwise starts from rest, and near
         a stability limit its regenerative mode can stay under the motion forced by the pass (the
         part's column grid): a kick lifts it above that floor (bench/bench_timedomain_steel_floor.py).
     kick_at_s : float, optional
-        Time of the kick, s, >= 0 (default: the start of full engagement); rounded to the time grid.
+        Time of the kick, s, >= 0 (default: the start of full engagement); rounded to the time grid;
+        a kick after the run's end is refused (``SimulationError``) before the run starts.
     """
 
     kick_m_s: float = 0.0
@@ -106,7 +107,9 @@ class LinearizedNewmark(_NewmarkMethod):
 
     def __post_init__(self):
         super().__post_init__()
-        finite("kick_m_s", self.kick_m_s, error=SimulationError)
+        v = finite("kick_m_s", self.kick_m_s, error=SimulationError)
+        if abs(v) > 1.0:
+            raise SimulationError(f"kick_m_s (velocity kick) must be in [-1, 1] m/s, got {v:g}")
         if self.kick_at_s is not None:
             finite("kick_at_s", self.kick_at_s, nonneg=True, error=SimulationError)
 
