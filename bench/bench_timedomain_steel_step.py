@@ -14,11 +14,14 @@ itself on this structure. ``--chord-nm`` sets the part's chord tolerance (the la
 chords of the tooth-tip paths, ``Workpiece(chord_tol_m=...)``, default 1 nm; not a method option,
 so set here by wrapping the constructor the simulation uses).
 
+``--no-backlash`` runs the linear motion springs (a control: the basic model has no backlash, so
+nothing changes); ``--feed-factor`` scales the feed per tooth (lengthen ``--t-end``: 7.5 s at 0.5).
+
 Usage: python bench/bench_timedomain_steel_step.py [--scales 11.84,11.98] [--degs 4,2,1,0.5,0.25]
-[--dx 1e-6,1e-7] [--kicks-nm 100,1000] [--chord-nm 1] [--delay]
-Runtime (2 cores, load 1-2): a 4.5 s run costs about 1 s of CPU at 4 deg per step and 1 um columns,
-about 10 times more at 0.25 deg; 0.1 um columns cost about 1.5-2 times the 1 um ones. The default
-grid (2 scales x 5 steps x 2 kicks x 1 column spacing) takes about 3 minutes.
+[--dx 1e-6,1e-7] [--kicks-nm 100,1000] [--chord-nm 0.1,10] [--delay]
+Runtime (2 cores, load 1-3, 7 Dec 2026): per 4.5 s run, 1-3 s of CPU at 1 um columns (4 to 0.25 deg
+per step), 1-3.5 s at 0.5 um, 4-9 s at 0.1 um; the compiled loop's first call in a fresh cache adds
+about 40 s. The default grid (2 scales x 5 steps x 2 kicks, 1 um columns) takes about 70 s.
 """
 
 from __future__ import annotations
@@ -32,12 +35,14 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_timedomain_steel_floor import eroded_run, floor_numbers  # noqa: E402
+from bench_timedomain_steel_floor import eroded_run, floor_numbers
 
-from robolobes.study import compute  # noqa: E402
-from robolobes.study.linearizations import Linearizations  # noqa: E402
+from robolobes.study import compute
+from robolobes.study.linearizations import Linearizations
 
 
 @contextlib.contextmanager
@@ -53,6 +58,28 @@ def chord_tolerance(chord_m: float | None):
         yield
     finally:
         equations.Workpiece = orig  # type: ignore[assignment]
+
+
+@contextlib.contextmanager
+def backlash(on: bool):
+    """Run the linearized path with the robot's backlash dead zone (on: unchanged) or without it
+    (the motion springs linear, engaged: ``k o dq``); prints each run's dead-zone margin
+    ``|d0| - s`` per motion axis, rad (the static deflection's distance from the dead zone)."""
+    from robolobes.timedomain import drivers
+    orig = drivers.linear_system_data
+
+    def wrapped(S):
+        d = orig(S)
+        margin = np.abs(np.asarray(d.d0)) - d.backlash_rad
+        print(f"       backlash s {d.backlash_rad:.3g} rad, margins |d0| - s " + " ".join(f"{m:.2e}" for m in margin)
+              + ("" if on else "  -> removed for this run"))
+        return d if on else replace(d, backlash_rad=0.0)
+
+    drivers.linear_system_data = wrapped  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        drivers.linear_system_data = orig  # type: ignore[assignment]
 
 
 def observed_orders(degs: list[float], rates: list[float]) -> str:
@@ -92,10 +119,13 @@ def main() -> None:
     ap.add_argument("--window", type=float, default=2.0, help="fit window after full engagement, s")
     ap.add_argument("--t-end", type=float, default=4.5)
     ap.add_argument("--delay", action="store_true", help="add the delay-based method at the same steps")
+    ap.add_argument("--feed-factor", type=float, default=1.0, help="feed per tooth times this (lengthen --t-end)")
+    ap.add_argument("--no-backlash", action="store_true", help="linear motion springs (no dead zone) in the runs")
     a = ap.parse_args()
     degs, chords = floats(a.degs), floats(a.chord_nm) or [None]
     cs, _, _ = compute.load_inputs()
     steel, lins = cs["steel"], Linearizations()
+    steel = replace(steel, cut=replace(steel.cut, feed_per_tooth_m=steel.cut.feed_per_tooth_m * a.feed_factor))
     print("scale  kick nm  dx um   chord nm  deg    rate+-SE (1/s)     blocks first/last nm  loss   cpu s")
     for sc in floats(a.scales):
         for kick in floats(a.kicks_nm):
@@ -104,7 +134,7 @@ def main() -> None:
                     rates = []
                     for deg in degs:
                         t = time.process_time()
-                        with chord_tolerance(None if ch is None else ch * 1e-9):
+                        with chord_tolerance(None if ch is None else ch * 1e-9), backlash(not a.no_backlash):
                             r = eroded_run(lins, steel, sc, dx, a.t_end, kick * 1e-9, None, deg)
                         f = floor_numbers(r, a.window)
                         rates.append(f["rate"])
