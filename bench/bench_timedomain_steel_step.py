@@ -9,7 +9,7 @@ the block RMS first / last (nm), the chip-loss fraction and the CPU time; then, 
 halved steps, the differences between successive steps and the observed order
 ``log2(d1 / d2)`` where three successive rates change monotonically (same sign, shrinking).
 ``--delay`` adds the delay-based method (``DelayNewmark``, same structure and cut at ae, its own
-gated rate, kick 5 um) at the same steps: a control for the step dependence of the Newmark scheme
+gated rate, initial displacements ``--delay-kicks-nm``, default 5 um) at the same steps: a control for the step dependence of the Newmark scheme
 itself on this structure. ``--chord-nm`` sets the part's chord tolerance (the largest sagitta of the
 chords of the tooth-tip paths, ``Workpiece(chord_tol_m=...)``, default 1 nm; not a method option,
 so set here by wrapping the constructor the simulation uses).
@@ -96,12 +96,13 @@ def observed_orders(degs: list[float], rates: list[float]) -> str:
     return "; ".join(out)
 
 
-def delay_rate(lins, steel, scale: float, deg: float, t_end_s: float):
-    """The delay-based method's gated rate +- SE (1/s) on the same structure and cut (at ae)."""
+def delay_rate(lins, steel, scale: float, deg: float, t_end_s: float, kick_m: float = 5e-6):
+    """The delay-based method's gated rate +- SE (1/s) on the same structure and cut (at ae), kicked
+    by an initial displacement ``kick_m``."""
     from robolobes.timedomain import DelayNewmark, SimulationProblem, simulate
     robot = lins.robot(steel.robot, "basic", scale)
     case0 = replace(steel, tool=replace(steel.tool, runout_m=(0.0,) * steel.tool.teeth))
-    r = simulate(SimulationProblem(robot, case0, t_end_s=t_end_s), DelayNewmark(deg_per_step=deg))
+    r = simulate(SimulationProblem(robot, case0, t_end_s=t_end_s), DelayNewmark(deg_per_step=deg, kick_m=kick_m))
     return r.rate.rate_per_s, r.rate.se_per_s, r.rate.n_gated
 
 
@@ -119,6 +120,7 @@ def main() -> None:
     ap.add_argument("--window", type=float, default=2.0, help="fit window after full engagement, s")
     ap.add_argument("--t-end", type=float, default=4.5)
     ap.add_argument("--delay", action="store_true", help="add the delay-based method at the same steps")
+    ap.add_argument("--delay-kicks-nm", default="5000", help="initial displacements of the delay-based runs, nm")
     ap.add_argument("--feed-factor", type=float, default=1.0, help="feed per tooth times this (lengthen --t-end)")
     ap.add_argument("--no-backlash", action="store_true", help="linear motion springs (no dead zone) in the runs")
     a = ap.parse_args()
@@ -144,14 +146,15 @@ def main() -> None:
                     print(f"       scale {sc:g}, kick {kick:g} nm, dx {dx * 1e6:g} um, chord {ch or 1:g} nm: "
                           + observed_orders(degs, rates), flush=True)
         if a.delay:
-            rates = []
-            for deg in degs:
-                t = time.process_time()
-                rate, se, n = delay_rate(lins, steel, sc, deg, a.t_end)
-                rates.append(rate)
-                print(f"{sc:5.2f}  delay-based (kick 5 um, ae)  {deg:5.3g}  {rate:+.3f} +- {se:.3f} ({n} periods)  "
-                      f"{time.process_time() - t:5.1f}", flush=True)
-            print(f"       scale {sc:g}, delay-based: " + observed_orders(degs, rates), flush=True)
+            for dk in floats(a.delay_kicks_nm):
+                rates = []
+                for deg in degs:
+                    t = time.process_time()
+                    rate, se, n = delay_rate(lins, steel, sc, deg, a.t_end, dk * 1e-9)
+                    rates.append(rate)
+                    print(f"{sc:5.2f}  delay-based (kick {dk:g} nm, ae)  {deg:5.3g}  {rate:+.3f} +- {se:.3f} "
+                          f"({n} periods)  {time.process_time() - t:5.1f}", flush=True)
+                print(f"       scale {sc:g}, delay-based, kick {dk:g} nm: " + observed_orders(degs, rates), flush=True)
 
 
 if __name__ == "__main__":
