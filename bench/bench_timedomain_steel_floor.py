@@ -12,7 +12,11 @@ the eroded part) at joint-damping scales around the study's bracket, prints per 
   study's dy, ``docs/study-results.json``): the like-with-like reference (a second method);
 * the slopes d(rate)/d(scale) of both, least squares over the scales;
 * the run's own mean normal deflection and the one when the teeth meet the part
-  (:func:`entry_deflection`), and the SDM with the feed terms at ae minus the latter.
+  (:func:`entry_deflection`), and the SDM with the feed terms at ae minus the latter;
+* with ``--slice-edges``: the SDM with the feed terms linearized about the run's forced orbit, each
+  axial slice with its own entry angle from the synchronous deflection at the instant that slice
+  meets the part (:func:`sync_deflection`, :func:`lobes.entry_shift.slice_edge_angles`), at the
+  nominal ae, and its distance to the rate beyond the criterion.
 
 Variants: ``--dx`` the column spacing of the part (default 1 um; ``fz/45`` and ``fz/90`` make the
 feed per tooth a whole number of columns), ``--t-end`` the simulated time (default 5.5 s),
@@ -105,6 +109,37 @@ def entry_deflection(r, bins: int = 90) -> float:
     return float(ya[(int(np.argmax(np.roll(fa, -1) - fa)) + 1) % bins])
 
 
+def sync_deflection(r, harmonics: int = 20):
+    """The synchronous normal deflection of a run over its steady window as a function of the
+    spindle angle (rad, array in, m out): a least-squares Fourier series in the tooth period
+    (``harmonics`` harmonics of the tooth passing; the non-synchronous motion averages out)."""
+    t0, t1 = r.summary.to_json()["steady_window_s"]
+    t = np.asarray(r.t_s)
+    sel = (t >= t0) & (t <= t1)
+    teeth = r.problem.case.tool.teeth
+    k = np.arange(1, harmonics + 1)
+
+    def basis(a):
+        x = np.multiply.outer(np.asarray(a, dtype=float) * teeth, k)
+        return np.concatenate([np.ones(x.shape[:-1] + (1,)), np.cos(x), np.sin(x)], axis=-1)
+    coef = np.linalg.lstsq(basis(np.asarray(r.spindle_angle_rad)[sel]), np.asarray(r.tcp_deviation_m)[sel, 1],
+                           rcond=None)[0]
+    return lambda a: basis(a) @ coef
+
+
+def sdm_slice_edges(settings, lins, steel, theta, scale: float, r) -> tuple[float, np.ndarray]:
+    """The SDM exponent with entry shift and surface tilt at the nominal ae, each axial slice entering
+    at its own angle on the run's forced orbit (1/s), and those angles (rad)."""
+    from robolobes.lobes.entry_shift import entry_shift_exponent, slice_edge_angles
+    from robolobes.lobes.sdm import SemiDiscretization
+    method = SemiDiscretization(m=settings.sdm_m)
+    edges = slice_edge_angles(steel.tool, steel.cut, method.axial_slices or 16, sync_deflection(r))
+    _, st = lins.structure(steel, "basic", "start", theta, damping_scale=scale)
+    e = entry_shift_exponent(compute._lobe_problem(st, steel), method, with_entry=True, surface_tilt=True,
+                             slice_edge_rad=edges)
+    return float(e.value_per_s), edges
+
+
 def sdm_exponent(settings, lins, steel, theta, scale: float, dy_m: float) -> float:
     """The SDM exponent with entry shift and surface tilt at ae - dy, 1/s."""
     from robolobes.lobes.sdm import SemiDiscretization
@@ -131,6 +166,8 @@ def main() -> None:
     ap.add_argument("--feed-factor", type=float, default=1.0,
                     help="feed per tooth times this; the SDM then takes dy from each run itself")
     ap.add_argument("--no-sdm", action="store_true")
+    ap.add_argument("--slice-edges", action="store_true",
+                    help="also the SDM about the forced orbit: each axial slice's own entry angle")
     a = ap.parse_args()
     scales = [float(s) for s in a.scales.split(",")]
     settings = StudySettings.make(True)
@@ -157,6 +194,17 @@ def main() -> None:
         print(f"       dy {run_deflection(r) * 1e6:.2f} um (mean of this run), {dy_in * 1e6:.2f} um at the "
               f"entry: SDM-feed at ae - that {e_in:+.3f} 1/s")
         sdms.append(e)
+        if a.slice_edges:
+            e_sl, edges = sdm_slice_edges(settings, lins, steel, theta, sc, r)
+            f2 = floor_numbers(r, 2.0)
+            y = sync_deflection(r)(np.linspace(0, 2 * math.pi / steel.tool.teeth, 721))
+            rr, ae = steel.tool.radius_m, steel.cut.ae_m
+            y_in = -rr * np.cos(edges) - rr + ae  # the deflection at each slice's entry (down-milling), m
+            print(f"       per-slice entry {np.degrees(edges.min()):.3f}-{np.degrees(edges.max()):.3f} deg, "
+                  f"deflection there {y_in.min() * 1e6:.2f}-{y_in.max() * 1e6:.2f} um "
+                  f"(sync deflection {y.min() * 1e6:.1f}-{y.max() * 1e6:.1f} um): SDM-feed {e_sl:+.3f} 1/s, "
+                  f"rate (2 s) - that {f2['rate'] - e_sl:+.3f}, |diff|-tol "
+                  f"{abs(f2['rate'] - e_sl) - max(0.1 * abs(e_sl), TOL) - 2 * f2['se']:+.3f}", flush=True)
         for w in rates:  # the study's 2 s companion window, then the whole run
             f = floor_numbers(r, w)
             rates[w].append(f["rate"])

@@ -293,8 +293,9 @@ def engagement_rad(tool: Tool, cut: Cut) -> tuple[float, float]:
     return math.pi - sweep, math.pi
 
 
-def in_cut(phi_rad: np.ndarray, phi_st: float, phi_ex: float) -> np.ndarray:
-    """Screen function g: True where ``phi mod 2 pi`` lies in ``[phi_st, phi_ex]``. Same shape as phi."""
+def in_cut(phi_rad: np.ndarray, phi_st: float | np.ndarray, phi_ex: float | np.ndarray) -> np.ndarray:
+    """Screen function g: True where ``phi mod 2 pi`` lies in ``[phi_st, phi_ex]``. Same shape as phi
+    (bounds given as arrays broadcast with it)."""
     p = np.mod(phi_rad, 2 * math.pi)
     return (p >= phi_st) & (p <= phi_ex)
 

@@ -90,6 +90,11 @@ class DirectionalPlan:
         ``fz / R`` turn of :mod:`lobes.chip_direction`); default False, the linear model of the lobes.
     tooth_chip_m : array (Nc,) or None
         Static chip of each cutting tooth, m (:func:`cases.milling.regeneration`); the tilt uses it.
+    slice_edge_rad : array (slices,) or None
+        The block-edge angle of each axial slice, rad: the entry (down-milling) or the exit
+        (up-milling) of the slice at the mid-height fraction ``(s + 1/2) / slices`` of the depth,
+        in place of the uniform ``phi_st`` / ``phi_ex`` (e.g. from
+        :func:`lobes.entry_shift.slice_edge_angles`); None (default): the uniform engagement.
     """
 
     tool: Tool
@@ -111,11 +116,13 @@ class DirectionalPlan:
     rule: QuadratureRule = "gauss"
     surface_tilt: bool = False
     tooth_chip_m: np.ndarray | None = None
+    slice_edge_rad: np.ndarray | None = None
 
     @classmethod
     def build(cls, tool: Tool, cut: Cut, law: CuttingLaw, *, m: int, quadrature: int, slices: int,
               period: PeriodChoice = "auto", k_force: int = 3,
-              rule: QuadratureRule = "gauss", surface_tilt: bool = False) -> "DirectionalPlan":
+              rule: QuadratureRule = "gauss", surface_tilt: bool = False,
+              slice_edge_rad: np.ndarray | None = None) -> "DirectionalPlan":
         st, ex = engagement_rad(tool, cut)
         regs = regeneration(tool, cut)
         cutting = [r for r in regs if r.cuts]
@@ -159,7 +166,16 @@ class DirectionalPlan:
                    slices=int(slices), phi_st=st, phi_ex=ex, tooth_angle_rad=readonly(angles),
                    tooth_group=readonly(grp, int), group_delay_rad=readonly(gd),
                    group_r=readonly(rs, int), group_f=readonly(fs), k_force=int(k_force), rule=rule,
-                   surface_tilt=bool(surface_tilt), tooth_chip_m=readonly([r.chip_m for r in cutting]))
+                   surface_tilt=bool(surface_tilt), tooth_chip_m=readonly([r.chip_m for r in cutting]),
+                   slice_edge_rad=_checked_edges(slice_edge_rad, int(slices), cut.mode, st, ex))
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Entry and exit angles per slice, arrays (slices, 1), rad (:attr:`slice_edge_rad`)."""
+        st = np.full((self.slices, 1), self.phi_st)
+        ex = np.full((self.slices, 1), self.phi_ex)
+        if self.slice_edge_rad is not None:
+            (st if self.cut.mode == "down" else ex)[:, 0] = self.slice_edge_rad
+        return st, ex
 
     @property
     def n_groups(self) -> int:
@@ -180,13 +196,15 @@ class DirectionalPlan:
         lag = self.lag_max_rad(depth_max_m)
         twopi = 2 * math.pi
         hit = np.zeros(self.m, bool)
+        b = self.bounds()
+        st, ex = float(b[0].min()), float(b[1].max())
         for th in self.tooth_angle_rad:
             # phi in [a0 + th - lag, a1 + th] must meet [st, ex] modulo 2 pi
             lo = a0 + th - lag
             hi = a1 + th
             for shift in range(-3, 4):
                 s = shift * twopi
-                hit |= (hi + s >= self.phi_st - 1e-12) & (lo + s <= self.phi_ex + 1e-12)
+                hit |= (hi + s >= st - 1e-12) & (lo + s <= ex + 1e-12)
         return np.flatnonzero(hit)
 
     def wbar(self, depth_m: np.ndarray, steps: np.ndarray) -> np.ndarray:
@@ -219,8 +237,9 @@ class DirectionalPlan:
         if self.tool.helix_rad == 0:
             # W is linear in the depth: compute per unit depth once
             unit = np.zeros((len(steps), self.n_groups, self.k_force, 2))
+            st, ex = (float(v[0, 0]) for v in self.bounds())
             for th, g, hj in zip(self.tooth_angle_rad, self.tooth_group, self._chips()):
-                unit[:, g] += self._step_average(a0 + th, hj)
+                unit[:, g] += self._step_average(a0 + th, hj, st, ex)
             return b[:, None, None, None, None] * unit[None]
         # helix: the lag of each slice depends on the depth. Batched callers often repeat a depth
         # (a coarse scan evaluates one depth at every speed): compute each distinct depth once.
@@ -231,12 +250,13 @@ class DirectionalPlan:
         ns = self.slices
         zfrac = (np.arange(ns) + 0.5) / ns  # (ns,) slice mid-heights as fractions of the depth
         chunk = max(1, int(2e6 // max(1, len(steps) * self.quadrature * ns)))
+        st, ex = (self.phi_st, self.phi_ex) if self.slice_edge_rad is None else (v[None] for v in self.bounds())
         for c0 in range(0, len(b), chunk):
             bc = b[c0:c0 + chunk]
             psi = self.tool.lag_rad(bc[:, None] * zfrac[None, :])  # (Bc, ns)
             for th, g, hj in zip(self.tooth_angle_rad, self.tooth_group, self._chips()):
                 start = a0[None, None, :] + th - psi[:, :, None]  # (Bc, ns, P)
-                avg = self._step_average(start, hj).sum(axis=1)  # (Bc, P, k, 2)
+                avg = self._step_average(start, hj, st, ex).sum(axis=1)  # (Bc, P, k, 2)
                 out[c0:c0 + chunk, :, g] += avg * (bc / ns)[:, None, None, None]
         return out
 
@@ -259,24 +279,27 @@ class DirectionalPlan:
             rot = surface_rotation_rad(phi, chip_m, self.tool.radius_m, feed_per_radian_m(self.tool, self.cut))
         return directional_matrix(phi, self.law, rot)[..., :self.k_force, :]
 
-    def _step_average(self, start: np.ndarray, chip_m: float = 0.0) -> np.ndarray:
+    def _step_average(self, start: np.ndarray, chip_m: float = 0.0, st=None, ex=None) -> np.ndarray:
         """Average of ``g(phi) D(phi)`` over one step for an edge whose angle at the step start is
         ``start`` (array (..., P), rad) of a tooth with static chip ``chip_m`` (m, used only with
-        ``surface_tilt``): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`)."""
+        ``surface_tilt``): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`). ``st``, ``ex``: the
+        engagement, floats or arrays broadcasting with ``start`` (default ``phi_st``, ``phi_ex``)."""
         k, dphi = self.k_force, self.step_rad
+        st = self.phi_st if st is None else st
+        ex = self.phi_ex if ex is None else ex
         nodes, wts = self._nodes()
         if self.rule == "midpoint":
             phi = start[..., None] + nodes * dphi  # (..., P, q)
             D = self._directional(phi, chip_m)
-            D = D * in_cut(phi, self.phi_st, self.phi_ex)[..., None, None]
+            D = D * in_cut(phi, np.asarray(st)[..., None], np.asarray(ex)[..., None])[..., None, None]
             return np.einsum("...qij,q->...ij", D, wts)
         # Gauss: integrate only over the engaged part of the step (smooth integrand there)
         s0 = np.mod(start, 2 * math.pi)
         s1 = s0 + dphi
         acc = np.zeros(start.shape + (k, 2))
         for shift in (0.0, 2 * math.pi):
-            lo = np.maximum(s0, self.phi_st + shift)
-            ln = np.minimum(s1, self.phi_ex + shift) - lo
+            lo = np.maximum(s0, st + shift)
+            ln = np.minimum(s1, ex + shift) - lo
             sel = ln > 0
             if not sel.any():
                 continue
@@ -284,3 +307,17 @@ class DirectionalPlan:
             D = self._directional(phi, chip_m)
             acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
         return acc
+
+
+def _checked_edges(edges, slices: int, mode: str, st: float, ex: float) -> np.ndarray | None:
+    """``edges`` as a read-only array (slices,), each inside ``[0, pi]`` and before the exit (down)
+    or after the entry (up); None stays None."""
+    if edges is None:
+        return None
+    e = np.asarray(edges, dtype=float).reshape(-1)
+    if e.shape != (slices,) or not np.all(np.isfinite(e)):
+        raise LobeError(f"slice_edge_rad needs {slices} finite angles (one per axial slice), got {e.shape}")
+    lo, hi = (0.0, ex) if mode == "down" else (st, math.pi)
+    if np.any(e < lo) or np.any(e > hi):
+        raise LobeError(f"slice_edge_rad must lie in [{lo:.6g}, {hi:.6g}] rad, got {e.min():.6g}..{e.max():.6g}")
+    return readonly(e)

@@ -53,17 +53,19 @@ def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = N
 
 
 def two_level_exponent(problem: LobeProblem, method: SemiDiscretization | None, spectral_radius,
-                       surface_tilt: bool = False) -> FloquetExponent:
+                       surface_tilt: bool = False, slice_edge_rad: np.ndarray | None = None) -> FloquetExponent:
     """ln|mu| / T at ``m`` and ``2 m`` (``method.m``, default 40), Richardson-extrapolated, 1/s, with
     ``spectral_radius(engine, rpm, depth_m)`` the largest multiplier's modulus of one
     :class:`~robolobes.lobes.sdm.SDMEngine` at the problem's own cut (``surface_tilt``: passed to
-    the engine, :mod:`lobes.chip_direction`)."""
+    the engine, :mod:`lobes.chip_direction`; ``slice_edge_rad``: the block-edge angle per axial
+    slice, :class:`~robolobes.lobes.directional.DirectionalPlan`)."""
     method = SemiDiscretization(m=40) if method is None else method
     rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
     rates = []
     period = math.nan
     for m in (method.m, 2 * method.m):
-        engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6), surface_tilt=surface_tilt)
+        engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6), surface_tilt=surface_tilt,
+                           slice_edge_rad=slice_edge_rad)
         period = float(engine.period_s(np.array([rpm]))[0])
         rates.append(math.log(spectral_radius(engine, rpm, depth)) / period)
     ext = richardson(rates[0], rates[1])

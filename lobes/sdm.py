@@ -186,9 +186,11 @@ class SDMEngine:
     """Monodromy matrices of one problem (all speeds, all depths) for one semi-discretization."""
 
     def __init__(self, problem: LobeProblem, method: SemiDiscretization, depth_max_m: float,
-                 surface_tilt: bool = False):
+                 surface_tilt: bool = False, slice_edge_rad: np.ndarray | None = None):
         """``surface_tilt``: the dynamic chip along the regenerated surface's normal, not the ray
-        (:mod:`lobes.chip_direction`; default False, the linear model of the lobes)."""
+        (:mod:`lobes.chip_direction`; default False, the linear model of the lobes).
+        ``slice_edge_rad``: the block-edge angle per axial slice (:class:`DirectionalPlan`; default
+        None, the uniform engagement)."""
         self.problem = problem
         self.method = method
         ss = problem.structure.state_space()
@@ -201,7 +203,7 @@ class SDMEngine:
             slices = 1
         self.plan = DirectionalPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
                                       slices=slices, period=method.period, k_force=k, rule=method.rule,
-                                      surface_tilt=surface_tilt)
+                                      surface_tilt=surface_tilt, slice_edge_rad=slice_edge_rad)
         self.k = k
         self.ns = ss.n_states
         self.A = ss.A
