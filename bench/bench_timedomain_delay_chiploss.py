@@ -47,7 +47,7 @@ def window_loss(r) -> tuple[float, float]:
     if r.rate.window_s is None:
         return math.nan, math.nan
     t = np.asarray(r.t_s)
-    sel = (t >= r.rate.window_s[0]) & (t <= r.rate.window_s[1]) & (np.asarray(r.force_tool_n)[:, 0] != 0)
+    sel = (t >= r.rate.window_s[0]) & (t <= r.rate.window_s[1]) & np.isfinite(r.chip_loss_angle)
     return float(np.mean(r.chip_loss[sel])), float(np.mean(r.chip_loss_angle[sel]))
 
 

@@ -130,7 +130,8 @@ class DelayResult:
     chip_loss : array (N,)              chip-weighted share of the engagement with chip <= 0 (with
                                         ``chip_loss=False`` the share whose chip is <= 0 but still cuts).
     chip_loss_angle : array (N,)        the same share by angle: elements in the arc with chip <= 0 over
-                                        the elements in the arc (not weighted by the static chip).
+                                        the elements in the arc (not weighted by the static chip); nan
+                                        where no element is in the arc.
     principal_period_s : float         the sections' period, s: the principal period, or the revolution
                                         for a tool with runout (its forced response repeats once per revolution).
     verdict : TimeDomainVerdict         the verdict's rule over [5 principal periods, end].
@@ -236,9 +237,9 @@ def _discrete_orbit(P: PhysicalStructure, fsum: np.ndarray, h: float, k: np.ndar
     return (e @ Qn).real, (e @ (s[:, None] * Qn)).real
 
 
-def _share(part: np.ndarray, whole: np.ndarray) -> np.ndarray:
-    """``part / whole`` where ``whole > 0``, else 0 (arrays of the same shape)."""
-    return np.where(whole > 0, part / np.where(whole > 0, whole, 1.0), 0.0)
+def _share(part: np.ndarray, whole: np.ndarray, empty: float = 0.0) -> np.ndarray:
+    """``part / whole`` where ``whole > 0``, else ``empty`` (arrays of the same shape)."""
+    return np.where(whole > 0, part / np.where(whole > 0, whole, 1.0), empty)
 
 
 def _section_period(tool: Tool, cut: Cut) -> float:
@@ -314,7 +315,7 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
     poles = P.state_space().poles
     verdict = decide(t, r_hist, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=float(t[-1]),
                      beat_period_s=beat_period_s(poles))
-    loss, loss_angle = (_share(rec_loss[:, i], rec_loss[:, i + 1]) for i in (0, 2))
+    loss, loss_angle = _share(rec_loss[:, 0], rec_loss[:, 1]), _share(rec_loss[:, 2], rec_loss[:, 3], math.nan)
     t1 = min(RATE_START_PERIODS * tp, t[-1])
     n_per = int((t[-1] - t1) / tp + 1e-9)
     lpp = loss_per_period(t, rec_loss[:, 0], rec_loss[:, 1], tp, t1, max(n_per, 1))

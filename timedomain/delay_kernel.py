@@ -97,8 +97,8 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
     r_hist, v_hist (d0 + N + 1, 2), rec_f (N+1, 3) (force on
     the tool at each grid time, elements in the arc), rec_loss (N+1, 4) (chip-weighted lost and
     total engagement, then the count of elements with chip <= 0 and in the arc, at each grid time;
-    with ``chip_loss`` False the chips are still counted, though they keep cutting). exact: False samples the screen function at the step ends
-    instead (the plain Newmark step, first order at entry and exit; for comparison only).
+    with ``chip_loss`` False the chips are still counted, though they keep cutting). exact: False
+    samples the screen function at the step ends instead (the plain Newmark step, first order at entry and exit; for comparison only).
     chip_loss: False continues the law linearly below h = 0 inside the arc (no active set).
     Returns (status, total Newton iterations, step); status 0 ok,
     1 no convergence, 2 not finite.

@@ -167,7 +167,8 @@ class DelayNewmark:
         True (default): the force is zero where the chip is not positive (the tooth leaves the cut).
         False: the force stays linear in the chip inside the nominal arc, negative chips included
         (the screen function of the arc still applies): the exact linear model the
-        semi-discretization linearizes, whose growth rate does not depend on the kick.
+        semi-discretization linearizes, whose growth rate does not depend on the kick (its rate is
+        not gated by the chip loss, which it still reports).
     """
 
     deg_per_step: float = 2.0
