@@ -246,6 +246,12 @@ def test_no_chip_loss_differs_once_chips_are_lost():
     on, off = (_benchmark_run(2.0, 1e-9, loss) for loss in (True, False))
     assert np.max(on.chip_loss) > 0.05
     assert np.max(np.abs(off.deviation_m)) > 10 * np.max(np.abs(on.deviation_m))
+    # straight 2-tooth tool on a 26 deg arc: at most one element in the arc, so the share by angle
+    # is the chip-weighted share (0 or 1) wherever an element is in the arc, nan elsewhere
+    inside = np.isfinite(on.chip_loss_angle)
+    assert 0 < inside.sum() < inside.size
+    assert np.array_equal(on.chip_loss_angle[inside], on.chip_loss[inside])
+    assert set(np.unique(on.chip_loss[inside])) <= {0.0, 1.0}
 
 
 def test_rate_without_chip_loss_does_not_depend_on_the_kick():
