@@ -96,13 +96,19 @@ def observed_orders(degs: list[float], rates: list[float]) -> str:
     return "; ".join(out)
 
 
+def delay_problem(lins, steel, scale: float, t_end_s: float):
+    """The delay-based problem on the same structure and cut (at ae, the tool without runout)."""
+    from robolobes.timedomain import SimulationProblem
+    robot = lins.robot(steel.robot, "basic", scale)
+    case0 = replace(steel, tool=replace(steel.tool, runout_m=(0.0,) * steel.tool.teeth))
+    return SimulationProblem(robot, case0, t_end_s=t_end_s)
+
+
 def delay_rate(lins, steel, scale: float, deg: float, t_end_s: float, kick_m: float = 5e-6):
     """The delay-based method's gated rate +- SE (1/s) on the same structure and cut (at ae), kicked
     by an initial displacement ``kick_m``."""
-    from robolobes.timedomain import DelayNewmark, SimulationProblem, simulate
-    robot = lins.robot(steel.robot, "basic", scale)
-    case0 = replace(steel, tool=replace(steel.tool, runout_m=(0.0,) * steel.tool.teeth))
-    r = simulate(SimulationProblem(robot, case0, t_end_s=t_end_s), DelayNewmark(deg_per_step=deg, kick_m=kick_m))
+    from robolobes.timedomain import DelayNewmark, simulate
+    r = simulate(delay_problem(lins, steel, scale, t_end_s), DelayNewmark(deg_per_step=deg, kick_m=kick_m))
     return r.rate.rate_per_s, r.rate.se_per_s, r.rate.n_gated
 
 

@@ -219,12 +219,61 @@ def test_aluminium_grid_rate_equals_the_floquet_exponent(tx200_robot, helix, fac
     assert _within(r.rate.rate_per_s, r.rate.se_per_s, sdm.value_per_s), (r.rate.rate_per_s, sdm.value_per_s)
 
 
+# ---- without chip loss (chip_loss=False): the linear model the SDM linearizes
+
+
+def _benchmark_run(factor, kick_m, chip_loss, t_end_s=0.2):
+    cut = replace(CUT, ap_m=factor * _limit(1))
+    return simulate(StructureProblem(_structure(1), TOOL, cut, LAW, t_end_s=t_end_s),
+                    DelayNewmark(deg_per_step=1.0, kick_m=kick_m, chip_loss=chip_loss))
+
+
+def test_no_chip_loss_changes_nothing_while_every_chip_is_positive():
+    # 1-DOF benchmark at 0.5x the limit kicked by 10 nm (static chip up to 100 um): no element in
+    # the arc ever has a chip <= 0, so the two laws give the same force. The linear continuation
+    # K_c h db + K_e db is computed differently from the law (a difference of two law evaluations),
+    # hence 1e-12 relative rather than bit for bit (observed: bit for bit).
+    on, off = (_benchmark_run(0.5, 1e-8, loss, t_end_s=0.05) for loss in (True, False))
+    assert np.nanmax(on.chip_loss_angle) == 0.0
+    scale = np.max(np.abs(on.deviation_m))
+    assert np.max(np.abs(on.deviation_m - off.deviation_m)) <= 1e-12 * scale
+
+
+def test_no_chip_loss_differs_once_chips_are_lost():
+    # 2x the limit kicked by 1 nm: the motion grows e^59 in 0.2 s (rate +296 1/s), the teeth leave
+    # the cut, and with chip loss it saturates; without, it keeps growing (observed: the final
+    # displacements differ by a factor of ~1e18).
+    on, off = (_benchmark_run(2.0, 1e-9, loss) for loss in (True, False))
+    assert np.max(on.chip_loss) > 0.05
+    assert np.max(np.abs(off.deviation_m)) > 10 * np.max(np.abs(on.deviation_m))
+    # straight 2-tooth tool on a 26 deg arc: at most one element in the arc, so the share by angle
+    # is the chip-weighted share (0 or 1) wherever an element is in the arc, nan elsewhere
+    inside = np.isfinite(on.chip_loss_angle)
+    assert 0 < inside.sum() < inside.size
+    assert np.array_equal(on.chip_loss_angle[inside], on.chip_loss[inside])
+    assert set(np.unique(on.chip_loss[inside])) <= {0.0, 1.0}
+
+
+def test_rate_without_chip_loss_does_not_depend_on_the_kick():
+    # 1-DOF benchmark at 1.25x the limit (SDM +105.8 1/s). Without chip loss the model is linear:
+    # the rate is the same at a 0.1 um and a 100 um kick (the latter: the teeth leave the cut within
+    # a few passes, so with chip loss the gate leaves no rate at all), within 3 SE, and equals the
+    # SDM's exponent by the module's criterion. Observed: +107.7706 +- 0.0002 at both kicks.
+    sdm = _sigma(1, 1.25).value_per_s
+    small, large = (_benchmark_run(1.25, k, False).rate for k in (1e-7, 1e-4))
+    assert small.estimate is not None and large.estimate is not None
+    assert abs(small.rate_per_s - large.rate_per_s) <= 3 * math.hypot(small.se_per_s, large.se_per_s)
+    assert _within(large.rate_per_s, large.se_per_s, sdm), (large.rate_per_s, sdm)
+    assert _benchmark_run(1.25, 1e-4, True).rate.estimate is None
+
+
 # ---- input checks
 
 
 @pytest.mark.parametrize("kw, what", [(dict(kick_m=0.0), "kick_m"), (dict(kick_m=1e-2), "kick_m"),
                                       (dict(deg_per_step=20.0), "deg_per_step"), (dict(seed=-1), "seed"),
-                                      (dict(entry_exit="midpoint"), "entry_exit"), (dict(n_discs=0), "n_discs")])
+                                      (dict(entry_exit="midpoint"), "entry_exit"), (dict(n_discs=0), "n_discs"),
+                                      (dict(chip_loss=1), "chip_loss")])
 def test_bad_method_is_refused(kw, what):
     with pytest.raises(SimulationError, match=what):
         DelayNewmark(**kw)

@@ -127,7 +127,11 @@ class DelayResult:
     t_s : array (N,)                    grid times, s.
     deviation_m : array (N, 2)          tool displacement in the cut plane (x_c, y_c), m.
     force_tool_n : array (N, 3)         force on the tool, cut frame, N.
-    chip_loss : array (N,)              chip-weighted share of the engagement with chip <= 0.
+    chip_loss : array (N,)              chip-weighted share of the engagement with chip <= 0 (with
+                                        ``chip_loss=False`` the share whose chip is <= 0 but still cuts).
+    chip_loss_angle : array (N,)        the same share by angle: elements in the arc with chip <= 0 over
+                                        the elements in the arc (not weighted by the static chip); nan
+                                        where no element is in the arc.
     principal_period_s : float         the sections' period, s: the principal period, or the revolution
                                         for a tool with runout (its forced response repeats once per revolution).
     verdict : TimeDomainVerdict         the verdict's rule over [5 principal periods, end].
@@ -141,6 +145,7 @@ class DelayResult:
     deviation_m: np.ndarray
     force_tool_n: np.ndarray
     chip_loss: np.ndarray
+    chip_loss_angle: np.ndarray
     principal_period_s: float
     verdict: TimeDomainVerdict
     rate: GatedRate
@@ -232,6 +237,11 @@ def _discrete_orbit(P: PhysicalStructure, fsum: np.ndarray, h: float, k: np.ndar
     return (e @ Qn).real, (e @ (s[:, None] * Qn)).real
 
 
+def _share(part: np.ndarray, whole: np.ndarray, empty: float = 0.0) -> np.ndarray:
+    """``part / whole`` where ``whole > 0``, else ``empty`` (arrays of the same shape)."""
+    return np.where(whole > 0, part / np.where(whole > 0, whole, 1.0), empty)
+
+
 def _section_period(tool: Tool, cut: Cut) -> float:
     """Period of the Poincare sections, s: the principal period, or the revolution for a tool with
     runout, whose forced response repeats only once per revolution (the second differences at the
@@ -289,11 +299,11 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
     r_hist, v_hist = np.zeros((d0 + N, 2)), np.zeros((d0 + N, 2))
     r_hist[:d0] = qp[:-1] @ Pr.T
     v_hist[:d0] = vp[:-1] @ Pr.T
-    rec_f, rec_loss = np.zeros((N, 3)), np.zeros((N, 2))
+    rec_f, rec_loss = np.zeros((N, 3)), np.zeros((N, 4))
     cpu0 = time.process_time()
     status, iters, k_fail = run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, off, tooth, h0, dsteps, st, ex, 1.0,
                                              law_arr, kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, 50,
-                                             method.entry_exit == "exact")
+                                             method.entry_exit == "exact", method.chip_loss)
     cpu = time.process_time() - cpu0
     if status != 0:
         raise SimulationError(f"delay-based run: Newton {'did not converge' if status == 1 else 'went non-finite'} "
@@ -305,12 +315,14 @@ def run_delay(problem, method: DelayNewmark) -> DelayResult:
     poles = P.state_space().poles
     verdict = decide(t, r_hist, tp, chip_scale(tool, cut), t_start_s=t0, t_end_s=float(t[-1]),
                      beat_period_s=beat_period_s(poles))
-    loss = np.where(rec_loss[:, 1] > 0, rec_loss[:, 0] / np.where(rec_loss[:, 1] > 0, rec_loss[:, 1], 1.0), 0.0)
+    loss, loss_angle = _share(rec_loss[:, 0], rec_loss[:, 1]), _share(rec_loss[:, 2], rec_loss[:, 3], math.nan)
     t1 = min(RATE_START_PERIODS * tp, t[-1])
     n_per = int((t[-1] - t1) / tp + 1e-9)
     lpp = loss_per_period(t, rec_loss[:, 0], rec_loss[:, 1], tp, t1, max(n_per, 1))
-    rate = gated_growth_rate(t, r_hist, tp, t_start_s=t1, t_end_s=float(t[-1]), loss=lpp)
+    # without chip loss the model is linear at any amplitude: no gate on the (would-be) loss
+    rate = gated_growth_rate(t, r_hist, tp, t_start_s=t1, t_end_s=float(t[-1]), loss=lpp if method.chip_loss else None)
     stats = dict(steps=n_steps, newton_iterations=int(iters), n_discs=n_discs, h_s=h, cpu_s=cpu)
     return DelayResult(problem=problem, method=method, t_s=readonly(t), deviation_m=readonly(r_hist),
-                       force_tool_n=readonly(rec_f), chip_loss=readonly(loss), principal_period_s=tp,
+                       force_tool_n=readonly(rec_f), chip_loss=readonly(loss), chip_loss_angle=readonly(loss_angle),
+                       principal_period_s=tp,
                        verdict=verdict, rate=rate, stats=stats)

@@ -9,7 +9,10 @@ Equations (Insperger & Stepan; Schmitz & Smith, "Machining Dynamics", ch. 4)::
 for every edge element ``e`` (tooth ``j``, disc ``k``) at ``phi_e = Omega t + theta_j - psi(z_k)``,
 ``g`` the screen function of the nominal arc ``[phi_st, phi_ex]``, ``h0_j`` and ``tau_j`` the
 tooth's static chip and delay (:func:`cases.milling.regeneration`: variable pitch, runout), the
-law :func:`cases.milling.edge_force_law` (zero for ``h <= 0``: chip loss).
+law :func:`cases.milling.edge_force_law` (zero for ``h <= 0``: chip loss). With ``chip_loss``
+False the law is continued linearly below ``h = 0`` inside the arc (``K_c h db + K_e db`` for every
+``h``; the screen function ``g`` still applies): the exact linear model the semi-discretization
+linearizes.
 
 Time integration: average-acceleration Newmark (gamma 1/2, beta 1/4), written in its equivalent
 trapezoidal form for ``(q, v)``::
@@ -81,7 +84,8 @@ def _delayed(r_hist, v_hist, x, k, h):  # pragma: no cover - numba
 
 @njit(cache=True, nogil=True)
 def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dsteps, st, ex, db, law,
-                     kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, max_iter, exact):  # pragma: no cover - numba
+                     kc, ke, q0, v0, r_hist, v_hist, d0, rec_f, rec_loss, max_iter, exact,
+                     chip_loss):  # pragma: no cover - numba
     """Integrate ``n_steps`` steps from ``(q0, v0)`` at t = 0 (module docstring).
 
     r_hist, v_hist (d0 + N, 2): rows 0..d0-1 hold the history before t = 0 (grid times
@@ -91,9 +95,11 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
     static chip (m) and delay in steps; kc, ke (3,) ``K_c db`` (N/m) and ``K_e db`` (N) of one
     element; law (6,) the coefficients times the element width db (then pass db = 1). Fills
     r_hist, v_hist (d0 + N + 1, 2), rec_f (N+1, 3) (force on
-    the tool at each grid time, elements in the arc), rec_loss (N+1, 2) (chip-weighted lost and
-    total engagement at each grid time). exact: False samples the screen function at the step ends
-    instead (the plain Newmark step, first order at entry and exit; for comparison only).
+    the tool at each grid time, elements in the arc), rec_loss (N+1, 4) (chip-weighted lost and
+    total engagement, then the count of elements with chip <= 0 and in the arc, at each grid time;
+    with ``chip_loss`` False the chips are still counted, though they keep cutting). exact: False
+    samples the screen function at the step ends instead (the plain Newmark step, first order at entry and exit; for comparison only).
+    chip_loss: False continues the law linearly below h = 0 inside the arc (no active set).
     Returns (status, total Newton iterations, step); status 0 ok,
     1 no convergence, 2 not finite.
     """
@@ -140,7 +146,7 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
             sn, cs = math.sin(phi0), math.cos(phi0)
             dx, dy = _delayed(r_hist, v_hist, d0 + k - dsteps[j], d0 + k, h)
             hh = h0[j] * sn + sn * (cx0 - dx) + cs * (cy0 - dy)
-            if a > 1e-12:  # t0 outside the arc: the smooth continuation of the element force
+            if a > 1e-12 or not chip_loss:  # outside the arc or no chip loss: the linear element force
                 et, er, ea = kc[0] * hh + ke[0], kc[1] * hh + ke[1], kc[2] * hh + ke[2]
             else:
                 et, er, ea = _edge_force_law(hh, db, ktc, krc, kac, kte, kre, kae)
@@ -169,7 +175,7 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
                 phi1 = omega * t0 + offset[e] + dphi
                 sn1, cs1 = math.sin(phi1), math.cos(phi1)
                 hh = hb1[e] + sn1 * c1[0] + cs1 * c1[1]
-                on = ext1[e] or hh > 0.0
+                on = ext1[e] or hh > 0.0 or not chip_loss
                 if it > 0 and on != act[e]:
                     changed = True
                 act[e] = on
@@ -206,7 +212,7 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
         # records at t1: force of the elements in the arc, chip-weighted lost engagement
         t1 = (k + 1) * h
         fx = fy = fz = 0.0
-        lost = total = 0.0
+        lost = total = n_lost = n_in = 0.0
         for e in range(E):
             phi1 = omega * t1 + offset[e]
             p = phi1 - TWO_PI * math.floor(phi1 / TWO_PI)
@@ -218,13 +224,19 @@ def run_delay_kernel(n_steps, h, omega, M, C, K, Pr, Pf, offset, tooth, h0, dste
             hh = h0[j] * sn1 + sn1 * (r1[0] - dx1) + cs1 * (r1[1] - dy1)
             wgt = h0[j] * sn1
             total += wgt
+            n_in += 1.0
             if hh <= 0.0:
                 lost += wgt
-            et, er, ea = _edge_force_law(hh, db, ktc, krc, kac, kte, kre, kae)
+                n_lost += 1.0
+            if chip_loss:
+                et, er, ea = _edge_force_law(hh, db, ktc, krc, kac, kte, kre, kae)
+            else:
+                et, er, ea = kc[0] * hh + ke[0], kc[1] * hh + ke[1], kc[2] * hh + ke[2]
             px, py, pz = _project_cut_frame(phi1, et, er, ea)
             fx += px
             fy += py
             fz += pz
         rec_f[k + 1, 0], rec_f[k + 1, 1], rec_f[k + 1, 2] = fx, fy, fz
         rec_loss[k + 1, 0], rec_loss[k + 1, 1] = lost, total
+        rec_loss[k + 1, 2], rec_loss[k + 1, 3] = n_lost, n_in
     return 0, iters, n_steps

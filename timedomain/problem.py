@@ -163,6 +163,12 @@ class DelayNewmark:
         "exact" (default): each element's entry into and exit from the arc inside a step is
         integrated exactly (second order). "sampled": the screen function is sampled at the step
         ends, as a plain Newmark step does (first order; for comparison with the eroded part).
+    chip_loss : bool
+        True (default): the force is zero where the chip is not positive (the tooth leaves the cut).
+        False: the force stays linear in the chip inside the nominal arc, negative chips included
+        (the screen function of the arc still applies): the exact linear model the
+        semi-discretization linearizes, whose growth rate does not depend on the kick (its rate is
+        not gated by the chip loss, which it still reports).
     """
 
     deg_per_step: float = 2.0
@@ -170,9 +176,12 @@ class DelayNewmark:
     kick_m: float = 5e-6
     seed: int = 0
     entry_exit: str = "exact"
+    chip_loss: bool = True
 
     def __post_init__(self):
         _check_step_and_discs(self.deg_per_step, self.n_discs)
+        if not isinstance(self.chip_loss, bool):
+            raise SimulationError(f"chip_loss must be True or False, got {self.chip_loss!r}")
         k = finite("kick_m", self.kick_m, positive=True, error=SimulationError)
         if not 1e-9 <= k <= 1e-3:
             raise SimulationError(f"kick_m (initial tool displacement) must be in [1e-9, 1e-3] m, got {k:g}")
