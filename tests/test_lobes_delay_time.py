@@ -124,3 +124,35 @@ def test_fast_path_refuses_the_term():
     eng = SDMEngine(p, SemiDiscretization(m=20), p.cut.ap_m, delay_time=True)
     with pytest.raises(LobeError, match="monodromy_dense"):
         eng.multipliers([p.cut.spindle_rpm], [p.cut.ap_m])
+
+
+@pytest.mark.parametrize("deg", [30.0, 80.0, 102.0, 150.0])
+def test_delay_advance_is_the_trochoid_instant(deg):
+    # Exact geometry, independent of the module: the tool centre moves at v along x_c, a tooth's tip is
+    # at c(t) + R u(Omega t + theta), u = (sin, cos) (the repository's convention). The ray of the edge
+    # at phi (time 0) meets the previous tooth's tip path at the instant t' solved by bisection; the
+    # previous tooth is a pitch behind, so t' - (-tau) must be (h / (R Omega)) cos(phi) to first order
+    # in h / R: relative error below 2 h / R (0.02 here) plus 1e-6 rad absolute (the bisection).
+    from robolobes.lobes.chip_direction import delay_advance_rad
+    R, omega, N, fz = 5e-3, 300.0, 2, 45e-6
+    v = fz * N * omega / (2 * math.pi)
+    tau = 2 * math.pi / (N * omega)
+    phi = math.radians(deg)
+    u = np.array([math.sin(phi), math.cos(phi)])
+    n = np.array([math.cos(phi), -math.sin(phi)])  # normal to the ray
+
+    def tip(t):  # the previous tooth's tip at time t
+        a = omega * t + phi - 2 * math.pi / N
+        return np.array([v * t + R * math.sin(a), R * math.cos(a)])
+
+    def side(t):  # its signed distance from the edge's line
+        return float(tip(t) @ n)
+    lo, hi = -tau - 0.2 * tau, -tau + 0.2 * tau
+    assert side(lo) * side(hi) < 0
+    for _ in range(80):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if side(lo) * side(mid) > 0 else (lo, mid)
+    assert tip(lo) @ u == pytest.approx(R, rel=2 * fz / R)  # on the ray, ahead of the centre
+    exact = omega * ((lo + hi) / 2 + tau)  # rad of spindle rotation after t - tau
+    first = float(delay_advance_rad(phi, fz, R))
+    assert exact == pytest.approx(first, rel=2 * fz / R, abs=1e-6)
