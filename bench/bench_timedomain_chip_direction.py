@@ -10,9 +10,11 @@ tilt, next to the eroded rates; dy and the eroded rates are those printed by
 ``bench/bench_timedomain_entry_feed.py`` (docs/guide/timedomain-convergence.md, straight tool tables).
 Also printed: the estimate of the other fz / R term, the delayed instant (the regenerative difference
 scaled by ``1 - (fz N / (2 pi R)) cos(phi)``, valid when the chatter frequency is well below the tooth
-frequency, as here: 24.7 Hz against 623 Hz).
+frequency, as here: 24.7 Hz against 623 Hz). ``--delay-time``: also the SDM with both terms and the
+delayed instant itself (``entry_shift_exponent(..., delay_time=True)``), and the eroded rate minus that;
+``--feeds 0.03`` keeps only the rows of those feeds (mm).
 
-    python bench/bench_timedomain_chip_direction.py [--skip-jacobian] [--skip-sdm]
+    python bench/bench_timedomain_chip_direction.py [--skip-jacobian] [--skip-sdm] [--delay-time] [--feeds 0.03]
 """
 
 from __future__ import annotations
@@ -68,7 +70,7 @@ class _DelayScaled(DirectionalPlan):
     """The plan with the tilt and the regenerative difference scaled by ``1 - (fz N / 2 pi R) cos(phi)``
     (the low-frequency form of the delayed instant's shift; an estimate, not a model of the lobes)."""
 
-    def _directional(self, phi, chip_m):
+    def _directional(self, phi, chip_m, delay_shift=False):
         rot = surface_rotation_rad(phi, chip_m, self.tool.radius_m, feed_per_radian_m(self.tool, self.cut))
         scale = 1 - feed_per_radian_m(self.tool, self.cut) / self.tool.radius_m * np.cos(phi)
         return directional_matrix(phi, self.law, rot)[..., :self.k_force, :] * scale[..., None, None]
@@ -81,7 +83,7 @@ def _delay_estimate(problem, method):
     return two_level_exponent(problem, method, radius, surface_tilt=True).value_per_s
 
 
-def sdm_part(base, tool, structure, eroded):
+def sdm_part(base, tool, structure, eroded, delay_time=False):
     sdm = SemiDiscretization(m=40, axial_slices=32)
     print("factor, fz mm, dy um: eroded +- SE; SDM at ae - dy: plain, +entry shift, +tilt, +both; eroded minus "
           "+both; the tilt's effect, with the delayed instant's estimate", flush=True)
@@ -98,12 +100,18 @@ def sdm_part(base, tool, structure, eroded):
         print(f"{factor:g}x {fz_mm:g} mm dy {dy_um:.2f}: eroded {rate:+.4f} +- {se:.4f}; SDM {plain:+.4f}, "
               f"{entry:+.4f}, {tilt:+.4f}, {both:+.4f}; eroded - both {rate - both:+.4f}; tilt {tilt - plain:+.4f} "
               f"({(tilt - plain) / fz_mm:.2f} 1/s per mm), with the delayed instant {delay - plain:+.4f}", flush=True)
+        if delay_time:
+            dt = entry_shift_exponent(p, sdm, surface_tilt=True, delay_time=True).value_per_s
+            print(f"    both + delayed instant (SDM term) {dt:+.4f} (moves both by {dt - both:+.4f}); eroded minus that "
+                  f"{rate - dt:+.4f}; the estimate's move of the tilt-only SDM {delay - tilt:+.4f}", flush=True)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--skip-jacobian", action="store_true")
     ap.add_argument("--skip-sdm", action="store_true")
+    ap.add_argument("--delay-time", action="store_true", help="also the SDM with the delayed instant")
+    ap.add_argument("--feeds", default=None, help="comma-separated feeds (mm) to keep; default all")
     a = ap.parse_args(argv)
     warnings.filterwarnings("ignore", category=L.JointLimitWarning)
     base = cases.load_case("tx200-aluminium")
@@ -114,8 +122,12 @@ def main(argv=None) -> int:
     if not a.skip_sdm:
         robot = L.build_model(base.robot, "basic")
         structure = PhysicalStructure.from_linear(L.linearize(robot, base.path.start_q_rad), base.cut.feed_direction)
-        sdm_part(base, tool, structure, ERODED)
-        sdm_part(base, base.tool, structure, ERODED_HELIX)
+        keep = None if a.feeds is None else {float(v) for v in a.feeds.split(",")}
+
+        def rows(d):
+            return {k: v for k, v in d.items() if keep is None or k[1] in keep}
+        sdm_part(base, tool, structure, rows(ERODED), a.delay_time)
+        sdm_part(base, base.tool, structure, rows(ERODED_HELIX), a.delay_time)
     print(f"CPU {time.process_time() - c0:.1f} s")
     return 0
 

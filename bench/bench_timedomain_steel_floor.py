@@ -16,7 +16,11 @@ the eroded part) at joint-damping scales around the study's bracket, prints per 
 * with ``--slice-edges``: the SDM with the feed terms linearized about the run's forced orbit, each
   axial slice with its own entry angle from the synchronous deflection at the instant that slice
   meets the part (:func:`sync_deflection`, :func:`lobes.entry_shift.slice_edge_angles`), at the
-  nominal ae, and its distance to the rate beyond the criterion.
+  nominal ae, and its distance to the rate beyond the criterion;
+* with ``--delay-time``: the SDM with the feed terms and the delayed instant
+  (``entry_shift_exponent(..., delay_time=True)``, :mod:`lobes.chip_direction`) at ae - dy and at ae
+  minus the entry deflection, and (full feed) its distance beyond the criterion to the kicked rates
+  converged in the step and the columns (:data:`CONVERGED`, from ``bench_timedomain_steel_step.py``).
 
 Variants: ``--dx`` the column spacing of the part (default 1 um; ``fz/45`` and ``fz/90`` make the
 feed per tooth a whole number of columns), ``--t-end`` the simulated time (default 5.5 s),
@@ -46,6 +50,9 @@ from robolobes.study.linearizations import Linearizations
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "study-results.json"
 SCALES = (11.6, 11.73, 11.84, 11.98, 12.1)
 TOL = 0.03  # 1/s: the project's absolute match tolerance (with 10 % |sigma| and 2 SE)
+# full feed, kicked, 0.1 um columns, 0.25 deg per step: rate, SE (1/s), bench_timedomain_steel_step.py
+# (docs/guide/timedomain-convergence.md, "The kicked rate against the step, the columns and the kick amplitude")
+CONVERGED = {11.73: (0.722, 0.010), 11.84: (0.320, 0.012), 11.98: (-0.191, 0.014)}
 
 
 def eroded_run(lins, steel, scale: float, dx_m: float, t_end_s: float, kick_m: float = 0.0,
@@ -140,13 +147,40 @@ def sdm_slice_edges(settings, lins, steel, theta, scale: float, r) -> tuple[floa
     return float(e.value_per_s), edges
 
 
-def sdm_exponent(settings, lins, steel, theta, scale: float, dy_m: float) -> float:
-    """The SDM exponent with entry shift and surface tilt at ae - dy, 1/s."""
+def sdm_exponent(settings, lins, steel, theta, scale: float, dy_m: float, delay_time: bool = False) -> float:
+    """The SDM exponent with entry shift and surface tilt at ae - dy, 1/s; ``delay_time``: with the
+    delayed instant too (:func:`lobes.entry_shift.entry_shift_exponent`)."""
+    from robolobes.lobes.entry_shift import entry_shift_exponent
     from robolobes.lobes.sdm import SemiDiscretization
     case = replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_m))
     _, st = lins.structure(steel, "basic", "start", theta, damping_scale=scale)
-    _, info = compute.feed_terms_probe(compute._lobe_problem(st, case), SemiDiscretization(m=settings.sdm_m))
+    problem, method = compute._lobe_problem(st, case), SemiDiscretization(m=settings.sdm_m)
+    if delay_time:
+        return float(entry_shift_exponent(problem, method, surface_tilt=True, delay_time=True).value_per_s)
+    _, info = compute.feed_terms_probe(problem, method)
     return float(info["exponent_per_s"])
+
+
+def beyond(rate: float, se: float, sigma: float) -> float:
+    """``|rate - sigma| - (max(10 % |sigma|, TOL) + 2 SE)``, 1/s: met when not above 0."""
+    return abs(rate - sigma) - max(0.1 * abs(sigma), TOL) - 2 * se
+
+
+def print_delay_time(settings, lins, steel, theta, scale: float, dy_m: float, dy_in_m: float, r,
+                     full_feed: bool) -> None:
+    """The SDM with the feed terms and the delayed instant at ae - dy and ae - the entry deflection,
+    against the run's 2 s rate and (full feed) the converged kicked rate."""
+    e = sdm_exponent(settings, lins, steel, theta, scale, dy_m, delay_time=True)
+    e_in = sdm_exponent(settings, lins, steel, theta, scale, dy_in_m, delay_time=True)
+    f2 = floor_numbers(r, 2.0)
+    line = (f"       delay time: SDM-feed+delay at ae - dy {e:+.3f}, at ae - entry {e_in:+.3f} 1/s; run (2 s) "
+            f"{f2['rate']:+.3f} +- {f2['se']:.3f}: beyond {beyond(f2['rate'], f2['se'], e):+.3f} / "
+            f"{beyond(f2['rate'], f2['se'], e_in):+.3f}")
+    conv = CONVERGED.get(round(scale, 2)) if full_feed else None
+    if conv is not None:
+        line += (f"; converged {conv[0]:+.3f} +- {conv[1]:.3f}: minus SDM {conv[0] - e:+.3f} / {conv[0] - e_in:+.3f}, "
+                 f"beyond {beyond(*conv, e):+.3f} / {beyond(*conv, e_in):+.3f}")
+    print(line, flush=True)
 
 
 def slope(x, y) -> float:
@@ -168,6 +202,8 @@ def main() -> None:
     ap.add_argument("--no-sdm", action="store_true")
     ap.add_argument("--slice-edges", action="store_true",
                     help="also the SDM about the forced orbit: each axial slice's own entry angle")
+    ap.add_argument("--delay-time", action="store_true",
+                    help="also the SDM with the delayed instant (lobes.chip_direction) at ae - dy and ae - entry")
     a = ap.parse_args()
     scales = [float(s) for s in a.scales.split(",")]
     settings = StudySettings.make(True)
@@ -194,6 +230,8 @@ def main() -> None:
         print(f"       dy {run_deflection(r) * 1e6:.2f} um (mean of this run), {dy_in * 1e6:.2f} um at the "
               f"entry: SDM-feed at ae - that {e_in:+.3f} 1/s")
         sdms.append(e)
+        if a.delay_time:
+            print_delay_time(settings, lins, steel, theta, sc, dy_sc, dy_in, r, a.feed_factor == 1.0)
         if a.slice_edges:
             e_sl, edges = sdm_slice_edges(settings, lins, steel, theta, sc, r)
             f2 = floor_numbers(r, 2.0)

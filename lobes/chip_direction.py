@@ -22,10 +22,13 @@ TX200 aluminium cut) but turns ``u`` towards the direction whose directional mat
 the engagement, so it moves the exponent near that cut's limit by 1.6-2.1 1/s per mm of feed
 (``bench/bench_timedomain_chip_direction.py``).
 
-Not included: the time at which the previous tooth cut the point differs from ``t - tau_j`` by
-``(h_j / (R Omega)) cos(phi)`` (the same turn ``psi - phi``); at a chatter frequency well below the tooth
-frequency it scales the regenerative difference by ``1 - (fz N / (2 pi R)) cos(phi)`` (estimated in the
-bench: 5-7 % of the tilt's effect).
+The delayed instant (optional, :func:`delay_advance_rad`): the previous tooth reached the angle ``psi``
+where it cut the point ``(psi - phi) / Omega = (h_j / (R Omega)) cos(phi)`` after ``t - tau_j``, so the
+delayed displacement is taken at ``t - tau_j + (h_j / (R Omega)) cos(phi)`` (a shorter delay where
+``cos(phi) > 0``). At a chatter frequency well below the tooth frequency this scales the regenerative
+difference by ``1 - (fz N / (2 pi R)) cos(phi)`` (5-7 % of the tilt's effect on aluminium); at a flip it
+is a phase. ``delay_time=True`` of :meth:`lobes.sdm.SDMEngine.monodromy_dense` and
+:func:`lobes.entry_shift.entry_shift_exponent` carries it (default off).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ import numpy as np
 
 from robolobes.cases.milling import Cut, Tool
 
-__all__ = ["surface_rotation_rad", "feed_per_radian_m"]
+__all__ = ["surface_rotation_rad", "feed_per_radian_m", "delay_advance_rad"]
 
 
 def feed_per_radian_m(tool: Tool, cut: Cut) -> float:
@@ -61,3 +64,11 @@ def surface_rotation_rad(phi_rad, chip_m: float, radius_m: float, feed_per_rad_m
     """
     phi = np.asarray(phi_rad, dtype=float)
     return (chip_m * np.cos(phi) - feed_per_rad_m * np.sin(phi)) / radius_m
+
+
+def delay_advance_rad(phi_rad, chip_m: float, radius_m: float) -> np.ndarray:
+    """The spindle angle ``(h_j / R) cos(phi)`` (rad, shape of ``phi_rad``) by which the previous tooth
+    cut the point the edge at ``phi`` cuts later than ``t - tau_j`` (its time over ``Omega``): that tooth's
+    angle there is ``psi = phi + (h_j / R) cos(phi)`` (module docstring, first order in ``h_j / R``).
+    ``chip_m``: the tooth's static chip ``h_j``, m; ``radius_m``: the tool radius, m."""
+    return chip_m * np.cos(np.asarray(phi_rad, dtype=float)) / radius_m

@@ -30,7 +30,7 @@ from robolobes.cases.milling import (ANGLE_TOL_RAD, CuttingLaw, Cut, PeriodName,
 from robolobes.core.validate import readonly
 
 from ._errors import LobeError
-from .chip_direction import feed_per_radian_m, surface_rotation_rad
+from .chip_direction import delay_advance_rad, feed_per_radian_m, surface_rotation_rad
 
 __all__ = ["DirectionalPlan", "PeriodChoice", "QuadratureRule", "average_directional_matrix"]
 
@@ -95,6 +95,10 @@ class DirectionalPlan:
         (up-milling) of the slice at the mid-height fraction ``(s + 1/2) / slices`` of the depth,
         in place of the uniform ``phi_st`` / ``phi_ex`` (e.g. from
         :func:`lobes.entry_shift.slice_edge_angles`); None (default): the uniform engagement.
+    delay_time : bool
+        The delayed instant of :mod:`lobes.chip_direction` (:func:`~lobes.chip_direction.delay_advance_rad`):
+        :meth:`wbar` with ``delay_shift=True`` gives the weights of the extra delay; used only by
+        :meth:`lobes.sdm.SDMEngine.monodromy_dense`. Default False.
     """
 
     tool: Tool
@@ -117,12 +121,13 @@ class DirectionalPlan:
     surface_tilt: bool = False
     tooth_chip_m: np.ndarray | None = None
     slice_edge_rad: np.ndarray | None = None
+    delay_time: bool = False
 
     @classmethod
     def build(cls, tool: Tool, cut: Cut, law: CuttingLaw, *, m: int, quadrature: int, slices: int,
               period: PeriodChoice = "auto", k_force: int = 3,
               rule: QuadratureRule = "gauss", surface_tilt: bool = False,
-              slice_edge_rad: np.ndarray | None = None) -> "DirectionalPlan":
+              slice_edge_rad: np.ndarray | None = None, delay_time: bool = False) -> "DirectionalPlan":
         st, ex = engagement_rad(tool, cut)
         regs = regeneration(tool, cut)
         cutting = [r for r in regs if r.cuts]
@@ -167,7 +172,8 @@ class DirectionalPlan:
                    tooth_group=readonly(grp, int), group_delay_rad=readonly(gd),
                    group_r=readonly(rs, int), group_f=readonly(fs), k_force=int(k_force), rule=rule,
                    surface_tilt=bool(surface_tilt), tooth_chip_m=readonly([r.chip_m for r in cutting]),
-                   slice_edge_rad=_checked_edges(slice_edge_rad, int(slices), cut.mode, st, ex))
+                   slice_edge_rad=_checked_edges(slice_edge_rad, int(slices), cut.mode, st, ex),
+                   delay_time=bool(delay_time))
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Entry and exit angles per slice, arrays (slices, 1), rad (:attr:`slice_edge_rad`)."""
@@ -207,7 +213,7 @@ class DirectionalPlan:
                 hit |= (hi + s >= st - 1e-12) & (lo + s <= ex + 1e-12)
         return np.flatnonzero(hit)
 
-    def wbar(self, depth_m: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    def wbar(self, depth_m: np.ndarray, steps: np.ndarray, delay_shift: bool = False) -> np.ndarray:
         """Step-averaged directional matrices of each delay group.
 
         ``Wbar_i = (1 / dphi) * integral over step i of sum_s db g(phi) D(phi) dphi`` (as spindle
@@ -223,6 +229,10 @@ class DirectionalPlan:
             Axial depths of cut, m (> 0).
         steps : array (P,) of int
             Step indices.
+        delay_shift : bool
+            Instead, the step averages of ``g(phi) D(phi) d(phi)``, ``d = -(h_j / R) cos(phi) / step_rad``
+            the delayed instant's extra delay in steps (:func:`~lobes.chip_direction.delay_advance_rad`;
+            negative: a shorter delay), N/m.
 
         Returns
         -------
@@ -239,13 +249,13 @@ class DirectionalPlan:
             unit = np.zeros((len(steps), self.n_groups, self.k_force, 2))
             st, ex = (float(v[0, 0]) for v in self.bounds())
             for th, g, hj in zip(self.tooth_angle_rad, self.tooth_group, self._chips()):
-                unit[:, g] += self._step_average(a0 + th, hj, st, ex)
+                unit[:, g] += self._step_average(a0 + th, hj, st, ex, delay_shift)
             return b[:, None, None, None, None] * unit[None]
         # helix: the lag of each slice depends on the depth. Batched callers often repeat a depth
         # (a coarse scan evaluates one depth at every speed): compute each distinct depth once.
         ub, inv = np.unique(b, return_inverse=True)
         if len(ub) < len(b):
-            return self.wbar(ub, steps)[inv.reshape(-1)]
+            return self.wbar(ub, steps, delay_shift)[inv.reshape(-1)]
         # chunk over depths to bound memory
         ns = self.slices
         zfrac = (np.arange(ns) + 0.5) / ns  # (ns,) slice mid-heights as fractions of the depth
@@ -256,7 +266,7 @@ class DirectionalPlan:
             psi = self.tool.lag_rad(bc[:, None] * zfrac[None, :])  # (Bc, ns)
             for th, g, hj in zip(self.tooth_angle_rad, self.tooth_group, self._chips()):
                 start = a0[None, None, :] + th - psi[:, :, None]  # (Bc, ns, P)
-                avg = self._step_average(start, hj, st, ex).sum(axis=1)  # (Bc, P, k, 2)
+                avg = self._step_average(start, hj, st, ex, delay_shift).sum(axis=1)  # (Bc, P, k, 2)
                 out[c0:c0 + chunk, :, g] += avg * (bc / ns)[:, None, None, None]
         return out
 
@@ -271,26 +281,37 @@ class DirectionalPlan:
         """Static chip of each cutting tooth, m (plans built without it: zeros, unused)."""
         return np.zeros(len(self.tooth_angle_rad)) if self.tooth_chip_m is None else self.tooth_chip_m
 
-    def _directional(self, phi: np.ndarray, chip_m: float) -> np.ndarray:
+    def _directional(self, phi: np.ndarray, chip_m: float, delay_shift: bool = False) -> np.ndarray:
         """``D(phi)`` (..., k_force, 2); with ``surface_tilt`` the chip direction turned by the
-        regenerated surface's tilt (:mod:`lobes.chip_direction`) for a tooth of static chip ``chip_m``."""
+        regenerated surface's tilt (:mod:`lobes.chip_direction`) for a tooth of static chip ``chip_m``;
+        ``delay_shift``: times the extra delay in steps ``d(phi)`` (:meth:`wbar`)."""
         rot = None
         if self.surface_tilt:
             rot = surface_rotation_rad(phi, chip_m, self.tool.radius_m, feed_per_radian_m(self.tool, self.cut))
-        return directional_matrix(phi, self.law, rot)[..., :self.k_force, :]
+        D = directional_matrix(phi, self.law, rot)[..., :self.k_force, :]
+        if delay_shift:
+            D = D * self._delay_steps(phi, chip_m)[..., None, None]
+        return D
 
-    def _step_average(self, start: np.ndarray, chip_m: float = 0.0, st=None, ex=None) -> np.ndarray:
+    def _delay_steps(self, phi: np.ndarray, chip_m: float) -> np.ndarray:
+        """The delayed instant's extra delay in steps at edge angles ``phi`` (rad) of a tooth with static
+        chip ``chip_m`` (m): ``-(h_j / R) cos(phi) / step_rad`` (:func:`~lobes.chip_direction.delay_advance_rad`)."""
+        return -delay_advance_rad(phi, chip_m, self.tool.radius_m) / self.step_rad
+
+    def _step_average(self, start: np.ndarray, chip_m: float = 0.0, st=None, ex=None,
+                      delay_shift: bool = False) -> np.ndarray:
         """Average of ``g(phi) D(phi)`` over one step for an edge whose angle at the step start is
         ``start`` (array (..., P), rad) of a tooth with static chip ``chip_m`` (m, used only with
         ``surface_tilt``): array (..., P, k_force, 2), N/m^2 (see :meth:`wbar`). ``st``, ``ex``: the
-        engagement, floats or arrays broadcasting with ``start`` (default ``phi_st``, ``phi_ex``)."""
+        engagement, floats or arrays broadcasting with ``start`` (default ``phi_st``, ``phi_ex``).
+        ``delay_shift``: the integrand times the extra delay in steps (:meth:`wbar`)."""
         k, dphi = self.k_force, self.step_rad
         st = self.phi_st if st is None else st
         ex = self.phi_ex if ex is None else ex
         nodes, wts = self._nodes()
         if self.rule == "midpoint":
             phi = start[..., None] + nodes * dphi  # (..., P, q)
-            D = self._directional(phi, chip_m)
+            D = self._directional(phi, chip_m, delay_shift)
             D = D * in_cut(phi, np.asarray(st)[..., None], np.asarray(ex)[..., None])[..., None, None]
             return np.einsum("...qij,q->...ij", D, wts)
         # Gauss: integrate only over the engaged part of the step (smooth integrand there)
@@ -304,7 +325,7 @@ class DirectionalPlan:
             if not sel.any():
                 continue
             phi = lo[sel][:, None] + nodes[None, :] * ln[sel][:, None]  # (n_sel, q)
-            D = self._directional(phi, chip_m)
+            D = self._directional(phi, chip_m, delay_shift)
             acc[sel] += np.einsum("nqij,q->nij", D, wts) * (ln[sel] / dphi)[:, None, None]
         return acc
 

@@ -92,18 +92,21 @@ def entry_shift_impulses(problem: LobeProblem, m: int, slices: int, period_rad: 
 
 def entry_shift_exponent(problem: LobeProblem, method: SemiDiscretization | None = None,
                          with_entry: bool = True, surface_tilt: bool = False,
-                         slice_edge_rad: np.ndarray | None = None) -> FloquetExponent:
+                         slice_edge_rad: np.ndarray | None = None, delay_time: bool = False) -> FloquetExponent:
     """The Floquet exponent of ``problem`` with the entry-shift term (``with_entry=False``: without
     it, the same dense SDM), at ``m`` and ``2 m``, Richardson-extrapolated, 1/s. ``surface_tilt``:
     the dynamic chip along the regenerated surface's normal (:mod:`lobes.chip_direction`).
     ``slice_edge_rad``: the block-edge angle of each axial slice (``method.axial_slices`` of them,
-    :func:`slice_edge_angles`), in the engagement and in the impulses; None: the cut's own."""
+    :func:`slice_edge_angles`), in the engagement and in the impulses; None: the cut's own.
+    ``delay_time``: the delayed displacement at the instant the previous tooth cut the point
+    (:mod:`lobes.chip_direction`, :meth:`SDMEngine.monodromy_dense`); default False."""
     def radius(engine, rpm, depth):
         plan = engine.plan
         imp = (entry_shift_impulses(problem, plan.m, plan.slices, plan.period_rad, plan.slice_edge_rad)
                if with_entry else None)
         return float(np.max(np.abs(np.linalg.eigvals(engine.monodromy_dense(rpm, depth, impulses=imp)))))
-    return two_level_exponent(problem, method, radius, surface_tilt=surface_tilt, slice_edge_rad=slice_edge_rad)
+    return two_level_exponent(problem, method, radius, surface_tilt=surface_tilt, slice_edge_rad=slice_edge_rad,
+                              delay_time=delay_time)
 
 
 def slice_edge_angles(tool: Tool, cut: Cut, slices: int, deflection: Callable[[np.ndarray], np.ndarray],

@@ -53,19 +53,21 @@ def floquet_exponent(problem: LobeProblem, method: SemiDiscretization | None = N
 
 
 def two_level_exponent(problem: LobeProblem, method: SemiDiscretization | None, spectral_radius,
-                       surface_tilt: bool = False, slice_edge_rad: np.ndarray | None = None) -> FloquetExponent:
+                       surface_tilt: bool = False, slice_edge_rad: np.ndarray | None = None,
+                       delay_time: bool = False) -> FloquetExponent:
     """ln|mu| / T at ``m`` and ``2 m`` (``method.m``, default 40), Richardson-extrapolated, 1/s, with
     ``spectral_radius(engine, rpm, depth_m)`` the largest multiplier's modulus of one
     :class:`~robolobes.lobes.sdm.SDMEngine` at the problem's own cut (``surface_tilt``: passed to
     the engine, :mod:`lobes.chip_direction`; ``slice_edge_rad``: the block-edge angle per axial
-    slice, :class:`~robolobes.lobes.directional.DirectionalPlan`)."""
+    slice, :class:`~robolobes.lobes.directional.DirectionalPlan`; ``delay_time``: the delayed instant,
+    :mod:`lobes.chip_direction`, for a ``spectral_radius`` that uses :meth:`SDMEngine.monodromy_dense`)."""
     method = SemiDiscretization(m=40) if method is None else method
     rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
     rates = []
     period = math.nan
     for m in (method.m, 2 * method.m):
         engine = SDMEngine(problem, replace(method, m=m), max(depth, 1e-6), surface_tilt=surface_tilt,
-                           slice_edge_rad=slice_edge_rad)
+                           slice_edge_rad=slice_edge_rad, delay_time=delay_time)
         period = float(engine.period_s(np.array([rpm]))[0])
         rates.append(math.log(spectral_radius(engine, rpm, depth)) / period)
     ext = richardson(rates[0], rates[1])

@@ -186,11 +186,13 @@ class SDMEngine:
     """Monodromy matrices of one problem (all speeds, all depths) for one semi-discretization."""
 
     def __init__(self, problem: LobeProblem, method: SemiDiscretization, depth_max_m: float,
-                 surface_tilt: bool = False, slice_edge_rad: np.ndarray | None = None):
+                 surface_tilt: bool = False, slice_edge_rad: np.ndarray | None = None,
+                 delay_time: bool = False):
         """``surface_tilt``: the dynamic chip along the regenerated surface's normal, not the ray
         (:mod:`lobes.chip_direction`; default False, the linear model of the lobes).
         ``slice_edge_rad``: the block-edge angle per axial slice (:class:`DirectionalPlan`; default
-        None, the uniform engagement)."""
+        None, the uniform engagement). ``delay_time``: the delayed instant of
+        :mod:`lobes.chip_direction` (only :meth:`monodromy_dense` carries it; the fast path refuses it)."""
         self.problem = problem
         self.method = method
         ss = problem.structure.state_space()
@@ -203,7 +205,8 @@ class SDMEngine:
             slices = 1
         self.plan = DirectionalPlan.build(problem.tool, problem.cut, law, m=method.m, quadrature=method.quadrature,
                                       slices=slices, period=method.period, k_force=k, rule=method.rule,
-                                      surface_tilt=surface_tilt, slice_edge_rad=slice_edge_rad)
+                                      surface_tilt=surface_tilt, slice_edge_rad=slice_edge_rad,
+                                      delay_time=delay_time)
         self.k = k
         self.ns = ss.n_states
         self.A = ss.A
@@ -312,6 +315,8 @@ class SDMEngine:
         With ``record=True`` also returns the list of ``X`` (B, ns, N) at every kept mesh node,
         mapping the reduced initial state to the state there.
         """
+        if self.plan.delay_time:
+            raise LobeError("delay_time is carried only by monodromy_dense")
         rpm = np.asarray(rpm, dtype=float).reshape(-1)
         depth = np.asarray(depth_m, dtype=float).reshape(-1)
         Bn = len(rpm)
@@ -506,12 +511,25 @@ class SDMEngine:
 
         ``impulses`` (optional): pairs ``(i, E)``, node ``i`` in ``[0, m)`` and ``E`` (k, 2) in N s/m:
         a non-delayed impulsive force ``-E r(t_i)`` on the tool at node ``i`` (the state jumps by
-        ``-B E S2 y``), applied before step ``i``. :mod:`lobes.entry_shift` builds them."""
+        ``-B E S2 y``), applied before step ``i``. :mod:`lobes.entry_shift` builds them.
+
+        With ``plan.delay_time`` each delayed value is taken ``d(phi)`` steps further back
+        (:meth:`DirectionalPlan.wbar` with ``delay_shift``; ``d`` per quadrature point and axial slice)
+        by linear interpolation in the delay between ``tau_g`` and ``tau_g + dt``:
+        ``r(t - tau_g - d dt) ~ (1 - d) r(t - tau_g) + d r(t - tau_g - dt)``, i.e. the weights
+        ``W - Wd`` on the delay ``tau_g`` and ``Wd`` on ``tau_g + dt``, ``Wd`` the step average of
+        ``g D d``. Exact for a displacement linear in time; error ``O(|d| (1 + |d|) dt^2 r'')`` (an
+        extrapolation for ``d < 0``), the SDM's own order."""
         plan, ns = self.plan, self.ns
         m = plan.m
         dt = float(self.period_s(rpm)) / m
         W = plan.wbar(np.array([depth_m]), np.arange(m))[0]  # (m, G, k, 2)
-        h = int(max(r + (1 if f > 0 else 0) for r, f in zip(plan.group_r, plan.group_f)))
+        groups = [(r, f, W[:, g]) for g, (r, f) in enumerate(zip(plan.group_r, plan.group_f))]
+        if plan.delay_time:
+            Wd = plan.wbar(np.array([depth_m]), np.arange(m), delay_shift=True)[0]
+            groups = [(r, f, Wg - Wd[:, g]) for g, (r, f, Wg) in enumerate(groups)]
+            groups += [(r + 1, f, Wd[:, g]) for g, (r, f) in enumerate(zip(plan.group_r, plan.group_f))]
+        h = int(max(r + (1 if f > 0 else 0) for r, f, _ in groups))
         Ns = ns + 2 * h
         U = np.eye(Ns)
         jumps: dict[int, np.ndarray] = {}
@@ -535,8 +553,8 @@ class SDMEngine:
                     c0 = ns + 2 * (node_off - 1)
                     D[:ns, c0:c0 + 2] += coef
 
-            for g, (r, f) in enumerate(zip(plan.group_r, plan.group_f)):
-                Wg = W[i, g]
+            for r, f, Wr in groups:
+                Wg = Wr[i]
                 add(r, -(G0 @ Wg) * (1 - f) - (G1 @ Wg) * f)
                 add(r - 1, -(G1 @ Wg) * (1 - f))
                 if f > 0:
