@@ -12,10 +12,10 @@ the eroded part) at joint-damping scales around the study's bracket, prints per 
   study's dy, ``docs/study-results.json``): the like-with-like reference (a second method);
 * the slopes d(rate)/d(scale) of both, least squares over the scales;
 * the run's own mean normal deflection and the one when the teeth meet the part
-  (:func:`entry_deflection`), and the SDM with the feed terms at ae minus the latter;
+  (:func:`robolobes.timedomain.forced_orbit.entry_deflection`), and the SDM with the feed terms at ae minus the latter;
 * with ``--slice-edges``: the SDM with the feed terms linearized about the run's forced orbit, each
   axial slice with its own entry angle from the synchronous deflection at the instant that slice
-  meets the part (:func:`sync_deflection`, :func:`lobes.entry_shift.slice_edge_angles`), at the
+  meets the part (:func:`robolobes.timedomain.forced_orbit.sync_deflection`, :func:`lobes.entry_shift.slice_edge_angles`), at the
   nominal ae, and its distance to the rate beyond the criterion;
 * with ``--delay-time``: the SDM with the feed terms and the delayed instant
   (``entry_shift_exponent(..., delay_time=True)``, :mod:`lobes.chip_direction`) at ae - dy and at ae
@@ -46,6 +46,7 @@ import numpy as np
 
 from robolobes.study import compute
 from robolobes.study.linearizations import Linearizations
+from robolobes.timedomain.forced_orbit import entry_deflection, sync_deflection
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "study-results.json"
 SCALES = (11.6, 11.73, 11.84, 11.98, 12.1)
@@ -96,42 +97,6 @@ def run_deflection(r) -> float:
     t0, t1 = r.summary.to_json()["steady_window_s"]
     t = np.asarray(r.t_s)
     return float(np.mean(np.asarray(r.tcp_deviation_m)[(t >= t0) & (t <= t1), 1]))
-
-
-def entry_deflection(r, bins: int = 90) -> float:
-    """Normal deflection when the teeth meet the part, m: the synchronous average (tooth period,
-    ``bins`` phases over the steady window) of the deflection at the phase where the synchronous
-    cutting force rises most (an estimate: the helix spreads the entry over about 11 deg)."""
-    from robolobes.cases.milling import principal_period
-    t0, t1 = r.summary.to_json()["steady_window_s"]
-    case = r.problem.case
-    tp, _ = principal_period(case.tool, case.cut)
-    t = np.asarray(r.t_s)
-    sel = (t >= t0) & (t <= t1)
-    b = np.floor((((t[sel] - t0) / tp) % 1.0) * bins).astype(int)
-    f = np.linalg.norm(np.asarray(r.force_tool_n)[sel, :2], axis=1)
-    y = np.asarray(r.tcp_deviation_m)[sel, 1]
-    fa = np.bincount(b, f, bins) / np.bincount(b, None, bins)
-    ya = np.bincount(b, y, bins) / np.bincount(b, None, bins)
-    return float(ya[(int(np.argmax(np.roll(fa, -1) - fa)) + 1) % bins])
-
-
-def sync_deflection(r, harmonics: int = 20):
-    """The synchronous normal deflection of a run over its steady window as a function of the
-    spindle angle (rad, array in, m out): a least-squares Fourier series in the tooth period
-    (``harmonics`` harmonics of the tooth passing; the non-synchronous motion averages out)."""
-    t0, t1 = r.summary.to_json()["steady_window_s"]
-    t = np.asarray(r.t_s)
-    sel = (t >= t0) & (t <= t1)
-    teeth = r.problem.case.tool.teeth
-    k = np.arange(1, harmonics + 1)
-
-    def basis(a):
-        x = np.multiply.outer(np.asarray(a, dtype=float) * teeth, k)
-        return np.concatenate([np.ones(x.shape[:-1] + (1,)), np.cos(x), np.sin(x)], axis=-1)
-    coef = np.linalg.lstsq(basis(np.asarray(r.spindle_angle_rad)[sel]), np.asarray(r.tcp_deviation_m)[sel, 1],
-                           rcond=None)[0]
-    return lambda a: basis(a) @ coef
 
 
 def sdm_slice_edges(settings, lins, steel, theta, scale: float, r) -> tuple[float, np.ndarray]:

@@ -1,7 +1,8 @@
 """Near the steel damping bracket the eroded part's regenerative mode starts below the verdict's
 2 nm resolution (no kick); kicked, it follows the SDM with the feed terms in slope, with an offset
-that is a known open discrepancy (docs/guide/timedomain-convergence.md, "The steel damping bracket:
-the eroded part's floor"). Study settings: basic model, Tab. 7 start pose, linearized path, 2 deg
+that the SDM linearized about the pass's forced orbit (the delayed instant, and the deflection
+when the teeth meet the part) removes (docs/guide/timedomain-convergence.md, "The steel damping
+bracket: the eroded part's floor"). Study settings: basic model, Tab. 7 start pose, linearized path, 2 deg
 per step, 1 um columns, the tool without runout (the run the study's verdict comes from), the
 verdict's first 2 s of full engagement."""
 
@@ -16,14 +17,17 @@ import numpy as np
 import pytest
 
 from robolobes.cases.milling import principal_period
+from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.lobes.sdm import SemiDiscretization
 from robolobes.study import compute
 from robolobes.study.linearizations import Linearizations
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
+from robolobes.timedomain.forced_orbit import entry_deflection
 from robolobes.timedomain.result import SimulationResult
 from robolobes.timedomain.verdict import GrowthRule, growth_rate
 
 SCALES = (11.73, 11.84)
+ORBIT_SCALE = 11.84  # the study's probe where the eroded part and the SDM's bracket met
 KICK_M = 1e-7  # the speed of a 100 nm oscillation at the flip frequency
 DY_M = 80.47e-6  # the committed quick study's eroded deflection (docs/study-results.json)
 WINDOW_S = 2.0  # the verdict's window of the study's companion run
@@ -53,7 +57,23 @@ def runs():
             _, st = lins.structure(steel, "basic", "start", theta, damping_scale=sc)
             _, info = compute.feed_terms_probe(compute._lobe_problem(st, ae_dy), SemiDiscretization(m=40))
             out[sc] = (g.rate_per_s, g.se_per_s, float(np.exp(g.block_log_amp).min()), info["exponent_per_s"])
+            if sc == ORBIT_SCALE:
+                out["orbit"] = _orbit_reference(r, steel, st)
     return out
+
+
+def _orbit_reference(r, steel, st) -> tuple[float, float, float]:
+    """(entry deflection m, mean deflection m, SDM exponent 1/s with the entry shift, the tilt and the
+    delayed instant at ae minus the entry deflection): the eroded part's linearization about its
+    forced orbit."""
+    dy_in = entry_deflection(r)
+    t0, t1 = r.summary.to_json()["steady_window_s"]
+    t = np.asarray(r.t_s)
+    dy_mean = float(np.mean(np.asarray(r.tcp_deviation_m)[(t >= t0) & (t <= t1), 1]))
+    case = replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_in))
+    e = entry_shift_exponent(compute._lobe_problem(st, case), SemiDiscretization(m=40), surface_tilt=True,
+                             delay_time=True)
+    return dy_in, dy_mean, float(e.value_per_s)
 
 
 def test_kicked_mode_is_above_the_floor_and_follows_the_sdm_slope(runs):
@@ -67,9 +87,15 @@ def test_kicked_mode_is_above_the_floor_and_follows_the_sdm_slope(runs):
     assert abs((r1 - r2) - (e1 - e2)) <= 0.1 * abs(e1 - e2) + 2 * math.hypot(s1, s2)
 
 
-@pytest.mark.xfail(strict=True, reason="open: the kicked eroded rate lies ~0.47 1/s above the SDM with both feed "
-                                       "terms at full feed (a feed effect beyond them; the convergence page)")
-def test_kicked_rate_matches_the_sdm_with_feed_terms(runs):
-    # The project's like-with-like criterion: max(10 % |sigma|, 0.03 1/s) + 2 SE.
-    rate, se, _, e = runs[11.84]
+def test_kicked_rate_matches_the_sdm_linearized_about_the_forced_orbit(runs):
+    # The eroded part's own linearization: the SDM (a second method) with the entry shift, the
+    # tilt and the delayed instant (lobes.entry_shift_exponent(..., delay_time=True)), at ae minus
+    # the deflection when the teeth meet the part (the forced orbit's, timedomain.forced_orbit),
+    # not its mean. The project's like-with-like criterion: max(10 % |sigma|, 0.03 1/s) + 2 SE
+    # (measured +0.297 ± 0.012 against +0.304 1/s at 70.4 um; the SDM at ae minus the mean with the
+    # two feed terms only, -0.174, misses it by 0.47, so the test fails without the orbit and the
+    # delayed instant).
+    rate, se, _, _ = runs[ORBIT_SCALE]
+    dy_in, dy_mean, e = runs["orbit"]
+    assert dy_in < dy_mean - 5e-6  # the teeth meet the part on the low side of the forced orbit
     assert abs(rate - e) <= max(0.1 * abs(e), 0.03) + 2 * se
