@@ -105,8 +105,7 @@ def run_linearized(S: PassSetup, progress) -> Records:
     ``kick_at_s`` is given)."""
     from .fastpath import run_linear_milling  # numba: compiled or loaded on first use
 
-    t_kick = S.steady[0] if S.kick_at_s is None else S.kick_at_s
     run = run_linear_milling(linear_system_data(S), S.milling, h_s=S.h, n_steps=S.n_steps, omega_rad_s=S.omega,
-                             progress=progress, exact_entry_exit=S.exact_entry_exit, kick=(t_kick, S.kick_m_s))
+                             progress=progress, exact_entry_exit=S.exact_entry_exit, kick=(S.kick_time_s, S.kick_m_s))
     return Records(t_s=run.t_s, force_tool_n=run.force_tool_n, center_m=run.center_m,
                    tcp_m=np.full((len(run.t_s), 3), np.nan), stats=run.stats)

@@ -108,9 +108,9 @@ class PassSetup:
         self.milling = MillingForce(tool, case.law, cut, self.workpiece)
         #: whether entries and exits inside a step are integrated exactly (:mod:`timedomain.entry_exit`)
         self.exact_entry_exit = getattr(method, "entry_exit", "exact") == "exact"
-        #: velocity kick of the linearized path, m/s, and its time, s (None: full engagement)
+        #: velocity kick of the linearized path, m/s (0: none); its time, s, is set with the steady window
         self.kick_m_s = float(getattr(method, "kick_m_s", 0.0))
-        self.kick_at_s = getattr(method, "kick_at_s", None)
+        kick_at_s = getattr(method, "kick_at_s", None)
         # motor angles on a fine table (0.2 ms; linear interpolation error ~ dt^2/8 |thetadd| ~ 1e-8 rad)
         n_tab = max(3, int(math.ceil(max(self.t_end, self.h) / 2e-4)) + 1)
         self.t_tab = np.linspace(0.0, max(self.t_end, self.h) + self.h, n_tab)
@@ -122,11 +122,13 @@ class PassSetup:
         pe = self.pas.part_entry_s + tool.diameter_m
         px = self.pas.part_exit_s - tool.diameter_m
         self.steady = (float(self.pas.time_at_s(pe)), float(self.pas.time_at_s(max(pe, px))))
+        #: time of the velocity kick, s (the method's ``kick_at_s``, else the start of full engagement)
+        self.kick_time_s = self.steady[0] if kick_at_s is None else float(kick_at_s)
         self._check_kick()
 
     def _check_kick(self) -> None:
         """Refuse a velocity kick that would fall after the run's end (before any work is done)."""
-        t_kick = self.steady[0] if self.kick_at_s is None else float(self.kick_at_s)
+        t_kick = self.kick_time_s
         if self.kick_m_s != 0.0 and t_kick > self.t_end:
             raise SimulationError(f"the velocity kick at t = {t_kick:.6g} s falls after the run's end "
                                   f"(t_end_s = {self.t_end:.6g} s); valid: kick_at_s <= t_end_s, or a longer run")
