@@ -120,10 +120,7 @@ def sdm_exponent(settings, lins, steel, theta, scale: float, dy_m: float, delay_
     case = replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_m))
     _, st = lins.structure(steel, "basic", "start", theta, damping_scale=scale)
     problem, method = compute._lobe_problem(st, case), SemiDiscretization(m=settings.sdm_m)
-    if delay_time:
-        return float(entry_shift_exponent(problem, method, surface_tilt=True, delay_time=True).value_per_s)
-    _, info = compute.feed_terms_probe(problem, method)
-    return float(info["exponent_per_s"])
+    return float(entry_shift_exponent(problem, method, surface_tilt=True, delay_time=delay_time).value_per_s)
 
 
 def beyond(rate: float, se: float, sigma: float) -> float:

@@ -41,7 +41,7 @@ from .settings import LOBE_RANGES_RPM, MATERIALS, PAPER, POSES, StudySettings
 
 __all__ = ["compute_study", "load_inputs", "study_poses", "compute_modes", "compute_operating_points",
            "compute_diagrams", "compute_absolute_limits", "bracket_search", "damping_by_lobes",
-           "damping_by_time_domain", "damping_by_delay", "feed_terms_probe", "exponent_verdict", "lobes_tool", "eroded_deflection", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
+           "damping_by_time_domain", "damping_by_delay", "orbit_probe", "exponent_verdict", "lobes_tool", "eroded_deflection", "compute_time_domain", "compute_identify_facts", "FRF_FREQ_HZ"]
 
 Progress = Callable[[float], None]
 
@@ -222,19 +222,20 @@ def bracket_search(check: Callable[[float], DampingProbe], scales, tol: float, m
 
 
 def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic", dy_m: float | None = None,
-                     seed: tuple = (), feed_terms: bool = False) -> DampingSearch:
+                     seed: tuple = (), orbit: bool = False) -> DampingSearch:
     """Damping bracket by the lobes: stable when the SDM limit at the cut speed exceeds the cut
     depth beyond its discretization error bound (Tab. 7 pose).
 
     ``dy_m``: the SDM at the radial depth ``ae - dy_m`` instead of the nominal ``ae`` (the eroded
-    part's engagement: its tool cuts deflected by its mean normal deflection ``dy``; method
-    "lobes at ae - dy"). ``feed_terms``: the eroded part's linearization instead, the SDM with the
-    entry shift and the surface tilt (:func:`feed_terms_probe`; method "lobes at ae - dy, feed
-    terms"). ``seed``: scales tried besides ``settings.damping_scales``."""
+    part's engagement: its tool cuts deflected by ``dy``; method "lobes at ae - dy" with its mean
+    normal deflection). ``orbit``: the eroded part's linearization about its forced orbit instead,
+    the SDM with the entry shift, the surface tilt and the delayed instant (:func:`orbit_probe`;
+    method "lobes about the forced orbit", ``dy_m`` then the deflection when the teeth meet the
+    part). ``seed``: scales tried besides ``settings.damping_scales``."""
     from robolobes.lobes.sdm import SemiDiscretization
     method = SemiDiscretization(m=settings.sdm_m)
     case = steel if dy_m is None else replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_m))
-    probe = feed_terms_probe if feed_terms else limit_probe
+    probe = orbit_probe if orbit else limit_probe
 
     def check(scale):
         lin, st = lins.structure(steel, variant, "start", theta_start, damping_scale=scale)
@@ -243,7 +244,7 @@ def damping_by_lobes(settings, lins, steel, theta_start, variant: str = "basic",
                                              "ae_m": case.cut.ae_m})
 
     scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
-    name = "lobes" if dy_m is None else "lobes at ae - dy" + (", feed terms" if feed_terms else "")
+    name = "lobes about the forced orbit" if orbit else "lobes" if dy_m is None else "lobes at ae - dy"
     return bracket_search(check, scales, settings.damping_tol, name, variant)
 
 
@@ -257,13 +258,14 @@ def limit_probe(problem, method) -> tuple:
         "chatter_freq_hz": op.limit_chatter_freq_hz}
 
 
-def feed_terms_probe(problem, method) -> tuple:
-    """The verdict of ``problem`` by the sign of its Floquet exponent with the entry shift and the
-    surface tilt (:func:`~robolobes.lobes.entry_shift.entry_shift_exponent`, Richardson from m and
-    2m): "undetermined" when |exponent| is not above its Richardson error. Info: the exponent and
-    its error, 1/s."""
+def orbit_probe(problem, method) -> tuple:
+    """The verdict of ``problem`` by the sign of its Floquet exponent linearized as the eroded part is,
+    about its forced orbit: the entry shift, the surface tilt and the delayed instant
+    (:func:`~robolobes.lobes.entry_shift.entry_shift_exponent` with ``surface_tilt`` and
+    ``delay_time``, Richardson from m and 2m); "undetermined" when |exponent| is not above its
+    Richardson error. Info: the exponent and its error, 1/s."""
     from robolobes.lobes.entry_shift import entry_shift_exponent
-    e = entry_shift_exponent(problem, method, with_entry=True, surface_tilt=True)
+    e = entry_shift_exponent(problem, method, with_entry=True, surface_tilt=True, delay_time=True)
     return exponent_verdict(e.value_per_s, e.error_per_s), {
         "exponent_per_s": e.value_per_s, "exponent_error_per_s": e.error_per_s}
 
@@ -276,9 +278,11 @@ def exponent_verdict(value_per_s: float, error_per_s: float) -> Verdict:
     return Verdict.from_stable(value_per_s < 0, f"exponent {value_per_s:+.3g} ± {error_per_s:.2g} 1/s")
 
 
-def eroded_deflection(d: DampingSearch) -> float | None:
-    """Mean of the eroded probes' mean normal deflection at the ends of their bracket, m (None if unknown)."""
-    dys = [p.info.get("mean_normal_deflection_m") for p in d.probes if p.scale in d.bracket]
+def eroded_deflection(d: DampingSearch, key: str = "mean_normal_deflection_m") -> float | None:
+    """Mean over the eroded probes at the ends of their bracket of their deflection ``key`` (their
+    mean normal deflection, or ``"entry_normal_deflection_m"``: when the teeth meet the part), m
+    (None if unknown)."""
+    dys = [p.info.get(key) for p in d.probes if p.scale in d.bracket]
     dys = [v for v in dys if v is not None]
     return float(np.mean(dys)) if dys else None
 
@@ -288,28 +292,50 @@ def _slowest_decay(lin) -> float:
     return float(np.min(-np.real(np.asarray(lin.modes().poles))))
 
 
+#: Amplitude of the eroded damping probes' kick, m: a velocity kick of a 100 nm oscillation at half
+#: the tooth passing frequency (the steel flip), at the start of full engagement. Unkicked, the
+#: regenerative mode starts at 1-5 nm, at the verdict's 2 nm resolution, and the verdict near the
+#: bracket reads that floor (docs/guide/timedomain-convergence.md, "The steel damping bracket: the
+#: eroded part's floor").
+ERODED_KICK_M = 1e-7
+
+
+def eroded_kick_m_s(case) -> float:
+    """The eroded probes' velocity kick, m/s: ``ERODED_KICK_M`` times the angular frequency of half
+    the principal (tooth) passing frequency of ``case``."""
+    from robolobes.cases.milling import principal_period
+    tp, _ = principal_period(case.tool, case.cut)
+    return math.pi / tp * ERODED_KICK_M
+
+
 def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Progress = _quiet,
                            cache: dict | None = None, lins: Linearizations | None = None,
                            seed: tuple = ()) -> DampingSearch:
     """Damping bracket by the time-domain verdict of the steel pass (always the linearized fast
-    path: a bisection takes about nine passes).
+    path: a bisection takes about nine passes), each pass kicked at full engagement
+    (:func:`eroded_kick_m_s`).
 
     ``seed``: scales tried besides ``settings.damping_scales`` (the study gives the lobes' bracket,
-    so that the probes land where the two methods are compared). The search assumes one crossing;
-    far above it (x20-x40) the non-synchronous motion is ~1e-6 of the forced motion, where only the
-    verdict's amplitude resolution keeps it monotone."""
+    so that the probes land where the two methods are compared). The search assumes one crossing.
+    Info of each probe: its rate, its mean normal deflection and the deflection when the teeth meet
+    the part (:func:`robolobes.timedomain.forced_orbit.entry_deflection`), m."""
+    from robolobes.timedomain.forced_orbit import entry_deflection
     fast = replace(settings, td_linearized=True)
+    kick = eroded_kick_m_s(steel)
     n = [0]
 
     def check(scale):
-        run = simulate_run(steel, "steel", variant, fast, settings.steel_t_end_s, scale, cache=cache, lins=lins)
+        run = simulate_run(steel, "steel", variant, fast, settings.steel_t_end_s, scale, cache=cache, lins=lins,
+                           kick_m_s=kick)
         n[0] += 1
         progress(min(1.0, n[0] / 9))
         s = run.summary
+        entry = entry_deflection(run.series) if run.series is not None and s.get("steady_window_s") else None
         return DampingProbe(scale, run.verdict, {**{k: s.get(k) for k in
                                                     ("chatter_freq_hz", "growth_rate_per_s", "growth_rate_se_per_s",
                                                      "growth_rate_ci_per_s", "verdict_basis")},
-                                                 "mean_normal_deflection_m": _mean_normal_deflection(run)})
+                                                 "mean_normal_deflection_m": _mean_normal_deflection(run),
+                                                 "entry_normal_deflection_m": entry, "kick_m_s": kick})
 
     scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
     return bracket_search(check, scales, settings.td_damping_tol, "time domain", variant)
@@ -398,29 +424,33 @@ _TD_KEYS = ("stable", "verdict", "verdict_reason", "growth_rate_per_s", "growth_
 
 
 def simulate_run(case, material, variant, settings, t_end, damping_scale=1.0, stats_window=None,
-                 progress=None, cache: dict | None = None, lins: Linearizations | None = None) -> TimeDomainRun:
+                 progress=None, cache: dict | None = None, lins: Linearizations | None = None,
+                 kick_m_s: float = 0.0) -> TimeDomainRun:
     """One pass of ``case`` (``settings.td_linearized``: the linearized fast path). ``cache``: runs
-    already simulated, by (material, variant, damping scale, path, duration, window); a run asked
-    for twice (steel at x1 and at the stabilizing scale, by the damping search and the time-domain
-    section) is simulated once."""
-    key = (material, variant, float(damping_scale), settings.td_linearized, t_end, stats_window)
+    already simulated, by (material, variant, damping scale, path, duration, window, kick); a run
+    asked for twice is simulated once. ``kick_m_s``: the linearized path's velocity kick at full
+    engagement, m/s (``LinearizedNewmark.kick_m_s``; the full model has none: 0 there)."""
+    if kick_m_s != 0.0 and not settings.td_linearized:
+        raise ValueError(f"kick_m_s = {kick_m_s:g}: only the linearized path has a velocity kick; valid: 0 "
+                         f"on the full model")
+    key = (material, variant, float(damping_scale), settings.td_linearized, t_end, stats_window, kick_m_s)
     if cache is not None and key in cache:
         return cache[key]
     run = _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
-                        Linearizations() if lins is None else lins)
+                        Linearizations() if lins is None else lins, kick_m_s)
     if cache is not None:
         cache[key] = run
     return run
 
 
 def _simulate_run(case, material, variant, settings, t_end, damping_scale, stats_window, progress,
-                  lins: Linearizations) -> TimeDomainRun:
+                  lins: Linearizations, kick_m_s: float = 0.0) -> TimeDomainRun:
     from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
     from robolobes.timedomain.result import SimulationResult
     robot = lins.robot(case.robot, variant, damping_scale)
     pb = SimulationProblem(robot, case, t_end_s=t_end, stats_window_s=stats_window)
     # a SimulationProblem with a Newmark method gives a SimulationResult (simulate's return is a union)
-    r = cast(SimulationResult, simulate(pb, LinearizedNewmark() if settings.td_linearized else NonlinearNewmark(),
+    r = cast(SimulationResult, simulate(pb, LinearizedNewmark(kick_m_s=kick_m_s) if settings.td_linearized else NonlinearNewmark(),
                                         progress=progress))
     assert r.summary is not None
     s = r.summary.to_json()
@@ -571,12 +601,12 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
                                   lins=lins, seed=d_lobes.bracket)
     d_delay = damping_by_delay(settings, lins, cs["steel"], poses["start"], seed=d_lobes.bracket,
                                progress=_sub(progress, 0.58, 0.6))
-    dy = eroded_deflection(d_td)
+    dy, dy_entry = eroded_deflection(d_td), eroded_deflection(d_td, "entry_normal_deflection_m")
     d_lobes_dy = (None if dy is None else
                   damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy, seed=d_td.bracket))
-    d_feed = (None if d_lobes_dy is None else  # seeded where the plain SDM at ae - dy crossed: fewer costly probes
-              damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy,
-                               seed=d_td.bracket + d_lobes_dy.bracket, feed_terms=True))
+    d_orbit = (None if dy_entry is None else  # seeded at the eroded part's bracket: fewer costly probes
+               damping_by_lobes(settings, lins, cs["steel"], poses["start"], dy_m=dy_entry, seed=d_td.bracket,
+                                orbit=True))
     runs = compute_time_domain(settings, cs, paper, d_td.smallest_stable, _sub(progress, 0.6, 0.97), runs_cache, lins)
     facts = {mat: material_facts(cs[mat], modes, next(o for o in ops if (o.material, o.variant, o.pose)
                                                       == (mat, "basic", "start")),
@@ -590,7 +620,8 @@ def compute_study(settings: StudySettings, progress: Progress = _quiet,
         cases={k: c.name for k, c in cs.items()}, notes=NOTES, modes=modes, operating_points=ops,
         diagrams=diagrams, absolute_limits=absolute, td_linearized=settings.td_linearized, time_domain=runs,
         damping_lobes=d_lobes, damping_time_domain=d_td, damping_delay=d_delay,
-        damping_lobes_eroded=d_lobes_dy, damping_lobes_feed=d_feed, eroded_deflection_m=dy,
+        damping_lobes_eroded=d_lobes_dy, damping_lobes_orbit=d_orbit, eroded_deflection_m=dy,
+        eroded_entry_deflection_m=dy_entry,
         paper_damping_scale=float(paper["steel"]["stabilizing_damping_scale"]),
         tab10=tab10_rows(paper, runs), roughness=roughness_rows(paper, runs), facts=facts,
         wall_s=time.perf_counter() - t0, generated=time.strftime("%Y-%m-%d %H:%M"),

@@ -126,10 +126,10 @@ def _damping(data: dict) -> str:
     label = "the eroded-part time domain" if sd.get("delay_based") else "the time domain"
     out = "**Damping.** " + prose.damping_comparison(_bracket(dl), _bracket(dt), sd["paper_scale"], label)
     if sd.get("delay_based"):
-        at_dy, feed = sd.get("lobes_at_ae_minus_dy"), sd.get("lobes_at_ae_minus_dy_feed_terms")
+        at_dy, orbit = sd.get("lobes_at_ae_minus_dy"), sd.get("lobes_about_forced_orbit")
         out += " " + prose.damping_cross_check(_bracket(dl), _bracket(sd["delay_based"]), _bracket(dt),
                                                sd.get("eroded_deflection_m"), _bracket(at_dy) if at_dy else None,
-                                               _bracket(feed) if feed else None)
+                                               _bracket(orbit) if orbit else None, sd.get("eroded_entry_deflection_m"))
     return out
 
 

@@ -105,13 +105,16 @@ def _width_text(br: tuple) -> str:
 
 
 def damping_cross_check(lobes: tuple, delay: tuple, eroded: tuple, dy_m: float | None = None,
-                        lobes_at_dy: tuple | None = None, feed_terms: tuple | None = None) -> str:
+                        lobes_at_dy: tuple | None = None, orbit: tuple | None = None,
+                        dy_entry_m: float | None = None) -> str:
     """Like with like. The delay-based bracket (the lobes' linear problem, fixed engagement at the
     nominal radial depth) against the lobes' ("overlap" / "are disjoint" by
     :func:`brackets_relation`), with each bracket's width; then the eroded part's bracket, whose
     engagement moves with the tool's mean normal deflection ``dy_m`` (m), against the lobes' at the
-    nominal ae, given ``lobes_at_dy``, against the SDM's at ``ae - dy`` and, given ``feed_terms``,
-    against the SDM's at ``ae - dy`` with the entry shift and the surface tilt."""
+    nominal ae, given ``lobes_at_dy``, against the SDM's at ``ae - dy`` and, given ``orbit``,
+    against the SDM's linearized about the eroded part's forced orbit (at ae minus ``dy_entry_m``,
+    the deflection when the teeth meet the part, m; with the entry shift, the surface tilt and the
+    delayed instant)."""
     out = (f"Like with like, the delay-based time domain (the lobes' linear problem: the same linearized "
            f"structure and cut, the engagement fixed at the nominal radial depth) brackets it in "
            f"{bracket_text(*delay)} ({_width_text(delay)}; the lobes' is {_width_text(lobes)}): the two "
@@ -126,11 +129,13 @@ def damping_cross_check(lobes: tuple, delay: tuple, eroded: tuple, dy_m: float |
         return out + "."
     out += (f". The SDM at ae - dy brackets it in {bracket_text(*lobes_at_dy)} ({_width_text(lobes_at_dy)}); "
             f"this bracket and the eroded part's {brackets_relation(lobes_at_dy, eroded)}.")
-    if feed_terms is None:
+    if orbit is None:
         return out
-    return (out + f" With the feed terms of the eroded part's linearization (the entry shift and the tilt of "
-            f"the regenerated surface), the SDM at ae - dy brackets it in {bracket_text(*feed_terms)} "
-            f"({_width_text(feed_terms)}); this bracket and the eroded part's {brackets_relation(feed_terms, eroded)}.")
+    at = "" if dy_entry_m is None else f" = {dy_entry_m * 1e6:+.2f} um"
+    return (out + f" Linearized as the eroded part is, about its forced orbit (the radial depth ae minus the "
+            f"deflection when the teeth meet the part{at}; the entry shift, the tilt of the regenerated surface "
+            f"and the delayed instant), the SDM brackets it in {bracket_text(*orbit)} ({_width_text(orbit)}); "
+            f"this bracket and the eroded part's {brackets_relation(orbit, eroded)}.")
 
 
 def damping_comparison(lobes: tuple, time_domain: tuple, paper_scale: float, td_label: str = "the time domain") -> str:

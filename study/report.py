@@ -108,11 +108,12 @@ def _exponent(info: dict) -> str:
 
 def _damping_section(res: StudyResult) -> list[str]:
     dl, dt, dd, dle = res.damping_lobes, res.damping_time_domain, res.damping_delay, res.damping_lobes_eroded
-    dlf = res.damping_lobes_feed
+    dlf = res.damping_lobes_orbit
     cross = ""
     if dd is not None:
         cross = (" " + prose.damping_cross_check(dl.bracket, dd.bracket, dt.bracket, res.eroded_deflection_m,
-                                                 dle.bracket if dle else None, dlf.bracket if dlf else None)
+                                                 dle.bracket if dle else None, dlf.bracket if dlf else None,
+                                                 res.eroded_entry_deflection_m)
                  + f" Resolution of the delay-based search: {dd.resolution:g}.")
     out = ["## Steel: how much joint damping stabilizes it\n",
            prose.damping_comparison(dl.bracket, dt.bracket, res.paper_damping_scale,
@@ -121,9 +122,9 @@ def _damping_section(res: StudyResult) -> list[str]:
            f"with the {dl.variant} model: the time domain runs the linearized path, frozen at that pose."
            + cross + "\n",
            "| scale | lobes verdict | limit (mm) | eroded-part verdict | growth rate ± 2 SE (1/s) | chatter (Hz) "
-           "| dy (um) | delay-based verdict | delay-based rate ± 2 SE (1/s) | lobes at ae - dy | limit at ae - dy (mm) "
-           "| ae - dy, feed terms | exponent ± error (1/s) |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "| dy (um) | dy at entry (um) | delay-based verdict | delay-based rate ± 2 SE (1/s) | lobes at ae - dy "
+           "| limit at ae - dy (mm) | lobes about the forced orbit | exponent ± error (1/s) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     lp = {p.scale: p for p in dl.probes}
     tp = {p.scale: p for p in dt.probes}
     dp = {p.scale: p for p in dd.probes} if dd is not None else {}
@@ -132,10 +133,11 @@ def _damping_section(res: StudyResult) -> list[str]:
     for sc in sorted(set(lp) | set(tp) | set(dp) | set(ep) | set(fp)):
         a, b, c, e, f = lp.get(sc), tp.get(sc), dp.get(sc), ep.get(sc), fp.get(sc)
         dy = b.info.get("mean_normal_deflection_m") if b else None
+        dy_in = b.info.get("entry_normal_deflection_m") if b else None
         out.append(f"| {sc:g} | {a.verdict.status if a else ''} | {_mm(a.info['depth_limit_m']) if a else ''} | "
                    f"{b.verdict.status if b else ''} | {_rate(b.info) if b else ''} | "
                    f"{_fmt(b.info.get('chatter_freq_hz'), 1) if b else ''} | "
-                   f"{_fmt(dy * 1e6) if dy is not None else ''} | "
+                   f"{_fmt(dy * 1e6) if dy is not None else ''} | {_fmt(dy_in * 1e6) if dy_in is not None else ''} | "
                    f"{c.verdict.status if c else ''} | {_rate(c.info) if c else ''} | "
                    f"{e.verdict.status if e else ''} | {_mm(e.info['depth_limit_m']) if e else ''} | "
                    f"{f.verdict.status if f else ''} | {_exponent(f.info) if f else ''} |")

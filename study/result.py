@@ -154,7 +154,7 @@ class DampingSearch:
     as not stable (it would move the bracket up, never down). None: no such probe.
     """
 
-    method: str                  # "lobes", "time domain", "delay-based time domain", "lobes at ae - dy[, feed terms]"
+    method: str                  # "lobes", "time domain", "delay-based time domain", "lobes at ae - dy", "lobes about the forced orbit"
     variant: str
     probes: tuple                # DampingProbe, by increasing scale
     largest_unstable: float | None
@@ -246,8 +246,9 @@ class StudyResult:
     identify_facts: dict | None = None
     damping_delay: DampingSearch | None = None  # the delay-based time domain's (None: not computed)
     damping_lobes_eroded: DampingSearch | None = None  # the lobes' at ae - dy, the eroded part's engagement
-    damping_lobes_feed: DampingSearch | None = None  # the SDM at ae - dy with the entry shift and surface tilt
-    eroded_deflection_m: float | None = None    # that dy: the eroded runs' mean normal deflection, m   # {"tab10": ..., "steel": ...} (study.force_facts); None: not computed
+    damping_lobes_orbit: DampingSearch | None = None  # the SDM about the eroded part's forced orbit
+    eroded_deflection_m: float | None = None    # that dy: the eroded runs' mean normal deflection, m
+    eroded_entry_deflection_m: float | None = None  # their deflection when the teeth meet the part, m
 
     # ---- look-ups -------------------------------------------------------------------------------
     def mode_set(self, variant: str, pose: str) -> ModeSet:

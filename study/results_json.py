@@ -83,8 +83,9 @@ def to_json(res: StudyResult) -> dict:
                           **({"delay_based": damping_json(res.damping_delay)} if res.damping_delay else {}),
                           **({"lobes_at_ae_minus_dy": damping_json(res.damping_lobes_eroded),
                               "eroded_deflection_m": res.eroded_deflection_m} if res.damping_lobes_eroded else {}),
-                          **({"lobes_at_ae_minus_dy_feed_terms": damping_json(res.damping_lobes_feed)}
-                             if res.damping_lobes_feed else {}),
+                          **({"lobes_about_forced_orbit": damping_json(res.damping_lobes_orbit),
+                              "eroded_entry_deflection_m": res.eroded_entry_deflection_m}
+                             if res.damping_lobes_orbit else {}),
                           "paper_scale": res.paper_damping_scale},
         "tab10": {r.name: r.values for r in res.tab10},
         "roughness": {r.name: {"Ra": r.Ra, "Rq": r.Rq, "Rt": r.Rt} for r in res.roughness},

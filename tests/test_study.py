@@ -84,12 +84,12 @@ def test_damping_cross_check_wording_follows_the_brackets():
     s = prose.damping_cross_check((12.19, 12.34), (12.5, None), (None, 12.0), 1e-6, (11.9, 12.1))
     assert "open" in s and "this bracket and the eroded part's overlap" in s
     s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
-                                  (11.78, 11.9))
-    assert "With the feed terms" in s and "entry shift" in s
+                                  (11.78, 11.9), 70.53e-6)
+    assert "about its forced orbit" in s and "entry shift" in s and "delayed instant" in s and "= +70.53 um" in s
     assert "brackets it in [x11.78, x11.9] (0.12 wide); this bracket and the eroded part's overlap" in s
     s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
                                   (11.7, 11.8))
-    assert "[x11.7, x11.8] (0.1 wide); this bracket and the eroded part's are disjoint" in s
+    assert "[x11.7, x11.8] (0.1 wide); this bracket and the eroded part's are disjoint" in s and "um;" not in s
     s = prose.damping_cross_check((12.27, 12.34), (12.27, 12.34), (11.84, 11.98), 80.47e-6, (11.6, 11.72),
                                   (11.72, 11.84))
     assert "this bracket and the eroded part's are disjoint, adjacent at x11.84 (stable by one method" in s
@@ -245,6 +245,7 @@ def test_delay_based_bracket_overlaps_the_lobes_and_every_bracket_is_narrow(quic
     _, res = quick
     sd = res["steel_damping"]
     assert {"lobes", "time_domain", "delay_based"} <= set(sd)
+    ae = compute.load_inputs()[0]["steel"].cut.ae_m
     for k in ("lobes", "time_domain", "delay_based"):
         lo, hi = sd[k]["largest_unstable_scale"], sd[k]["smallest_stable_scale"]
         assert lo is not None and hi is not None and 0 < hi - lo <= 0.15, (k, lo, hi)
@@ -255,22 +256,33 @@ def test_delay_based_bracket_overlaps_the_lobes_and_every_bracket_is_narrow(quic
         assert p["growth_rate_per_s"] is not None
         if p["verdict"] != "undetermined":
             assert (p["growth_rate_per_s"] < 0) == (p["verdict"] == "stable"), (sc, p)
-    # the eroded probes at the bracket's ends carry their mean normal deflection; the SDM at ae - dy
-    # used their mean, and its probes ran at that radial depth
-    dys = [sd["time_domain"]["probes"][f"{sc:g}"]["mean_normal_deflection_m"] for sc in br["time_domain"]]
-    assert_allclose(sd["eroded_deflection_m"], np.mean(dys), rtol=1e-12)
-    ae = compute.load_inputs()[0]["steel"].cut.ae_m
-    for p in sd["lobes_at_ae_minus_dy"]["probes"].values():
-        assert_allclose(p["ae_m"], ae - sd["eroded_deflection_m"], rtol=1e-12)
-    for k in ("lobes_at_ae_minus_dy", "lobes_at_ae_minus_dy_feed_terms"):
-        lo, hi = br[k]
-        assert lo is not None and hi is not None and 0 < hi - lo <= 0.15, (k, lo, hi)
-    # the SDM at ae - dy with the feed terms: at the same radial depth, each probe decided by the sign
-    # of its exponent beyond its Richardson error
-    for sc, p in sd["lobes_at_ae_minus_dy_feed_terms"]["probes"].items():
-        assert_allclose(p["ae_m"], ae - sd["eroded_deflection_m"], rtol=1e-12)
+    # the eroded probes at the bracket's ends carry their mean normal deflection and the deflection
+    # when the teeth meet the part; the SDM at ae - dy used the mean of the first, the SDM about the
+    # forced orbit the mean of the second, and their probes ran at those radial depths
+    ends = br["time_domain"]
+    for key, dy_key, search in (("mean_normal_deflection_m", "eroded_deflection_m", "lobes_at_ae_minus_dy"),
+                                ("entry_normal_deflection_m", "eroded_entry_deflection_m", "lobes_about_forced_orbit")):
+        dys = [sd["time_domain"]["probes"][f"{sc:g}"][key] for sc in ends]
+        assert_allclose(sd[dy_key], np.mean(dys), rtol=1e-12)
+        for p in sd[search]["probes"].values():
+            assert_allclose(p["ae_m"], ae - sd[dy_key], rtol=1e-12)
+        lo, hi = br[search]
+        assert lo is not None and hi is not None and 0 < hi - lo <= 0.15, (search, lo, hi)
+    # the teeth meet the part on the low side of the forced orbit (70.5 against 80.5 um)
+    assert sd["eroded_entry_deflection_m"] < sd["eroded_deflection_m"] - 5e-6
+    # like with like: the eroded part's bracket overlaps the SDM's about its forced orbit
+    assert prose.brackets_relation(br["lobes_about_forced_orbit"], br["time_domain"]) == "overlap", br
+    # each probe about the orbit is decided by the sign of its exponent beyond its Richardson error
+    for sc, p in sd["lobes_about_forced_orbit"]["probes"].items():
         e, err = p["exponent_per_s"], p["exponent_error_per_s"]
         assert p["verdict"] == ("undetermined" if abs(e) <= err else "stable" if e < 0 else "unstable"), (sc, p)
+    # the eroded probes were kicked, so their verdicts near the bracket are fitted decays, not the 2 nm
+    # floor: the bracket's ends carry rates of the sign of their verdict, beyond 2 SE
+    for sc in ends:
+        p = sd["time_domain"]["probes"][f"{sc:g}"]
+        assert p["kick_m_s"] > 0
+        assert abs(p["growth_rate_per_s"]) > 2 * p["growth_rate_se_per_s"], (sc, p)
+        assert (p["growth_rate_per_s"] < 0) == (p["verdict"] == "stable"), (sc, p)
 
 
 def test_quick_report_states_the_cross_check(quick):
@@ -327,7 +339,8 @@ def test_one_linearization_per_variant_damping_and_pose(quick):
     # scale they tried besides x1
     _, res = quick
     sd = res["steel_damping"]
-    n_scales = len({s for k in ("lobes", "lobes_at_ae_minus_dy", "delay_based") for s in sd[k]["probes"]
+    n_scales = len({s for k in ("lobes", "lobes_at_ae_minus_dy", "delay_based", "lobes_about_forced_orbit")
+                    for s in sd[k]["probes"]
                     if float(s) != 1.0})
     assert res["linearize_calls"] == 12 + n_scales
 

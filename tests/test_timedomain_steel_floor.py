@@ -8,9 +8,11 @@ verdict's first 2 s of full engagement."""
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from dataclasses import replace
+from pathlib import Path
 from typing import cast
 
 import numpy as np
@@ -29,7 +31,8 @@ from robolobes.timedomain.verdict import GrowthRule, growth_rate
 SCALES = (11.73, 11.84)
 ORBIT_SCALE = 11.84  # the study's probe where the eroded part and the SDM's bracket met
 KICK_M = 1e-7  # the speed of a 100 nm oscillation at the flip frequency
-DY_M = 80.47e-6  # the committed quick study's eroded deflection (docs/study-results.json)
+DY_M = json.loads((Path(__file__).resolve().parents[1] / "docs" / "study-results.json").read_text())[
+    "steel_damping"]["eroded_deflection_m"]  # the committed quick study's mean eroded deflection (80.48 um)
 WINDOW_S = 2.0  # the verdict's window of the study's companion run
 
 
@@ -55,8 +58,8 @@ def runs():
             g = growth_rate(r.t_s, np.asarray(r.tcp_deviation_m)[:, :2], tp, t_start_s=t0, t_end_s=t0 + WINDOW_S,
                             rule=GrowthRule(resolution_m=1e-15))
             _, st = lins.structure(steel, "basic", "start", theta, damping_scale=sc)
-            _, info = compute.feed_terms_probe(compute._lobe_problem(st, ae_dy), SemiDiscretization(m=40))
-            out[sc] = (g.rate_per_s, g.se_per_s, float(np.exp(g.block_log_amp).min()), info["exponent_per_s"])
+            e = entry_shift_exponent(compute._lobe_problem(st, ae_dy), SemiDiscretization(m=40), surface_tilt=True)
+            out[sc] = (g.rate_per_s, g.se_per_s, float(np.exp(g.block_log_amp).min()), e.value_per_s)
             if sc == ORBIT_SCALE:
                 out["orbit"] = _orbit_reference(r, steel, st)
     return out

@@ -1,7 +1,8 @@
-"""The study's like-with-like lobes bracket of the eroded part: the SDM at ae - dy with the entry shift
-and the surface tilt (``damping_by_lobes(..., feed_terms=True)``), each probe decided by the sign of
-its Floquet exponent. References: the plain SDM's multipliers (``floquet_exponent``, a second
-implementation) where the feed terms vanish, and the eroded-part time domain's fitted growth rate
+"""The study's like-with-like lobes bracket of the eroded part: the SDM linearized about its forced
+orbit, at ae minus the deflection when the teeth meet the part, with the entry shift, the surface
+tilt and the delayed instant (``damping_by_lobes(..., orbit=True)``), each probe decided by the sign
+of its Floquet exponent. References: the plain SDM's multipliers (``floquet_exponent``, a second
+implementation) where the feed terms vanish, and the eroded-part time domain's fitted growth rates
 (``docs/study-results.json``, computed by robolobes' eroded-part simulator, not by the SDM)."""
 
 from __future__ import annotations
@@ -70,14 +71,14 @@ def test_exponent_verdict_by_sign_and_richardson_error():
         assert compute.exponent_verdict(v, 0.1).status == "undetermined"
 
 
-def test_feed_terms_probe_without_feed_is_the_plain_sdm():
-    # the entry shift and the tilt are proportional to the feed per tooth: at 1 nm they move the
+def test_orbit_probe_without_feed_is_the_plain_sdm():
+    # the entry shift, the tilt and the delayed instant are proportional to the feed per tooth: at 1 nm they move the
     # exponent by ~3e-5 1/s (0.8 1/s at 30 um, below), so the probe must give the exponent of the
     # plain SDM's multipliers (floquet_exponent, a second implementation: multipliers rather than the
     # dense monodromy). Tolerance 1e-3 1/s: that residual term and the two implementations' rounding.
     for scale in (1.5, 1.6):
         p = LobeProblem(_structure(scale), *(lambda c: (c.tool, c.cut, c.law))(_case(1e-9)))
-        verdict, info = compute.feed_terms_probe(p, METHOD)
+        verdict, info = compute.orbit_probe(p, METHOD)
         ref = floquet_exponent(p, METHOD)
         assert abs(info["exponent_per_s"] - ref.value_per_s) < 1e-3, (scale, info, ref)
         assert verdict.status == ("unstable" if scale == 1.5 else "stable")
@@ -88,17 +89,17 @@ def test_feed_terms_shift_doubles_with_the_feed():
     # the second-order share (ratio 2.005 measured here, 1.84 on the steel study at x11.67); bounds [1.8, 2.2]
     def exponent(fz):
         c = _case(fz)
-        return compute.feed_terms_probe(LobeProblem(_structure(1.55), c.tool, c.cut, c.law), METHOD)[1]["exponent_per_s"]
+        return compute.orbit_probe(LobeProblem(_structure(1.55), c.tool, c.cut, c.law), METHOD)[1]["exponent_per_s"]
     e0, e1, e2 = exponent(1e-9), exponent(3e-5), exponent(6e-5)
     assert abs(e1 - e0) > 0.3  # the terms are there (0.8 1/s): the ratio below is not noise
     assert 1.8 <= (e2 - e0) / (e1 - e0) <= 2.2, (e0, e1, e2)
 
 
-def test_damping_by_lobes_with_feed_terms_at_zero_feed_gives_the_plain_verdicts():
+def test_damping_by_lobes_about_the_orbit_at_zero_feed_gives_the_plain_verdicts():
     settings = replace(StudySettings(), damping_scales=(1.0, 2.0), damping_tol=0.1, sdm_m=20)
     plain = compute.damping_by_lobes(settings, _Lins(), _case(1e-9), None, dy_m=0.0)
-    feed = compute.damping_by_lobes(settings, _Lins(), _case(1e-9), None, dy_m=0.0, feed_terms=True)
-    assert feed.method == "lobes at ae - dy, feed terms" and plain.method == "lobes at ae - dy"
+    feed = compute.damping_by_lobes(settings, _Lins(), _case(1e-9), None, dy_m=0.0, orbit=True)
+    assert feed.method == "lobes about the forced orbit" and plain.method == "lobes at ae - dy"
     assert feed.bracket == plain.bracket
     lo, hi = plain.bracket
     assert lo is not None and hi is not None and 1.5 <= lo < hi <= 1.6, plain.bracket  # the limits above
@@ -108,31 +109,34 @@ def test_damping_by_lobes_with_feed_terms_at_zero_feed_gives_the_plain_verdicts(
 
 
 @pytest.fixture(scope="module")
-def steel_at_dy():
-    """The committed quick study's eroded-part probes and dy, and the steel SDM problem at ae - dy."""
+def steel_probes():
+    """The committed quick study's damping results, and the steel SDM problem at a scale and ae - dy."""
     from robolobes.study.linearizations import Linearizations
     sd = json.loads((ROOT / "docs" / "study-results.json").read_text())["steel_damping"]
     cs, pas, _ = compute.load_inputs()
     theta = compute.study_poses(pas)["start"]
     steel, lins = cs["steel"], Linearizations()
-    case = replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - sd["eroded_deflection_m"]))
 
-    def problem(scale):
+    def problem(scale, dy_m):
         _, st = lins.structure(steel, "basic", "start", theta, damping_scale=scale)
-        return compute._lobe_problem(st, case)
+        return compute._lobe_problem(st, replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_m)))
     return sd, problem
 
 
-def test_feed_terms_move_the_steel_exponent_towards_the_eroded_rate(steel_at_dy):
-    # the eroded part's growth rate at its bracket's unstable end (fitted by its simulator, the
-    # reference) against the SDM at ae - dy: the entry shift and the tilt (steel tool: 30 deg helix,
-    # 6.9 um runout) must bring the exponent closer to that rate than the plain SDM is; ~7 s
-    sd, problem = steel_at_dy
-    lo = sd["time_domain"]["largest_unstable_scale"]
-    rate = sd["time_domain"]["probes"][f"{lo:g}"]["growth_rate_per_s"]
-    p = problem(lo)
+def test_orbit_exponent_meets_the_eroded_rates_at_the_bracket_ends(steel_probes):
+    # the eroded part's kicked growth rates at both ends of its bracket (fitted by its simulator, the
+    # reference) against the SDM linearized about its forced orbit (steel tool: 30 deg helix, 6.9 um
+    # runout), by the project's like-with-like criterion |rate - sigma| <= max(10 % |sigma|,
+    # 0.03 1/s) + 2 SE (measured 0.003 and 0.017 1/s apart); the plain SDM at ae minus the mean
+    # deflection misses both (by 0.90 and 0.89 1/s: the criterion can fail); ~1 s
+    sd, problem = steel_probes
+    td = sd["time_domain"]
     method = SemiDiscretization(m=40)
-    plain = floquet_exponent(p, method).value_per_s
-    _, info = compute.feed_terms_probe(p, method)
-    assert info["exponent_per_s"] > plain + 0.3  # the terms destabilize steel (+0.43 1/s measured)
-    assert abs(info["exponent_per_s"] - rate) < abs(plain - rate), (plain, info, rate)
+    for sc in (td["largest_unstable_scale"], td["smallest_stable_scale"]):
+        p = td["probes"][f"{sc:g}"]
+        rate, se = p["growth_rate_per_s"], p["growth_rate_se_per_s"]
+        _, info = compute.orbit_probe(problem(sc, sd["eroded_entry_deflection_m"]), method)
+        e = info["exponent_per_s"]
+        assert abs(rate - e) <= max(0.1 * abs(e), 0.03) + 2 * se, (sc, rate, se, e)
+        plain = floquet_exponent(problem(sc, sd["eroded_deflection_m"]), method).value_per_s
+        assert abs(rate - plain) > max(0.1 * abs(plain), 0.03) + 2 * se, (sc, rate, plain)
