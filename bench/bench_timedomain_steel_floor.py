@@ -46,7 +46,7 @@ import numpy as np
 
 from robolobes.study import compute
 from robolobes.study.linearizations import Linearizations
-from robolobes.timedomain.forced_orbit import entry_deflection, sync_deflection
+from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection, sync_deflection
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "study-results.json"
 SCALES = (11.6, 11.73, 11.84, 11.98, 12.1)
@@ -90,13 +90,6 @@ def floor_numbers(r, window_s: float) -> dict:
     return {"rate": g.rate_per_s, "se": g.se_per_s, "window": (t0, t1), "raw_rate": raw.rate_per_s,
             "raw_se": raw.se_per_s, "amp_nm": amp_nm, "n_below": int(np.sum(amp_nm <= 2.0)),
             "loss": s.get("chip_loss_fraction")}
-
-
-def run_deflection(r) -> float:
-    """Mean normal deflection of a run over its steady window, m."""
-    t0, t1 = r.summary.to_json()["steady_window_s"]
-    t = np.asarray(r.t_s)
-    return float(np.mean(np.asarray(r.tcp_deviation_m)[(t >= t0) & (t <= t1), 1]))
 
 
 def sdm_slice_edges(settings, lins, steel, theta, scale: float, r) -> tuple[float, np.ndarray]:
@@ -185,11 +178,11 @@ def main() -> None:
         t = time.process_time()
         r = eroded_run(lins, steel, sc, a.dx, a.t_end, a.kick_nm * 1e-9, a.kick_at, a.deg)
         cpu = time.process_time() - t
-        dy_sc = dy if a.feed_factor == 1.0 else run_deflection(r)
+        dy_sc = dy if a.feed_factor == 1.0 else mean_deflection(r)
         e = float("nan") if a.no_sdm else sdm_exponent(settings, lins, steel, theta, sc, dy_sc)
         dy_in = entry_deflection(r)
         e_in = float("nan") if a.no_sdm else sdm_exponent(settings, lins, steel, theta, sc, dy_in)
-        print(f"       dy {run_deflection(r) * 1e6:.2f} um (mean of this run), {dy_in * 1e6:.2f} um at the "
+        print(f"       dy {mean_deflection(r) * 1e6:.2f} um (mean of this run), {dy_in * 1e6:.2f} um at the "
               f"entry: SDM-feed at ae - that {e_in:+.3f} 1/s")
         sdms.append(e)
         if a.delay_time:

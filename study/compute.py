@@ -319,7 +319,7 @@ def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Pr
     so that the probes land where the two methods are compared). The search assumes one crossing.
     Info of each probe: its rate, its mean normal deflection and the deflection when the teeth meet
     the part (:func:`robolobes.timedomain.forced_orbit.entry_deflection`), m."""
-    from robolobes.timedomain.forced_orbit import entry_deflection
+    from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
     fast = replace(settings, td_linearized=True)
     kick = eroded_kick_m_s(steel)
     n = [0]
@@ -330,12 +330,13 @@ def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Pr
         n[0] += 1
         progress(min(1.0, n[0] / 9))
         s = run.summary
-        entry = entry_deflection(run.series) if run.series is not None and s.get("steady_window_s") else None
+        orbit = run.series is not None and s.get("steady_window_s") is not None
         return DampingProbe(scale, run.verdict, {**{k: s.get(k) for k in
                                                     ("chatter_freq_hz", "growth_rate_per_s", "growth_rate_se_per_s",
                                                      "growth_rate_ci_per_s", "verdict_basis")},
-                                                 "mean_normal_deflection_m": _mean_normal_deflection(run),
-                                                 "entry_normal_deflection_m": entry, "kick_m_s": kick})
+                                                 "mean_normal_deflection_m": mean_deflection(run.series) if orbit else None,
+                                                 "entry_normal_deflection_m": entry_deflection(run.series) if orbit else None,
+                                                 "kick_m_s": kick})
 
     scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
     return bracket_search(check, scales, settings.td_damping_tol, "time domain", variant)
@@ -402,18 +403,6 @@ def damping_by_delay(settings, lins: Linearizations, steel, theta_start, variant
         d = bracket_search(once, scales, settings.td_damping_tol, "delay-based time domain", variant)
     return DampingSearch(d.method, d.variant, tuple(memo[k] for k in sorted(memo)), d.largest_unstable,
                          d.smallest_stable, d.resolution)
-
-
-def _mean_normal_deflection(run: TimeDomainRun) -> float | None:
-    """The eroded run's mean normal deflection ``dy`` over its steady window, m (> 0: away from the
-    material's side the cut frame's y points to; its engagement is ``ae - dy``), None without a series."""
-    r = run.series
-    if r is None or getattr(r, "steady_window_s", None) is None:
-        return None
-    t0, t1 = r.steady_window_s
-    t = np.asarray(r.t_s)
-    sel = (t >= t0) & (t <= t1)
-    return float(np.mean(np.asarray(r.tcp_deviation_m)[sel, 1])) if sel.any() else None
 
 
 # ------------------------------------------------------------------------------------------ time domain

@@ -24,7 +24,7 @@ from robolobes.lobes.sdm import SemiDiscretization
 from robolobes.study import compute
 from robolobes.study.linearizations import Linearizations
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
-from robolobes.timedomain.forced_orbit import entry_deflection
+from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
 from robolobes.timedomain.result import SimulationResult
 from robolobes.timedomain.verdict import GrowthRule, growth_rate
 
@@ -69,10 +69,7 @@ def _orbit_reference(r, steel, st) -> tuple[float, float, float]:
     """(entry deflection m, mean deflection m, SDM exponent 1/s with the entry shift, the tilt and the
     delayed instant at ae minus the entry deflection): the eroded part's linearization about its
     forced orbit."""
-    dy_in = entry_deflection(r)
-    t0, t1 = r.summary.to_json()["steady_window_s"]
-    t = np.asarray(r.t_s)
-    dy_mean = float(np.mean(np.asarray(r.tcp_deviation_m)[(t >= t0) & (t <= t1), 1]))
+    dy_in, dy_mean = entry_deflection(r), mean_deflection(r)
     case = replace(steel, cut=replace(steel.cut, ae_m=steel.cut.ae_m - dy_in))
     e = entry_shift_exponent(compute._lobe_problem(st, case), SemiDiscretization(m=40), surface_tilt=True,
                              delay_time=True)

@@ -4,8 +4,8 @@ deflection over the steady window, and the deflection when the teeth meet the pa
 The eroded part is linearized about this orbit, not about the mean deflection: a tooth's
 engagement starts where its edge meets the block face, at the tool's deflection of that instant
 (docs/guide/timedomain-convergence.md, "The steel damping bracket: the eroded part's floor").
-Both functions take a :class:`~robolobes.timedomain.result.SimulationResult` with a summary
-(its ``steady_window_s``), its cut-frame deviation ``tcp_deviation_m`` (n_t, 3), m, the force on
+The functions take a :class:`~robolobes.timedomain.result.SimulationResult`: its
+``steady_window_s`` (full engagement), its cut-frame deviation ``tcp_deviation_m`` (n_t, 3), m, the force on
 the tool ``force_tool_n`` (n_t, 3), N, and the spindle angle ``spindle_angle_rad`` (n_t,), rad.
 """
 
@@ -17,14 +17,20 @@ import numpy as np
 
 from robolobes.cases.milling import principal_period
 
-__all__ = ["entry_deflection", "sync_deflection"]
+__all__ = ["entry_deflection", "mean_deflection", "sync_deflection"]
 
 
 def _steady(r) -> np.ndarray:
     """Boolean mask (n_t,) of the run's steady window (full engagement)."""
-    t0, t1 = r.summary.to_json()["steady_window_s"]
+    t0, t1 = r.steady_window_s
     t = np.asarray(r.t_s)
     return (t >= t0) & (t <= t1)
+
+
+def mean_deflection(r) -> float:
+    """Mean normal deflection over the steady window, m (> 0: away from the material's side the cut
+    frame's y points to; the eroded part then cuts the radial depth ``ae`` minus it)."""
+    return float(np.mean(np.asarray(r.tcp_deviation_m)[_steady(r), 1]))
 
 
 def entry_deflection(r, bins: int = 90) -> float:
@@ -33,7 +39,7 @@ def entry_deflection(r, bins: int = 90) -> float:
     where the synchronous cutting force rises most (one number: the helix spreads the entry over
     some degrees, where the deflection changes little, see :func:`lobes.entry_shift.slice_edge_angles`)."""
     sel = _steady(r)
-    t0 = r.summary.to_json()["steady_window_s"][0]
+    t0 = r.steady_window_s[0]
     case = r.problem.case
     tp, _ = principal_period(case.tool, case.cut)
     t = np.asarray(r.t_s)[sel]
