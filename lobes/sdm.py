@@ -47,6 +47,7 @@ Bifurcation = Literal["hopf", "flip", "fold", "none"]
 Scheme = Literal["sdm", "free-exact"]
 Search = Literal["fast", "fast-wide", "plain"]
 Batching = Literal["grouped", "single"]
+Eigen = Literal["dense", "arnoldi"]
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,17 @@ class SemiDiscretization:
         left out (the spectra are padded with zeros to a common width). "single": one layout, that
         of the batch's largest depth, for every pair (the earlier code), kept as the reference of
         ``bench/bench_lobes.py`` and ``tests/test_sdm_batching.py``.
+    eigen : {"dense", "arnoldi"}
+        Eigenvalues of the reduced monodromies. "dense" (default): all of them by LAPACK
+        (``numpy.linalg.eigvals``). "arnoldi" (opt-in): for monodromies of at least
+        :data:`_ARNOLDI_MIN_N` rows, the :data:`_ARNOLDI_K` largest in modulus by ARPACK
+        (:func:`arnoldi_eigvals`; the other multipliers are returned as zeros), smaller ones dense.
+        The spectral radius is the same to rounding (``bench/bench_sdm_krylov.py``: within 1.5e-14
+        relative on the TX200, same verdicts). ARPACK pays only for large monodromies: 2.2 times
+        less CPU than LAPACK at 116-166 rows, none below; the steel TX200 diagram 1.12 times less
+        CPU, the same spectra and limits to 5.4e-14. A depth search that follows a multiplier
+        which is not among the largest ones interpolates on another one (the same limits to
+        ``rtol``, more spectra).
     """
 
     m: int = 40
@@ -133,6 +145,7 @@ class SemiDiscretization:
     prescan_m: int | None = None
     search: Search = "fast"
     batching: Batching = "grouped"
+    eigen: Eigen = "dense"
 
     def __post_init__(self) -> None:
         integer("SemiDiscretization m (steps per principal period)", self.m, minimum=2, error=LobeError)
@@ -152,6 +165,8 @@ class SemiDiscretization:
             raise LobeError(f"search must be 'fast', 'fast-wide' or 'plain', got {self.search!r}")
         if self.batching not in ("grouped", "single"):
             raise LobeError(f"batching must be 'grouped' or 'single', got {self.batching!r}")
+        if self.eigen not in ("dense", "arnoldi"):
+            raise LobeError(f"eigen must be 'dense' or 'arnoldi', got {self.eigen!r}")
         if self.rule not in ("gauss", "midpoint"):
             raise LobeError(f"rule must be 'gauss' or 'midpoint', got {self.rule!r}")
 
@@ -421,20 +436,28 @@ class SDMEngine:
         for j in self.batches(depth):
             if keep:
                 U, recs = self.monodromy(rpm[j], depth[j], record=True)
-                ev = np.linalg.eigvals(U)
+                ev = self._eigvals(U)
                 un = np.flatnonzero(np.abs(ev).max(axis=1) >= 1.0)  # only an unstable pair ends a search
                 if len(un):
                     crit = self._critical_of(rpm[j][un], U[un], [X[un] for X in recs], ev[un])
                     for i, (r, d) in enumerate(zip(rpm[j][un].tolist(), depth[j][un].tolist())):
                         self._kept[(r, d)] = (crit[0][i], crit[1][i], crit[2][i])
             else:
-                ev = np.linalg.eigvals(self.monodromy(rpm[j], depth[j]))
+                ev = self._eigvals(self.monodromy(rpm[j], depth[j]))
             parts.append((j, ev))
         width = max(ev.shape[1] for _, ev in parts)
         out = np.zeros((len(rpm), width), dtype=complex)
         for j, ev in parts:
             out[j, :ev.shape[1]] = ev
         return out
+
+    def _eigvals(self, U) -> np.ndarray:
+        """Multipliers (B, N) complex of monodromies ``U`` (B, N, N): dense, or the largest by
+        :func:`arnoldi_eigvals` (zeros for the rest) with ``eigen="arnoldi"`` from
+        :data:`_ARNOLDI_MIN_N` rows on."""
+        if self.method.eigen == "arnoldi" and U.shape[1] >= _ARNOLDI_MIN_N:
+            return arnoldi_eigvals(U, arnoldi_ncv(U.shape[1], self.ns))
+        return np.linalg.eigvals(U)
 
     def multipliers(self, rpm, depth_m):
         """Spectral radius (B,) and critical multiplier (B,) complex."""
@@ -472,7 +495,7 @@ class SDMEngine:
                 m_, z = ev[idx, jj], vec[idx, :, jj]
                 rho[k], mu[k], freq[k] = np.abs(m_), m_, self._chatter_freq(rpm[k], m_, z, recs)
             else:
-                rho[k], mu[k], freq[k] = self._critical_of(rpm[k], U, recs, np.linalg.eigvals(U))
+                rho[k], mu[k], freq[k] = self._critical_of(rpm[k], U, recs, self._eigvals(U))
         return rho, mu, freq
 
     def _critical_of(self, rpm: np.ndarray, U: np.ndarray, recs: list, ev: np.ndarray):
@@ -575,6 +598,55 @@ class SDMEngine:
 #: the re-evaluation at each limit is cheaper than keeping them at every unstable search point
 #: (2-mode model, 4 states: 0.53 s without, 0.56 s with, in one run of ``bench_lobes.py --targets``).
 _KEEP_MIN_STATES = 12
+
+
+#: ``eigen="arnoldi"``: multipliers asked of ARPACK, and the smallest monodromy (rows) given to it.
+#: ``bench/bench_sdm_krylov.py`` (TX200, 36 states, ncv 40, CPU of one process at load 2-3): 0.57-1.03
+#: times the dense CPU at 78-114 rows, 2.0-2.4 times less at 116-166 rows (steel, m = 80; k = 4 to
+#: 16 cost about the same). k = 16, not 6: the depth search follows the critical multiplier of the
+#: unstable end down to the stable end, where it can sit below a dozen structural multipliers of
+#: |mu| ~ 0.99; with k = 6 the steel diagram took 1845 spectra instead of 1620.
+_ARNOLDI_K = 16
+_ARNOLDI_MIN_N = 116
+
+
+def arnoldi_ncv(n: int, n_states: int) -> int:
+    """Arnoldi basis size for a monodromy of ``n`` rows of a structure with ``n_states`` states.
+
+    ``n_states + 4`` (at least 20, at most ``n``): the TX200's 36 structural multipliers and the
+    few delay multipliers of comparable modulus fit in one basis, and ARPACK converged without a
+    restart (41-42 products; with scipy's default 20: 270-310 products, 2.4-2.6 times the dense CPU
+    at 116-166 rows)."""
+    return int(min(n, max(20, n_states + 4)))
+
+
+def arnoldi_eigvals(U: np.ndarray, ncv: int) -> np.ndarray:
+    """The :data:`_ARNOLDI_K` largest-modulus eigenvalues of real matrices ``U`` (B, N, N) by ARPACK.
+
+    ``scipy.sparse.linalg.eigs(which="LM", tol=0)`` (residuals to machine precision) with a fixed
+    generic start vector and ``ncv`` basis vectors; the conjugate of a complex value is added when
+    ARPACK left it out. Where ARPACK does not converge, all eigenvalues by LAPACK. Returns (B, N)
+    complex, the values found first and zeros after them."""
+    from scipy.sparse.linalg import ArpackNoConvergence, eigs
+
+    B, N, _ = U.shape
+    out = np.zeros((B, N), dtype=complex)
+    k = min(_ARNOLDI_K, N - 2)  # ARPACK: k < N - 1 and k + 1 < ncv <= N
+    if k < 1:
+        return np.linalg.eigvals(U)
+    ncv = int(min(N, max(ncv, k + 2)))
+    v0 = np.cos(np.arange(N) * 1.6180339887) + 0.1
+    for b in range(B):
+        try:
+            w = eigs(U[b], k=k, ncv=ncv, which="LM", v0=v0, tol=0, return_eigenvectors=False)
+        except ArpackNoConvergence:
+            out[b] = np.linalg.eigvals(U[b])
+            continue
+        w = np.asarray(w, dtype=complex)
+        miss = [np.conj(x) for x in w if x.imag != 0 and np.min(np.abs(w - np.conj(x))) > 1e-12 * abs(x)]
+        w = np.concatenate([w, np.array(miss, dtype=complex)])[:N]
+        out[b, :len(w)] = w
+    return out
 
 
 #: Bytes of step propagators (``Phi``, ``Gamma0``, ``Gamma1`` of every engaged step) plus the
