@@ -1,22 +1,26 @@
-"""The refinement rule of the lobes: SDM levels m, 2m, 4m ... per speed until the error is small.
+"""The refinement rule of the lobes: SDM levels m, r m, r^2 m ... per speed until the error is small.
 
 One rule for the diagram (:func:`lobes.solve`) and the operating point (:func:`lobes.stability`):
 
-* at each speed the critical depth is computed at two levels ``m`` and ``2 m``; the value is their
-  Richardson extrapolation and its error estimate ``|b_2m - b_m| / 3``
-  (:func:`robolobes.core.numerics.richardson`, order 2: the SDM converges at second order);
+* at each speed the critical depth is computed at two levels ``m_c`` and ``m_f`` (default
+  ``m_f = 2 m_c``); the value is their Richardson extrapolation and its error estimate
+  ``|b_f - b_c| / (q^2 - 1)`` with the actual level ratio ``q = m_f / m_c``
+  (:func:`robolobes.core.numerics.richardson`, order 2: the SDM converges at second order; ``q = 2``
+  gives ``|b_2m - b_m| / 3``);
 * the speed is **converged** when both levels find the same lobe (:func:`same_lobe`) and the
   estimate is at most ``tol`` times the value (both levels finding no limit below the searched
   depth is converged too, with error 0);
-* otherwise ``m`` is doubled at that speed (the other speeds are not recomputed), up to ``m_max``;
+* otherwise the level is multiplied by the ratio at that speed (:func:`next_level`; the other
+  speeds are not recomputed), up to ``m_max``;
 * a speed still not converged at ``m_max`` is **unconverged**: where the last two levels found
   different lobes, or only one of them a limit, the finer level's depth is reported as it is
-  (not extrapolated across lobes) with the error ``|b_2m - b_m|``; else the extrapolation with its
+  (not extrapolated across lobes) with the error ``|b_f - b_c|``; else the extrapolation with its
   estimate, which is then above ``tol``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -28,7 +32,7 @@ from robolobes.core.validate import integer
 from ._errors import LobeError
 from .sdm import SemiDiscretization
 
-__all__ = ["RefinedSDM", "LimitStatus", "same_lobe", "combine_levels"]
+__all__ = ["RefinedSDM", "LimitStatus", "same_lobe", "combine_levels", "next_level", "level_pairs"]
 
 LimitStatus = Literal["converged", "unconverged", "no-estimate"]
 
@@ -52,11 +56,16 @@ class RefinedSDM:
         Target relative error estimate of the critical depth, in (0, 0.5); default 0.01 (1 %).
     m_max : int
         Finest level (steps per principal period); a speed not converged there is "unconverged".
+    ratio : float
+        Nominal ratio of successive levels, in (1, 4] (default 2: 40, 80, 160, 320). Each level is
+        ``round(ratio m)`` rounded half up (:func:`next_level`; 1.5: 40, 60, 90, 135, 203, 305) and
+        the extrapolation uses the actual ratio ``m_f / m_c`` of each pair.
     """
 
     base: SemiDiscretization = SemiDiscretization(prescan_m=20)
     tol: float = 0.01
     m_max: int = 320
+    ratio: float = 2.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.base, SemiDiscretization):
@@ -66,7 +75,13 @@ class RefinedSDM:
         t = self.tol
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not (0 < t < 0.5):
             raise LobeError(f"RefinedSDM tol (relative error target) must be in (0, 0.5), got {t!r}")
-        integer("RefinedSDM m_max (finest steps per period)", self.m_max, minimum=2 * self.base.m, error=LobeError)
+        r = self.ratio
+        if isinstance(r, bool) or not isinstance(r, (int, float)) or not (1 < r <= 4):
+            raise LobeError(f"RefinedSDM ratio (of successive levels) must be in (1, 4], got {r!r}")
+        m2 = next_level(self.base.m, r)
+        if m2 <= self.base.m:
+            raise LobeError(f"RefinedSDM ratio {r!r} does not refine m = {self.base.m} (round(ratio m) = {m2})")
+        integer("RefinedSDM m_max (finest steps per period)", self.m_max, minimum=m2, error=LobeError)
 
     @property
     def name(self) -> str:
@@ -100,15 +115,16 @@ def same_lobe(bif_a, freq_a, bif_b, freq_b, period_s) -> np.ndarray:
     return none | ((bif_a == bif_b) & close)
 
 
-def combine_levels(coarse, fine, same, tol: float):
+def combine_levels(coarse, fine, same, tol: float, ratio: float = 2.0):
     """Value, error (m), converged flag of two levels' critical depths (arrays (S,), m).
 
-    Richardson (order 2) where the levels find the same lobe; the finer depth with the whole
-    difference as its error where they do not (or where only one found a limit). Converged: same
-    lobe and error <= ``tol * value`` (both inf: converged, error 0).
+    ``ratio``: the levels' actual step ratio ``m_f / m_c`` (> 1). Richardson (order 2) where the
+    levels find the same lobe; the finer depth with the whole difference as its error where they do
+    not (or where only one found a limit). Converged: same lobe and error <= ``tol * value`` (both
+    inf: converged, error 0).
     """
     coarse, fine = np.asarray(coarse, dtype=float), np.asarray(fine, dtype=float)
-    value, err = (np.asarray(x, dtype=float) for x in richardson(coarse, fine))
+    value, err = (np.asarray(x, dtype=float) for x in richardson(coarse, fine, ratio=ratio))
     value, err = np.atleast_1d(value).copy(), np.atleast_1d(err).copy()
     same = np.atleast_1d(np.asarray(same, bool))
     with np.errstate(invalid="ignore"):
@@ -121,11 +137,17 @@ def combine_levels(coarse, fine, same, tol: float):
     return value, err, ok
 
 
-def level_pairs(m0: int, m_max: int) -> list[tuple[int, int]]:
-    """The (coarse, fine) level pairs of the refinement: (m0, 2 m0), (2 m0, 4 m0), ... up to m_max."""
+def next_level(m: int, ratio: float = 2.0) -> int:
+    """The level after ``m``: ``ratio m`` rounded half up to an integer (``2 m`` exactly for 2)."""
+    return int(math.floor(m * ratio + 0.5))
+
+
+def level_pairs(m0: int, m_max: int, ratio: float = 2.0) -> list[tuple[int, int]]:
+    """The (coarse, fine) level pairs of the refinement: (m0, m1), (m1, m2), ... with
+    ``m_(k+1) = next_level(m_k, ratio)``, up to ``m_max``."""
     out = []
     m = m0
-    while 2 * m <= m_max:
-        out.append((m, 2 * m))
-        m *= 2
+    while (m2 := next_level(m, ratio)) <= m_max:
+        out.append((m, m2))
+        m = m2
     return out

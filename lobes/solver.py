@@ -18,7 +18,7 @@ from robolobes.core.validate import finite, integer, readonly
 from ._errors import LobeError
 from .problem import LobeProblem
 from .collocation import Collocation, CollocationEngine
-from .refine import RefinedSDM, combine_levels, level_pairs, same_lobe
+from .refine import RefinedSDM, combine_levels, level_pairs, next_level, same_lobe
 from .sdm import Bifurcation, SDMEngine, SemiDiscretization, classify_multiplier
 from .zoa import ZOAEngine, ZeroOrder
 
@@ -379,9 +379,9 @@ def _prescanned_search(engine: SDMEngine, pre: SDMEngine, rpm, rho0, depth_max, 
 
 #: Half-width of the warm-start bracket of a finer level around the coarser level's limit,
 #: relative. A converged pair has ``|b_2m - b_m| <= 3 tol b`` (estimate ``|b_2m - b_m| / 3 <= tol``),
-#: 3 % at the default 1 %; 4 % covers that with margin. Where the finer level's sign change is not
-#: inside (another lobe, a larger shift), the grid bracket is verified instead (same answer, more
-#: evaluations).
+#: 3 % at the default 1 % (1.25 % with ``RefinedSDM(ratio=1.5)``); 4 % covers that with margin.
+#: Where the finer level's sign change is not inside (another lobe, a larger shift), the grid
+#: bracket is verified instead (same answer, more evaluations).
 _WARM_HALF_WIDTH = 0.04
 
 
@@ -752,12 +752,13 @@ def _colloc_diagram(problem: LobeProblem, method: Collocation, rpm: np.ndarray, 
 def _refined_diagram(problem: LobeProblem, method: RefinedSDM, rpm: np.ndarray, depth_max: float,
                      coarse_points: int, rtol: float, stats: dict, progress, chunk: int | None):
     """The refinement rule of :mod:`lobes.refine` over the speeds ``rpm`` (S,): levels m, 2m, ...
-    per speed, each finer level only where the previous pair did not converge, its brackets taken
-    from the coarser level and verified. Returns limits (m), chatter frequencies (Hz),
-    bifurcations, error estimates (m), statuses and the finest level per speed."""
+    (``method.ratio``: :func:`lobes.refine.next_level`) per speed, each finer level only where the
+    previous pair did not converge, its brackets taken from the coarser level and verified. Returns
+    limits (m), chatter frequencies (Hz), bifurcations, error estimates (m), statuses and the finest
+    level per speed."""
     S = len(rpm)
     base = method.base
-    pairs = level_pairs(base.m, method.m_max)
+    pairs = level_pairs(base.m, method.m_max, method.ratio)
     total = S * (len(pairs) + 1)
     done = [0]
 
@@ -778,10 +779,10 @@ def _refined_diagram(problem: LobeProblem, method: RefinedSDM, rpm: np.ndarray, 
     (depth, freq, bif), _ = level(base.m, todo, None)
     freq_out, bif_out = freq.copy(), bif.copy()
     levels_used = [base.m]
-    for _, m2 in pairs:
+    for m1, m2 in pairs:
         (d2, f2, b2), T = level(m2, todo, depth)
         levels_used.append(m2)
-        v, e, ok = combine_levels(depth, d2, same_lobe(bif, freq, b2, f2, T), method.tol)
+        v, e, ok = combine_levels(depth, d2, same_lobe(bif, freq, b2, f2, T), method.tol, m2 / m1)
         value[todo], err[todo], m_final[todo] = v, e, m2
         freq_out[todo], bif_out[todo] = f2, b2
         status[todo[ok]] = "converged"
@@ -804,9 +805,10 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     The critical depth at this speed is computed for ``m``, ``2m`` (and more when ``adaptive``) and
     combined by the rule of :mod:`lobes.refine`, the same as the diagram's: Richardson (order 2)
     ``b = b_2m + (b_2m - b_m) / 3`` with the estimate ``err = |b_2m - b_m| / 3`` where both levels
-    find the same lobe, else the finer level with ``err = |b_2m - b_m|``. The verdict
+    find the same lobe, else the finer level with ``err = |b_2m - b_m|`` (a :class:`RefinedSDM`
+    with another ``ratio``: its levels, with ``(q^2 - 1)`` for 3, ``q = m_f / m_c``). The verdict
     (:func:`depth_verdict`) compares the depth with ``b +- err``. With ``adaptive``, ``m`` is
-    doubled while the verdict is "undetermined" and, for :class:`RefinedSDM` (the default), also
+    refined while the verdict is "undetermined" and, for :class:`RefinedSDM` (the default), also
     while the limit is not converged (error above ``tol``); up to ``m_max`` (RefinedSDM: its own
     ``m_max``). The spectral radius of the operating point
     is reported too, but it is not what decides: for a robot whose modes sit at ``|mu| ~ 1 - 1e-3``
@@ -854,17 +856,18 @@ def stability(problem: LobeProblem, method: Method | None = None, *, depth_max_m
     sdm = method.base if isinstance(method, RefinedSDM) else method
     tol = method.tol if isinstance(method, RefinedSDM) else RefinedSDM().tol
     m_top = method.m_max if isinstance(method, RefinedSDM) else m_max
+    ratio = method.ratio if isinstance(method, RefinedSDM) else 2.0
     levels = [_sdm_level(problem, sdm, sdm.m, dmax, rtol, coarse_points)]
     while True:
-        levels.append(_sdm_level(problem, sdm, 2 * levels[-1]["m"], dmax, rtol, coarse_points))
+        levels.append(_sdm_level(problem, sdm, next_level(levels[-1]["m"], ratio), dmax, rtol, coarse_points))
         c, f = levels[-2], levels[-1]
         same = same_lobe([c["limit_bifurcation"]], [c["limit_chatter_freq_hz"]], [f["limit_bifurcation"]],
                          [f["limit_chatter_freq_hz"]], [f["period_s"]])
-        v, e, ok = combine_levels([c["depth_limit_m"]], [f["depth_limit_m"]], same, tol)
+        v, e, ok = combine_levels([c["depth_limit_m"]], [f["depth_limit_m"]], same, tol, f["m"] / c["m"])
         b_ext, err = float(v[0]), float(e[0])
         verdict = depth_verdict(depth, b_ext, err, (c["m"], f["m"]), dmax)
         done = verdict.status != "undetermined" and (bool(ok[0]) or not refined)
-        if done or not adaptive or 2 * f["m"] > m_top:
+        if done or not adaptive or next_level(f["m"], ratio) > m_top:
             break
     last = levels[-1]
     return StabilityPoint(

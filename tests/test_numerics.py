@@ -59,6 +59,16 @@ def test_other_order_and_ratio():
     assert_allclose(e, (h / 3) ** 4, rtol=1e-12)
 
 
+@pytest.mark.parametrize("m_c, m_f", [(40, 60), (135, 203), (40, 80)])
+def test_non_integer_level_ratio_recovers_the_limit(m_c, m_f):
+    # the SDM's b(m) = b0 + c / m^2 with the actual ratio m_f / m_c (135 -> 203: 1.5037): the value
+    # is b0 exactly and the error the fine level's own, c / m_f^2 (closed form; 1e-15 rounding)
+    b0, c = 1.0e-3, 2.5
+    v, e = richardson(b0 + c / m_c**2, b0 + c / m_f**2, ratio=m_f / m_c)
+    assert_allclose(v, b0, rtol=1e-12)
+    assert_allclose(e, c / m_f**2, rtol=1e-12)
+
+
 def test_non_finite_levels():
     v, e = (np.asarray(a) for a in richardson(np.array([math.inf, 1.0, math.inf]), np.array([math.inf, math.inf, 2.0])))
     assert v[0] == math.inf and e[0] == 0.0  # both "no limit": agree exactly
