@@ -20,7 +20,21 @@ steady window is long), ``alu-straight`` (the same tool without helix), ``steel`
 runout the forced response has a period-2 part at the flip frequency, 51.7 Hz, that above the limit
 is in the nonlinear regime from the start).
 
+With ``--orbit`` (robot cases only) it prints instead, per factor, the kicked eroded part at 2 deg per
+step and the default discs (``LinearizedNewmark(kick_m_s=...)``: the speed of a ``--kick-nm``
+oscillation at the chatter frequency, :data:`CHATTER_HZ`, at full engagement, above the limit;
+``--kick-below-nm`` below it, where the robot's faster modes take most of a small kick away
+before the regenerative one is the slowest), its rate fitted over
+the gated periods (motion >= 10 x 2 nm, chip loss < 5 %, :func:`_period_loss`), the mean deflection
+and the one when the teeth meet the part (:mod:`robolobes.timedomain.forced_orbit`), the plain SDM at
+ae - mean (``floquet_exponent``), the SDM about the forced orbit (``entry_shift_exponent`` with the
+surface tilt and the delayed instant at ae - entry, m = 40 / 80) and the criterion
+``|rate - sigma| <= max(10 % |sigma|, 0.03) + 2 SE`` against the latter, with its margin (allowance
+minus ``|rate - sigma|``: met when not below 0). ``--orbit-skip-s`` starts the fit later (a
+diagnostic: the robot's faster modes first).
+
     python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
+    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0]
 """
 
 from __future__ import annotations
@@ -45,6 +59,7 @@ from robolobes.lobes import (
     SemiDiscretization,
     solve,
 )
+from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.lobes.exponent import floquet_exponent
 from robolobes.timedomain import (
     DelayNewmark,
@@ -53,10 +68,16 @@ from robolobes.timedomain import (
     simulate,
 )
 from robolobes.timedomain.delay import StructureProblem
+from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
 from robolobes.timedomain.rate import gated_growth_rate
+from robolobes.timedomain.verdict import LOSS_LIMIT, chip_scale
 
 FACTORS = (0.5, 0.8, 1.25, 2.0)
 STEPS_DEG = (2.0, 1.0, 0.5)
+TOL = 0.03  # 1/s: the criterion's absolute floor (docs/guide/timedomain-convergence.md, "The criterion")
+#: Chatter frequency of the kick, Hz: aluminium 24.7 Hz (docs/guide/timedomain-convergence.md, the
+#: feed-per-tooth section); steel the flip, half the tooth passing frequency (None: computed).
+CHATTER_HZ = {"alu-helix": 24.7, "alu-straight": 24.7, "steel": None, "steel-no-runout": None}
 
 
 def _benchmark(two_dof: bool) -> dict[str, Any]:
@@ -193,11 +214,122 @@ def run_case(name: str, factors, eroded: bool) -> None:
             print(f"  {label:6s} CPU per simulated second at 2 deg, {nd} discs: {by_step[0][2]:.3f} s", flush=True)
 
 
+def _chatter_hz(name: str, c) -> float:
+    """Chatter frequency of the kick, Hz (:data:`CHATTER_HZ`; None: the flip, half the tooth frequency)."""
+    f = CHATTER_HZ[name]
+    return c["cut"].spindle_rpm / 60.0 * c["tool"].teeth / 2.0 if f is None else f
+
+
+def _period_loss(run, tp: float, t0: float, t1: float) -> np.ndarray:
+    """Chip loss per principal period of ``[t0, t1]``, shape (K,): the verdict's share of the
+    chip-weighted arc (:meth:`ChipScale.loss_fraction`) at each tooth's regenerative amplitude
+    ``sqrt(2) rms|y(t) - y(t - tau_j)|`` over that period, ``y`` the cut-plane deviation (m) minus
+    its synchronous average over the window (phase bins of one step)."""
+    t = np.asarray(run.t_s)
+    x = np.asarray(run.tcp_deviation_m)[:, :2]
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    sel = np.flatnonzero((t >= t0) & (t <= t1))
+    ts, xs = t[sel], x[sel]
+    ph = np.floor(((ts - t0) % tp) / dt).astype(int)
+    avg = np.zeros((ph.max() + 1, 2))
+    np.add.at(avg, ph, xs)
+    y = xs - (avg / np.maximum(np.bincount(ph), 1)[:, None])[ph]
+    k = np.floor((ts - t0) / tp + 1e-9).astype(int)
+    n_per = int((t1 - t0) / tp + 1e-9)
+    chip = chip_scale(run.problem.case.tool, run.problem.case.cut)
+    loss = np.zeros(n_per)
+    for j, tau in enumerate(chip.delays_s):
+        lag = int(round(tau / dt))
+        d2 = np.sum((y[lag:] - y[:-lag]) ** 2, axis=1)
+        kk = k[lag:]
+        ok = kk < n_per
+        ms = np.bincount(kk[ok], d2[ok], n_per) / np.maximum(np.bincount(kk[ok], None, n_per), 1)
+        loss = np.maximum(loss, [chip.loss_fraction(math.sqrt(2.0 * m), j) for m in ms])
+    return loss
+
+
+def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0) -> dict[str, Any]:
+    """The kicked eroded part at 2 deg per step, default discs: rate, SE, window, deflections, the
+    first contact (s) and the chip loss of the second full-engagement period (the first whose
+    delayed samples all lie in the window); the fit starts ``skip_s``
+    (whole periods) after full engagement."""
+    case = replace(c["case"], cut=cut)
+    v = 2 * math.pi * _chatter_hz(name, c) * kick_nm * 1e-9
+    run = simulate(SimulationProblem(c["robot"], case, t_end_s=c["t_end_s"]), LinearizedNewmark(kick_m_s=v),
+                   verdict_companion=False)
+    tp = principal_period(case.tool, cut)[0]
+    if max(case.tool.runout_m) != min(case.tool.runout_m):
+        tp = cut.spindle_period_s  # with runout the forced response repeats once per revolution
+    t0, t1 = run.steady_window_s
+    t1 = min(t1, float(run.t_s[-1]))
+    loss = _period_loss(run, tp, t0, t1)
+    k = int(round(skip_s / tp))
+    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:])
+    touch = np.flatnonzero(np.linalg.norm(np.asarray(run.force_tool_n)[:, :2], axis=1) > 0)
+    return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v,
+                contact=float(run.t_s[touch[0]]) if touch.size else math.nan, t0=t0,
+                loss1=float(loss[1]) if loss.size > 1 else math.nan,
+                dy_in=entry_deflection(run), dy_mean=mean_deflection(run),
+                loss_max=float(loss.max()) if loss.size else math.nan,
+                lossy=int(np.sum(loss >= LOSS_LIMIT)), n_per=loss.size)
+
+
+def _orbit_sdm(c, cut, dy_m: float) -> float:
+    """The SDM about the forced orbit at ae - dy_m: entry shift, surface tilt, delayed instant, 1/s."""
+    sgn = 1.0 if cut.mode == "down" else -1.0
+    p = LobeProblem(c["structure"], c["tool"], replace(cut, ae_m=cut.ae_m - sgn * dy_m), c["law"])
+    return entry_shift_exponent(p, SemiDiscretization(m=40), surface_tilt=True, delay_time=True).value_per_s
+
+
+def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0) -> None:
+    """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring)."""
+    c = CASES[name]()
+    if c["robot"] is None:
+        print(f"## {name}: no eroded part (not a robot case)")
+        return
+    lim = _limit(c)
+    print(f"\n## {name} (orbit): {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, kick {kick_below_nm:g} "
+          f"nm below the limit, {kick_nm:g} nm above, at {_chatter_hz(name, c):.2f} Hz"
+          + (f", fit from {skip_s:g} s after full engagement" if skip_s else ""), flush=True)
+    for f in factors:
+        cut = replace(c["cut"], ap_m=f * lim)
+        c0 = time.process_time()
+        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s)
+        cpu_run = time.process_time() - c0
+        sgn = 1.0 if cut.mode == "down" else -1.0
+        plain = _sdm(c, replace(cut, ae_m=cut.ae_m - sgn * r["dy_mean"])).value_per_s
+        orbit = _orbit_sdm(c, cut, r["dy_in"])
+        cpu = time.process_time() - c0
+        win = "none" if r["window"] is None else f"{r['window'][0]:.2f}-{r['window'][1]:.2f} s"
+        print(f"{name} {f:g}x: eroded {_fmt(r['rate'], r['se'])} (window {win}; periods with loss >= 5 %: "
+              f"{r['lossy']}/{r['n_per']}, max {r['loss_max']:.3f}){'; ' + r['reason'] if r['reason'] else ''}",
+              flush=True)
+        print(f"  first contact {r['contact']:.3f} s, full engagement {r['t0']:.3f} s (chip loss in its second "
+              f"period {r['loss1']:.3f})", flush=True)
+        print(f"  deflection mean {r['dy_mean'] * 1e6:.2f} um, entry {r['dy_in'] * 1e6:.2f} um; SDM at ae - mean "
+              f"{plain:+.4f}, SDM about the orbit {orbit:+.4f} 1/s", flush=True)
+        if math.isfinite(r["rate"]):
+            allow = max(0.1 * abs(orbit), TOL) + 2 * r["se"]
+            margin = allow - abs(r["rate"] - orbit)
+            verdict = "met" if margin >= 0 else "NOT met"
+            print(f"  criterion {verdict}: |rate - sigma| {abs(r['rate'] - orbit):.4f}, allowance {allow:.4f}, "
+                  f"margin {margin:+.4f} 1/s; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)
+        else:
+            print(f"  criterion not met: no rate; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--case", default=",".join(CASES), help=f"comma-separated, from {', '.join(CASES)}")
     ap.add_argument("--factor", default=",".join(f"{f:g}" for f in FACTORS), help="comma-separated depth factors")
     ap.add_argument("--no-eroded", action="store_true", help="only the delay-based method")
+    ap.add_argument("--orbit", action="store_true",
+                    help="the kicked eroded part against the SDM about its forced orbit (robot cases)")
+    ap.add_argument("--kick-nm", type=float, default=100.0,
+                    help="with --orbit: kick above the limit, as the amplitude of an oscillation at the chatter frequency, nm")
+    ap.add_argument("--kick-below-nm", type=float, default=100.0, help="with --orbit: the same below the limit, nm")
+    ap.add_argument("--orbit-skip-s", type=float, default=0.0,
+                    help="with --orbit: start the fit this long after full engagement, s (default 0: the rule's window)")
     a = ap.parse_args(argv)
     names = [n for n in a.case.split(",") if n]
     bad = [n for n in names if n not in CASES]
@@ -212,6 +344,10 @@ def main(argv=None) -> int:
     if not all(0 < f <= 4 for f in factors):
         print(f"--factor values must be in (0, 4], got {a.factor!r}", file=sys.stderr)
         return 2
+    if a.orbit:
+        for n in names:
+            run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s)
+        return 0
     c = _benchmark(False)  # compile (or load) the delay kernel outside the CPU timings
     simulate(StructureProblem(c["structure"], c["tool"], c["cut"], c["law"], t_end_s=0.01), DelayNewmark())
     for n in names:
