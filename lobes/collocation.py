@@ -342,12 +342,9 @@ class CollocationEngine:
         self._speed: dict[float, tuple[np.ndarray, ...]] = {}
         self.critical_evaluations = 0
 
-    @property
-    def period_s_per_rpm(self) -> float:
-        return self.plan.period_rad / (2 * math.pi) * 60.0
-
     def period_s(self, rpm) -> np.ndarray:
-        return self.period_s_per_rpm / np.asarray(rpm, dtype=float)
+        """The principal period at spindle speeds ``rpm`` (array, rpm), s (:meth:`DirectionalPlan.period_s`)."""
+        return self.plan.period_s(rpm)
 
     # ----- per-speed matrices ------------------------------------------------------------------
     def speed_matrices(self, rpm: float) -> tuple[np.ndarray, ...]:

@@ -123,6 +123,10 @@ class DirectionalPlan:
     slice_edge_rad: np.ndarray | None = None
     delay_time: bool = False
 
+    def period_s(self, rpm) -> np.ndarray:
+        """The principal period at spindle speeds ``rpm`` (array, rpm), s: ``period_rad / omega``."""
+        return self.period_rad / (2 * math.pi) * 60.0 / np.asarray(rpm, dtype=float)
+
     @classmethod
     def build(cls, tool: Tool, cut: Cut, law: CuttingLaw, *, m: int, quadrature: int, slices: int,
               period: PeriodChoice = "auto", k_force: int = 3,

@@ -269,13 +269,9 @@ class SDMEngine:
             st = self._structs[key] = self._structure(cand)
         return st
 
-    @property
-    def period_s_per_rpm(self) -> float:
-        """Principal period times the spindle speed in rpm (T = this / rpm), s rpm."""
-        return self.plan.period_rad / (2 * math.pi) * 60.0
-
-    def period_s(self, rpm: float | np.ndarray) -> np.ndarray:
-        return self.period_s_per_rpm / np.asarray(rpm, dtype=float)
+    def period_s(self, rpm) -> np.ndarray:
+        """The principal period at spindle speeds ``rpm`` (array, rpm), s (:meth:`DirectionalPlan.period_s`)."""
+        return self.plan.period_s(rpm)
 
     # ----- matrix exponentials --------------------------------------------------------------------
     def _step_exps(self, dt: np.ndarray, wsum: np.ndarray):

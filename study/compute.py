@@ -330,12 +330,12 @@ def damping_by_time_domain(settings, steel, variant: str = "basic", progress: Pr
         n[0] += 1
         progress(min(1.0, n[0] / 9))
         s = run.summary
-        orbit = run.series is not None and s.get("steady_window_s") is not None
+        steady = s.get("steady_window_s") is not None   # deflections need a steady window
         return DampingProbe(scale, run.verdict, {**{k: s.get(k) for k in
                                                     ("chatter_freq_hz", "growth_rate_per_s", "growth_rate_se_per_s",
                                                      "growth_rate_ci_per_s", "verdict_basis")},
-                                                 "mean_normal_deflection_m": mean_deflection(run.series) if orbit else None,
-                                                 "entry_normal_deflection_m": entry_deflection(run.series) if orbit else None,
+                                                 "mean_normal_deflection_m": mean_deflection(run.series) if steady else None,
+                                                 "entry_normal_deflection_m": entry_deflection(run.series) if steady else None,
                                                  "kick_m_s": kick})
 
     scales = sorted(set(settings.damping_scales) | {float(s) for s in seed if s is not None})
