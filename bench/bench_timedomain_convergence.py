@@ -31,10 +31,12 @@ ae - mean (``floquet_exponent``), the SDM about the forced orbit (``entry_shift_
 surface tilt and the delayed instant at ae - entry, m = 40 / 80) and the criterion
 ``|rate - sigma| <= max(10 % |sigma|, 0.03) + 2 SE`` against the latter, with its margin (allowance
 minus ``|rate - sigma|``: met when not below 0). ``--orbit-skip-s`` starts the fit later (a
-diagnostic: the robot's faster modes first).
+diagnostic: the robot's faster modes first). ``--kick-below-nm 0`` kicks below the limit with the
+largest kick the chip-loss gate calls linear, ``--single-exp`` starts the fit where the gated run is
+a single exponential (both :mod:`robolobes.timedomain.rate`).
 
     python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
-    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0]
+    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0] [--single-exp]
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ from robolobes.timedomain import (
 )
 from robolobes.timedomain.delay import StructureProblem
 from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
-from robolobes.timedomain.rate import gated_growth_rate
+from robolobes.timedomain.rate import gated_growth_rate, linear_kick_amplitude_m
 from robolobes.timedomain.verdict import LOSS_LIMIT, chip_scale
 
 FACTORS = (0.5, 0.8, 1.25, 2.0)
@@ -248,7 +250,7 @@ def _period_loss(run, tp: float, t0: float, t1: float) -> np.ndarray:
     return loss
 
 
-def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0) -> dict[str, Any]:
+def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: bool = False) -> dict[str, Any]:
     """The kicked eroded part at 2 deg per step, default discs: rate, SE, window, deflections, the
     first contact (s) and the chip loss of the second full-engagement period (the first whose
     delayed samples all lie in the window); the fit starts ``skip_s``
@@ -264,7 +266,8 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0) -> dict[s
     t1 = min(t1, float(run.t_s[-1]))
     loss = _period_loss(run, tp, t0, t1)
     k = int(round(skip_s / tp))
-    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:])
+    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:],
+                          single_exponential=single)
     touch = np.flatnonzero(np.linalg.norm(np.asarray(run.force_tool_n)[:, :2], axis=1) > 0)
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v,
                 contact=float(run.t_s[touch[0]]) if touch.size else math.nan, t0=t0,
@@ -281,20 +284,25 @@ def _orbit_sdm(c, cut, dy_m: float) -> float:
     return entry_shift_exponent(p, SemiDiscretization(m=40), surface_tilt=True, delay_time=True).value_per_s
 
 
-def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0) -> None:
-    """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring)."""
+def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0,
+              single: bool = False) -> None:
+    """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring);
+    ``kick_below_nm`` <= 0: the largest linear kick (:func:`linear_kick_amplitude_m`)."""
     c = CASES[name]()
+    if kick_below_nm <= 0:
+        kick_below_nm = linear_kick_amplitude_m(chip_scale(c["tool"], c["cut"])) * 1e9
     if c["robot"] is None:
         print(f"## {name}: no eroded part (not a robot case)")
         return
     lim = _limit(c)
     print(f"\n## {name} (orbit): {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, kick {kick_below_nm:g} "
           f"nm below the limit, {kick_nm:g} nm above, at {_chatter_hz(name, c):.2f} Hz"
-          + (f", fit from {skip_s:g} s after full engagement" if skip_s else ""), flush=True)
+          + (f", fit from {skip_s:g} s after full engagement" if skip_s else "")
+          + (", fit from where it is a single exponential" if single else ""), flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
-        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s)
+        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s, single)
         cpu_run = time.process_time() - c0
         sgn = 1.0 if cut.mode == "down" else -1.0
         plain = _sdm(c, replace(cut, ae_m=cut.ae_m - sgn * r["dy_mean"])).value_per_s
@@ -327,7 +335,10 @@ def main(argv=None) -> int:
                     help="the kicked eroded part against the SDM about its forced orbit (robot cases)")
     ap.add_argument("--kick-nm", type=float, default=100.0,
                     help="with --orbit: kick above the limit, as the amplitude of an oscillation at the chatter frequency, nm")
-    ap.add_argument("--kick-below-nm", type=float, default=100.0, help="with --orbit: the same below the limit, nm")
+    ap.add_argument("--kick-below-nm", type=float, default=100.0,
+                    help="with --orbit: the same below the limit, nm (0: the largest linear kick, rate.py)")
+    ap.add_argument("--single-exp", action="store_true",
+                    help="with --orbit: start the fit where the gated run is a single exponential (rate.py)")
     ap.add_argument("--orbit-skip-s", type=float, default=0.0,
                     help="with --orbit: start the fit this long after full engagement, s (default 0: the rule's window)")
     a = ap.parse_args(argv)
@@ -346,7 +357,7 @@ def main(argv=None) -> int:
         return 2
     if a.orbit:
         for n in names:
-            run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s)
+            run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s, a.single_exp)
         return 0
     c = _benchmark(False)  # compile (or load) the delay kernel outside the CPU timings
     simulate(StructureProblem(c["structure"], c["tool"], c["cut"], c["law"], t_end_s=0.01), DelayNewmark())
