@@ -56,7 +56,7 @@ from .verdict import (
 )
 
 __all__ = ["MIN_DIFFERENCES", "RESOLVED_FACTOR", "GatedRate", "gated_growth_rate", "linear_kick_amplitude_m",
-           "loss_per_period", "single_exponential_start"]
+           "loss_per_period", "regenerative_loss_per_period", "single_exponential_start"]
 
 #: The motion must exceed this multiple of the verdict's resolution to enter the fit.
 RESOLVED_FACTOR = 10.0
@@ -97,6 +97,35 @@ def loss_per_period(t_s, lost, total, period_s: float, t_start_s: float, n_perio
     lo = np.bincount(k[sel], weights=np.asarray(lost, float)[sel], minlength=n_periods)
     to = np.bincount(k[sel], weights=np.asarray(total, float)[sel], minlength=n_periods)
     return np.where(to > 0, lo / np.where(to > 0, to, 1.0), 0.0)
+
+
+def regenerative_loss_per_period(t_s, x, chip: ChipScale, period_s: float, t_start_s: float,
+                                 t_end_s: float) -> np.ndarray:
+    """Chip loss per principal period of ``[t_start_s, t_end_s]``, shape (K,), for a run without
+    per-sample engagement weights (the eroded part): the verdict's share of the chip-weighted arc
+    (:meth:`ChipScale.loss_fraction`) at each tooth's regenerative amplitude
+    ``sqrt(2) rms|y(t) - y(t - tau_j)|`` over that period, the largest over the teeth; ``y`` is ``x``
+    (n, 2), m, on uniform times ``t_s`` (n,), s, minus its synchronous average over the window
+    (phase bins of one step)."""
+    t = np.asarray(t_s, float)
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    sel = np.flatnonzero((t >= t_start_s) & (t <= t_end_s))
+    ts, xs = t[sel], np.asarray(x, float)[sel]
+    ph = np.floor(((ts - t_start_s) % period_s) / dt).astype(int)
+    avg = np.zeros((ph.max() + 1, xs.shape[1]))
+    np.add.at(avg, ph, xs)
+    y = xs - (avg / np.maximum(np.bincount(ph), 1)[:, None])[ph]
+    k = np.floor((ts - t_start_s) / period_s + 1e-9).astype(int)
+    n_per = int((t_end_s - t_start_s) / period_s + 1e-9)
+    loss = np.zeros(n_per)
+    for j, tau in enumerate(chip.delays_s):
+        lag = int(round(tau / dt))
+        d2 = np.sum((y[lag:] - y[:-lag]) ** 2, axis=1)
+        kk = k[lag:]
+        ok = kk < n_per
+        ms = np.bincount(kk[ok], d2[ok], n_per) / np.maximum(np.bincount(kk[ok], None, n_per), 1)
+        loss = np.maximum(loss, [chip.loss_fraction(math.sqrt(2.0 * m), j) for m in ms])
+    return loss
 
 
 def _longest_run(ok: np.ndarray) -> tuple[int, int]:
