@@ -6,7 +6,9 @@ is at least 10 x the verdict's 2 nm resolution, against the SDM linearized about
 orbit (entry shift, surface tilt and the delayed instant at ae minus the deflection when the teeth
 meet the part). docs/guide/timedomain-convergence.md, "The eroded part about its forced orbit at
 the four factors"; the same numbers print from
-``python bench/bench_timedomain_convergence.py --orbit --case alu-helix``."""
+``python bench/bench_timedomain_convergence.py --orbit --case alu-helix``. On steel without runout
+above the limit the mode saturates before full engagement: the rule must give no rate, with its
+reason (section "Steel below the limit by a rule stated before the runs")."""
 
 from __future__ import annotations
 
