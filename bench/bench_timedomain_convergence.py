@@ -31,10 +31,15 @@ ae - mean (``floquet_exponent``), the SDM about the forced orbit (``entry_shift_
 surface tilt and the delayed instant at ae - entry, m = 40 / 80) and the criterion
 ``|rate - sigma| <= max(10 % |sigma|, 0.03) + 2 SE`` against the latter, with its margin (allowance
 minus ``|rate - sigma|``: met when not below 0). ``--orbit-skip-s`` starts the fit later (a
-diagnostic: the robot's faster modes first).
+diagnostic: the robot's faster modes first). ``--kick-below-nm 0`` kicks below the limit with the
+largest kick the chip-loss gate calls linear, ``--single-exp`` starts the fit where the gated run is
+a single exponential (both :mod:`robolobes.timedomain.rate`). ``--orbit-difference`` (below the
+limit) fits instead the kicked run minus the same run unkicked, sectioned once per tooth period:
+with runout the forced part cancels without sections once per revolution, which see only
+``(1 - 0.936)^2`` of a decaying flip.
 
     python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
-    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0]
+    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0] [--single-exp] [--orbit-difference]
 """
 
 from __future__ import annotations
@@ -69,7 +74,11 @@ from robolobes.timedomain import (
 )
 from robolobes.timedomain.delay import StructureProblem
 from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
-from robolobes.timedomain.rate import gated_growth_rate
+from robolobes.timedomain.rate import (
+    gated_growth_rate,
+    linear_kick_amplitude_m,
+    regenerative_loss_per_period,
+)
 from robolobes.timedomain.verdict import LOSS_LIMIT, chip_scale
 
 FACTORS = (0.5, 0.8, 1.25, 2.0)
@@ -221,34 +230,13 @@ def _chatter_hz(name: str, c) -> float:
 
 
 def _period_loss(run, tp: float, t0: float, t1: float) -> np.ndarray:
-    """Chip loss per principal period of ``[t0, t1]``, shape (K,): the verdict's share of the
-    chip-weighted arc (:meth:`ChipScale.loss_fraction`) at each tooth's regenerative amplitude
-    ``sqrt(2) rms|y(t) - y(t - tau_j)|`` over that period, ``y`` the cut-plane deviation (m) minus
-    its synchronous average over the window (phase bins of one step)."""
-    t = np.asarray(run.t_s)
-    x = np.asarray(run.tcp_deviation_m)[:, :2]
-    dt = (t[-1] - t[0]) / (t.size - 1)
-    sel = np.flatnonzero((t >= t0) & (t <= t1))
-    ts, xs = t[sel], x[sel]
-    ph = np.floor(((ts - t0) % tp) / dt).astype(int)
-    avg = np.zeros((ph.max() + 1, 2))
-    np.add.at(avg, ph, xs)
-    y = xs - (avg / np.maximum(np.bincount(ph), 1)[:, None])[ph]
-    k = np.floor((ts - t0) / tp + 1e-9).astype(int)
-    n_per = int((t1 - t0) / tp + 1e-9)
+    """Chip loss per principal period of ``[t0, t1]``, shape (K,)
+    (:func:`robolobes.timedomain.rate.regenerative_loss_per_period` of the cut-plane deviation)."""
     chip = chip_scale(run.problem.case.tool, run.problem.case.cut)
-    loss = np.zeros(n_per)
-    for j, tau in enumerate(chip.delays_s):
-        lag = int(round(tau / dt))
-        d2 = np.sum((y[lag:] - y[:-lag]) ** 2, axis=1)
-        kk = k[lag:]
-        ok = kk < n_per
-        ms = np.bincount(kk[ok], d2[ok], n_per) / np.maximum(np.bincount(kk[ok], None, n_per), 1)
-        loss = np.maximum(loss, [chip.loss_fraction(math.sqrt(2.0 * m), j) for m in ms])
-    return loss
+    return regenerative_loss_per_period(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], chip, tp, t0, t1)
 
 
-def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0) -> dict[str, Any]:
+def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: bool = False) -> dict[str, Any]:
     """The kicked eroded part at 2 deg per step, default discs: rate, SE, window, deflections, the
     first contact (s) and the chip loss of the second full-engagement period (the first whose
     delayed samples all lie in the window); the fit starts ``skip_s``
@@ -264,7 +252,8 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0) -> dict[s
     t1 = min(t1, float(run.t_s[-1]))
     loss = _period_loss(run, tp, t0, t1)
     k = int(round(skip_s / tp))
-    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:])
+    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:],
+                          single_exponential=single)
     touch = np.flatnonzero(np.linalg.norm(np.asarray(run.force_tool_n)[:, :2], axis=1) > 0)
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v,
                 contact=float(run.t_s[touch[0]]) if touch.size else math.nan, t0=t0,
@@ -274,6 +263,53 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0) -> dict[s
                 lossy=int(np.sum(loss >= LOSS_LIMIT)), n_per=loss.size)
 
 
+def _difference_run(name: str, c, cut, kick_nm: float, single: bool = False) -> dict[str, Any]:
+    """``--orbit-difference``: the kicked eroded part minus the same run unkicked (identical until the
+    kick, so the forced response, runout's included, cancels without differencing sections), its
+    rate fitted over sections once per tooth period (the flip's principal period without runout),
+    the chip loss per revolution of the kicked run applied to both of its tooth periods."""
+    case = replace(c["case"], cut=cut)
+    prob = SimulationProblem(c["robot"], case, t_end_s=c["t_end_s"])
+    v = 2 * math.pi * _chatter_hz(name, c) * kick_nm * 1e-9
+    kicked = simulate(prob, LinearizedNewmark(kick_m_s=v), verdict_companion=False)
+    plain = simulate(prob, LinearizedNewmark(), verdict_companion=False)
+    d = np.asarray(kicked.tcp_deviation_m)[:, :2] - np.asarray(plain.tcp_deviation_m)[:, :2]
+    t0, t1 = kicked.steady_window_s
+    t1 = min(t1, float(kicked.t_s[-1]))
+    rev = cut.spindle_period_s
+    loss = np.repeat(_period_loss(kicked, rev, t0, t1), case.tool.teeth)
+    tp = rev / case.tool.teeth
+    g = gated_growth_rate(kicked.t_s, d, tp, t_start_s=t0, t_end_s=t1, loss=loss, single_exponential=single)
+    return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason,
+                dy_in=entry_deflection(kicked), dy_mean=mean_deflection(kicked),
+                before=float(np.abs(d[kicked.t_s < t0]).max()))
+
+
+def run_difference(name: str, factors, kick_below_nm: float, single: bool = False) -> None:
+    """``--orbit-difference``: :func:`_difference_run` below the limit against the SDM about the orbit."""
+    c = CASES[name]()
+    if kick_below_nm <= 0:
+        kick_below_nm = linear_kick_amplitude_m(chip_scale(c["tool"], c["cut"])) * 1e9
+    lim = _limit(c)
+    print(f"\n## {name} (kicked minus unkicked, sections per tooth period): kick {kick_below_nm:g} nm"
+          + (", fit from where it is a single exponential" if single else ""), flush=True)
+    for f in factors:
+        cut = replace(c["cut"], ap_m=f * lim)
+        c0 = time.process_time()
+        r = _difference_run(name, c, cut, kick_below_nm, single)
+        orbit = _orbit_sdm(c, cut, r["dy_in"])
+        win = "none" if r["window"] is None else f"{r['window'][0]:.2f}-{r['window'][1]:.2f} s"
+        print(f"{name} {f:g}x: difference {_fmt(r['rate'], r['se'])} (window {win}; largest difference before "
+              f"full engagement {r['before']:.2e} m){'; ' + r['reason'] if r['reason'] else ''}", flush=True)
+        if math.isfinite(r["rate"]):
+            allow = max(0.1 * abs(orbit), TOL) + 2 * r["se"]
+            margin = allow - abs(r["rate"] - orbit)
+            print(f"  SDM about the orbit {orbit:+.4f} 1/s; criterion {'met' if margin >= 0 else 'NOT met'}: "
+                  f"margin {margin:+.4f} 1/s; CPU {time.process_time() - c0:.1f} s", flush=True)
+        else:
+            print(f"  SDM about the orbit {orbit:+.4f} 1/s; no rate; CPU {time.process_time() - c0:.1f} s", flush=True)
+
+
 def _orbit_sdm(c, cut, dy_m: float) -> float:
     """The SDM about the forced orbit at ae - dy_m: entry shift, surface tilt, delayed instant, 1/s."""
     sgn = 1.0 if cut.mode == "down" else -1.0
@@ -281,20 +317,25 @@ def _orbit_sdm(c, cut, dy_m: float) -> float:
     return entry_shift_exponent(p, SemiDiscretization(m=40), surface_tilt=True, delay_time=True).value_per_s
 
 
-def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0) -> None:
-    """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring)."""
+def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0,
+              single: bool = False) -> None:
+    """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring);
+    ``kick_below_nm`` <= 0: the largest linear kick (:func:`linear_kick_amplitude_m`)."""
     c = CASES[name]()
+    if kick_below_nm <= 0:
+        kick_below_nm = linear_kick_amplitude_m(chip_scale(c["tool"], c["cut"])) * 1e9
     if c["robot"] is None:
         print(f"## {name}: no eroded part (not a robot case)")
         return
     lim = _limit(c)
     print(f"\n## {name} (orbit): {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, kick {kick_below_nm:g} "
           f"nm below the limit, {kick_nm:g} nm above, at {_chatter_hz(name, c):.2f} Hz"
-          + (f", fit from {skip_s:g} s after full engagement" if skip_s else ""), flush=True)
+          + (f", fit from {skip_s:g} s after full engagement" if skip_s else "")
+          + (", fit from where it is a single exponential" if single else ""), flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
-        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s)
+        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s, single)
         cpu_run = time.process_time() - c0
         sgn = 1.0 if cut.mode == "down" else -1.0
         plain = _sdm(c, replace(cut, ae_m=cut.ae_m - sgn * r["dy_mean"])).value_per_s
@@ -327,7 +368,12 @@ def main(argv=None) -> int:
                     help="the kicked eroded part against the SDM about its forced orbit (robot cases)")
     ap.add_argument("--kick-nm", type=float, default=100.0,
                     help="with --orbit: kick above the limit, as the amplitude of an oscillation at the chatter frequency, nm")
-    ap.add_argument("--kick-below-nm", type=float, default=100.0, help="with --orbit: the same below the limit, nm")
+    ap.add_argument("--kick-below-nm", type=float, default=100.0,
+                    help="with --orbit: the same below the limit, nm (0: the largest linear kick, rate.py)")
+    ap.add_argument("--orbit-difference", action="store_true",
+                    help="with --orbit: the kicked run minus the unkicked one, sections per tooth period")
+    ap.add_argument("--single-exp", action="store_true",
+                    help="with --orbit: start the fit where the gated run is a single exponential (rate.py)")
     ap.add_argument("--orbit-skip-s", type=float, default=0.0,
                     help="with --orbit: start the fit this long after full engagement, s (default 0: the rule's window)")
     a = ap.parse_args(argv)
@@ -346,7 +392,10 @@ def main(argv=None) -> int:
         return 2
     if a.orbit:
         for n in names:
-            run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s)
+            if a.orbit_difference:
+                run_difference(n, factors, a.kick_below_nm, a.single_exp)
+            else:
+                run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s, a.single_exp)
         return 0
     c = _benchmark(False)  # compile (or load) the delay kernel outside the CPU timings
     simulate(StructureProblem(c["structure"], c["tool"], c["cut"], c["law"], t_end_s=0.01), DelayNewmark())

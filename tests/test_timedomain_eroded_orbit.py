@@ -6,7 +6,9 @@ is at least 10 x the verdict's 2 nm resolution, against the SDM linearized about
 orbit (entry shift, surface tilt and the delayed instant at ae minus the deflection when the teeth
 meet the part). docs/guide/timedomain-convergence.md, "The eroded part about its forced orbit at
 the four factors"; the same numbers print from
-``python bench/bench_timedomain_convergence.py --orbit --case alu-helix``."""
+``python bench/bench_timedomain_convergence.py --orbit --case alu-helix``. On steel without runout
+above the limit the mode saturates before full engagement: the rule must give no rate, with its
+reason (section "Steel below the limit by a rule stated before the runs")."""
 
 from __future__ import annotations
 
@@ -23,7 +25,8 @@ from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, 
 from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
 from robolobes.timedomain.forced_orbit import entry_deflection
-from robolobes.timedomain.rate import gated_growth_rate
+from robolobes.timedomain.rate import gated_growth_rate, regenerative_loss_per_period
+from robolobes.timedomain.verdict import chip_scale
 
 KICK_M = 1e-7  # amplitude of the kick's oscillation, m
 CHATTER_HZ = 24.7  # the aluminium case's chatter frequency, Hz
@@ -74,3 +77,44 @@ def test_kicked_eroded_rate_meets_the_sdm_about_its_forced_orbit(aluminium, fact
     rate, se, sigma = _rate_and_reference(aluminium, factor)
     assert math.isfinite(rate)
     assert abs(rate - sigma) <= max(0.1 * abs(sigma), TOL) + 2 * se
+
+
+@pytest.fixture(scope="module")
+def steel_no_runout():
+    """(robot, case, structure, SDM limit m): the bench's ``steel-no-runout`` case (the steel case's
+    tool without runout: the same linear problem, period one tooth)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", L.JointLimitWarning)
+        case = cases.load_case("tx200-steel")
+        case = replace(case, tool=replace(case.tool, runout_m=(0.0, 0.0)))
+        robot = L.build_model(case.robot, "basic")
+        st = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
+    p = LobeProblem(st, case.tool, case.cut, case.law)
+    lim = solve(p, SemiDiscretization(m=40, axial_slices=32, richardson=True), [case.cut.spindle_rpm])
+    return robot, case, st, float(lim.depth_limit_m[0])
+
+
+@pytest.mark.slow
+@pytest.mark.long
+@pytest.mark.parametrize("single_exponential", [False, True])
+def test_steel_above_the_limit_gives_no_rate_and_says_why(steel_no_runout, single_exponential):
+    # Steel at 1.25x without runout: the mode (+19 1/s about the orbit) saturates during the 2.1 s
+    # from first contact to full engagement, so every full-engagement period but the first has chip
+    # loss >= 5 % (bench: 215 of 216, 0.346 in the second). The rule must then give no rate, with
+    # its reason, by either start, never the rate of the saturated motion.
+    robot, case, _, lim = steel_no_runout
+    cut = replace(case.cut, ap_m=1.25 * lim)
+    flip_hz = cut.spindle_rpm / 60.0 * case.tool.teeth / 2.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", L.JointLimitWarning)
+        run = simulate(SimulationProblem(robot, replace(case, cut=cut), t_end_s=4.5),
+                       LinearizedNewmark(kick_m_s=2 * math.pi * flip_hz * KICK_M), verdict_companion=False)
+    tp = principal_period(case.tool, cut)[0]
+    t0, t1 = run.steady_window_s
+    t1 = min(t1, float(run.t_s[-1]))
+    xy = run.tcp_deviation_m[:, :2]
+    loss = regenerative_loss_per_period(run.t_s, xy, chip_scale(case.tool, cut), tp, t0, t1)
+    assert (loss[1:] >= 0.05).all()
+    g = gated_growth_rate(run.t_s, xy, tp, t_start_s=t0, t_end_s=t1, loss=loss, single_exponential=single_exponential)
+    assert g.estimate is None and not math.isfinite(g.rate_per_s)
+    assert "chip loss" in g.reason
