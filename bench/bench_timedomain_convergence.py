@@ -36,10 +36,12 @@ largest kick the chip-loss gate calls linear, ``--single-exp`` starts the fit wh
 a single exponential (both :mod:`robolobes.timedomain.rate`). ``--orbit-difference`` (below the
 limit) fits instead the kicked run minus the same run unkicked, sectioned once per tooth period:
 with runout the forced part cancels without sections once per revolution, which see only
-``(1 - 0.936)^2`` of a decaying flip.
+``(1 - 0.936)^2`` of a decaying flip. ``--pencil`` adds the matrix-pencil (ESPRIT) rate of the
+leading mode over the same gated window (:func:`robolobes.timedomain.rate.pencil_growth_rate`): on the
+difference's sections, or on the second differences of the single run's sections.
 
     python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
-    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0] [--single-exp] [--orbit-difference]
+    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0] [--single-exp] [--orbit-difference] [--pencil]
 """
 
 from __future__ import annotations
@@ -75,11 +77,14 @@ from robolobes.timedomain import (
 from robolobes.timedomain.delay import StructureProblem
 from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
 from robolobes.timedomain.rate import (
+    GatedRate,
+    PencilRate,
     gated_growth_rate,
     linear_kick_amplitude_m,
+    pencil_growth_rate,
     regenerative_loss_per_period,
 )
-from robolobes.timedomain.verdict import LOSS_LIMIT, chip_scale
+from robolobes.timedomain.verdict import LOSS_LIMIT, GrowthRule, chip_scale, poincare_sections
 
 FACTORS = (0.5, 0.8, 1.25, 2.0)
 STEPS_DEG = (2.0, 1.0, 0.5)
@@ -236,7 +241,36 @@ def _period_loss(run, tp: float, t0: float, t1: float) -> np.ndarray:
     return regenerative_loss_per_period(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], chip, tp, t0, t1)
 
 
-def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: bool = False) -> dict[str, Any]:
+def _pencil(t_s, x, tp: float, g: GatedRate, second_differences: bool) -> PencilRate | None:
+    """The pencil's rate over the gated window of ``g`` (None: no window): sections of ``x`` (n, 2), m,
+    per period ``tp`` at the rule's phases, (K, 2 P); their second differences for a single run."""
+    if g.window_s is None:
+        return None
+    lo, hi = g.window_s
+    p = poincare_sections(t_s, x, tp, lo, hi + 1e-9 * tp, GrowthRule().phases)
+    y = p.reshape(p.shape[0], -1)
+    if second_differences:
+        y = y[2:] - 2 * y[1:-1] + y[:-2]
+    return pencil_growth_rate(y, tp)
+
+
+def _pencil_line(p: PencilRate | None, reason: str, orbit: float) -> str:
+    """One printed line: the pencil's rate, order, leading multiplier and the criterion against ``orbit``."""
+    if p is None:
+        return f"  pencil: no rate: no gated window ({reason})"
+    if not math.isfinite(p.rate_per_s):
+        return f"  pencil: no rate: {p.reason} (order {p.order}, remainder {p.residual_m:.2e} m)"
+    z = p.multipliers[p.leading]
+    allow = max(0.1 * abs(orbit), TOL) + 2 * p.se_per_s
+    margin = allow - abs(p.rate_per_s - orbit)
+    return (f"  pencil {_fmt(p.rate_per_s, p.se_per_s)} (order {p.order}, remainder {p.residual_m:.2e} m; leading "
+            f"|z| {abs(z):.4f} at {math.degrees(float(np.angle(z))):+.1f} deg, {p.amplitudes_m[p.leading]:.2e} m; "
+            f"|z| all {' '.join(f'{abs(v):.3f}' for v in p.multipliers)}); criterion "
+            f"{'met' if margin >= 0 else 'NOT met'}: margin {margin:+.4f} 1/s")
+
+
+def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: bool = False,
+               pencil: bool = False) -> dict[str, Any]:
     """The kicked eroded part at 2 deg per step, default discs: rate, SE, window, deflections, the
     first contact (s) and the chip loss of the second full-engagement period (the first whose
     delayed samples all lie in the window); the fit starts ``skip_s``
@@ -255,7 +289,8 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: b
     g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:],
                           single_exponential=single)
     touch = np.flatnonzero(np.linalg.norm(np.asarray(run.force_tool_n)[:, :2], axis=1) > 0)
-    return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v,
+    pen = _pencil(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], tp, g, True) if pencil else None
+    return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v, pencil=pen,
                 contact=float(run.t_s[touch[0]]) if touch.size else math.nan, t0=t0,
                 loss1=float(loss[1]) if loss.size > 1 else math.nan,
                 dy_in=entry_deflection(run), dy_mean=mean_deflection(run),
@@ -263,7 +298,7 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: b
                 lossy=int(np.sum(loss >= LOSS_LIMIT)), n_per=loss.size)
 
 
-def _difference_run(name: str, c, cut, kick_nm: float, single: bool = False) -> dict[str, Any]:
+def _difference_run(name: str, c, cut, kick_nm: float, single: bool = False, pencil: bool = False) -> dict[str, Any]:
     """``--orbit-difference``: the kicked eroded part minus the same run unkicked (identical until the
     kick, so the forced response, runout's included, cancels without differencing sections), its
     rate fitted over sections once per tooth period (the flip's principal period without runout),
@@ -280,12 +315,13 @@ def _difference_run(name: str, c, cut, kick_nm: float, single: bool = False) -> 
     loss = np.repeat(_period_loss(kicked, rev, t0, t1), case.tool.teeth)
     tp = rev / case.tool.teeth
     g = gated_growth_rate(kicked.t_s, d, tp, t_start_s=t0, t_end_s=t1, loss=loss, single_exponential=single)
-    return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason,
+    pen = _pencil(kicked.t_s, d, tp, g, False) if pencil else None
+    return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, pencil=pen,
                 dy_in=entry_deflection(kicked), dy_mean=mean_deflection(kicked),
                 before=float(np.abs(d[kicked.t_s < t0]).max()))
 
 
-def run_difference(name: str, factors, kick_below_nm: float, single: bool = False) -> None:
+def run_difference(name: str, factors, kick_below_nm: float, single: bool = False, pencil: bool = False) -> None:
     """``--orbit-difference``: :func:`_difference_run` below the limit against the SDM about the orbit."""
     c = CASES[name]()
     if kick_below_nm <= 0:
@@ -296,7 +332,7 @@ def run_difference(name: str, factors, kick_below_nm: float, single: bool = Fals
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
-        r = _difference_run(name, c, cut, kick_below_nm, single)
+        r = _difference_run(name, c, cut, kick_below_nm, single, pencil)
         orbit = _orbit_sdm(c, cut, r["dy_in"])
         win = "none" if r["window"] is None else f"{r['window'][0]:.2f}-{r['window'][1]:.2f} s"
         print(f"{name} {f:g}x: difference {_fmt(r['rate'], r['se'])} (window {win}; largest difference before "
@@ -308,6 +344,8 @@ def run_difference(name: str, factors, kick_below_nm: float, single: bool = Fals
                   f"margin {margin:+.4f} 1/s; CPU {time.process_time() - c0:.1f} s", flush=True)
         else:
             print(f"  SDM about the orbit {orbit:+.4f} 1/s; no rate; CPU {time.process_time() - c0:.1f} s", flush=True)
+        if pencil:
+            print(_pencil_line(r["pencil"], r["reason"], orbit), flush=True)
 
 
 def _orbit_sdm(c, cut, dy_m: float) -> float:
@@ -318,7 +356,7 @@ def _orbit_sdm(c, cut, dy_m: float) -> float:
 
 
 def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0,
-              single: bool = False) -> None:
+              single: bool = False, pencil: bool = False) -> None:
     """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring);
     ``kick_below_nm`` <= 0: the largest linear kick (:func:`linear_kick_amplitude_m`)."""
     c = CASES[name]()
@@ -335,7 +373,7 @@ def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: 
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
-        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s, single)
+        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s, single, pencil)
         cpu_run = time.process_time() - c0
         sgn = 1.0 if cut.mode == "down" else -1.0
         plain = _sdm(c, replace(cut, ae_m=cut.ae_m - sgn * r["dy_mean"])).value_per_s
@@ -357,6 +395,8 @@ def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: 
                   f"margin {margin:+.4f} 1/s; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)
         else:
             print(f"  criterion not met: no rate; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)
+        if pencil:
+            print(_pencil_line(r["pencil"], r["reason"], orbit), flush=True)
 
 
 def main(argv=None) -> int:
@@ -374,6 +414,8 @@ def main(argv=None) -> int:
                     help="with --orbit: the kicked run minus the unkicked one, sections per tooth period")
     ap.add_argument("--single-exp", action="store_true",
                     help="with --orbit: start the fit where the gated run is a single exponential (rate.py)")
+    ap.add_argument("--pencil", action="store_true",
+                    help="with --orbit: also the matrix-pencil rate of the leading mode over the gated window (rate.py)")
     ap.add_argument("--orbit-skip-s", type=float, default=0.0,
                     help="with --orbit: start the fit this long after full engagement, s (default 0: the rule's window)")
     a = ap.parse_args(argv)
@@ -393,9 +435,9 @@ def main(argv=None) -> int:
     if a.orbit:
         for n in names:
             if a.orbit_difference:
-                run_difference(n, factors, a.kick_below_nm, a.single_exp)
+                run_difference(n, factors, a.kick_below_nm, a.single_exp, a.pencil)
             else:
-                run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s, a.single_exp)
+                run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s, a.single_exp, a.pencil)
         return 0
     c = _benchmark(False)  # compile (or load) the delay kernel outside the CPU timings
     simulate(StructureProblem(c["structure"], c["tool"], c["cut"], c["law"], t_end_s=0.01), DelayNewmark())

@@ -16,6 +16,7 @@ import math
 import warnings
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 import robolobes.linearize as L
@@ -25,8 +26,13 @@ from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, 
 from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
 from robolobes.timedomain.forced_orbit import entry_deflection
-from robolobes.timedomain.rate import gated_growth_rate, regenerative_loss_per_period
-from robolobes.timedomain.verdict import chip_scale
+from robolobes.timedomain.rate import (
+    gated_growth_rate,
+    linear_kick_amplitude_m,
+    pencil_growth_rate,
+    regenerative_loss_per_period,
+)
+from robolobes.timedomain.verdict import GrowthRule, chip_scale, poincare_sections
 
 KICK_M = 1e-7  # amplitude of the kick's oscillation, m
 CHATTER_HZ = 24.7  # the aluminium case's chatter frequency, Hz
@@ -118,3 +124,93 @@ def test_steel_above_the_limit_gives_no_rate_and_says_why(steel_no_runout, singl
     g = gated_growth_rate(run.t_s, xy, tp, t_start_s=t0, t_end_s=t1, loss=loss, single_exponential=single_exponential)
     assert g.estimate is None and not math.isfinite(g.rate_per_s)
     assert "chip loss" in g.reason
+
+
+@pytest.fixture(scope="module")
+def steel():
+    """(robot, case, structure, SDM limit m): the bench's ``steel`` case (its own tool, with runout)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", L.JointLimitWarning)
+        case = cases.load_case("tx200-steel")
+        robot = L.build_model(case.robot, "basic")
+        st = PhysicalStructure.from_linear(L.linearize(robot, case.path.start_q_rad), case.cut.feed_direction)
+    p = LobeProblem(st, case.tool, case.cut, case.law)
+    lim = solve(p, SemiDiscretization(m=40, axial_slices=32, richardson=True), [case.cut.spindle_rpm])
+    return robot, case, st, float(lim.depth_limit_m[0])
+
+
+def _orbit_sigma(st, case, cut, run) -> float:
+    """The SDM about the run's forced orbit (entry shift, tilt, delayed instant), 1/s."""
+    narrow = replace(cut, ae_m=cut.ae_m - entry_deflection(run))  # down-milling: ae minus the deflection
+    return float(entry_shift_exponent(LobeProblem(st, case.tool, narrow, case.law), SemiDiscretization(m=40),
+                                      surface_tilt=True, delay_time=True).value_per_s)
+
+
+def _pencil_over_gate(t_s, x, tp, t0, t1, loss, second_differences: bool):
+    """The pencil over the gated window of ``x`` (n, 2), m (the bench's ``_pencil``)."""
+    g = gated_growth_rate(t_s, x, tp, t_start_s=t0, t_end_s=t1, loss=loss)
+    assert g.window_s is not None, g.reason
+    p = poincare_sections(t_s, x, tp, g.window_s[0], g.window_s[1] + 1e-9 * tp, GrowthRule().phases)
+    y = p.reshape(p.shape[0], -1)
+    return pencil_growth_rate(y[2:] - 2 * y[1:-1] + y[:-2] if second_differences else y, tp)
+
+
+def _steel_difference_pencil(fixture, factor: float):
+    """(pencil rate, SE, sigma) of steel's kicked-minus-unkicked run at ``factor`` x the limit, the
+    largest linear kick at the flip frequency, sections per tooth period."""
+    robot, case, st, lim = fixture
+    cut = replace(case.cut, ap_m=factor * lim)
+    flip_hz = cut.spindle_rpm / 60.0 * case.tool.teeth / 2.0
+    v = 2 * math.pi * flip_hz * linear_kick_amplitude_m(chip_scale(case.tool, case.cut))
+    prob = SimulationProblem(robot, replace(case, cut=cut), t_end_s=4.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", L.JointLimitWarning)
+        kicked = simulate(prob, LinearizedNewmark(kick_m_s=v), verdict_companion=False)
+        plain = simulate(prob, LinearizedNewmark(), verdict_companion=False)
+    d = kicked.tcp_deviation_m[:, :2] - plain.tcp_deviation_m[:, :2]
+    t0, t1 = kicked.steady_window_s
+    t1 = min(t1, float(kicked.t_s[-1]))
+    rev = cut.spindle_period_s
+    chip = chip_scale(case.tool, cut)
+    loss = np.repeat(regenerative_loss_per_period(kicked.t_s, kicked.tcp_deviation_m[:, :2], chip, rev, t0, t1),
+                     case.tool.teeth)
+    p = _pencil_over_gate(kicked.t_s, d, rev / case.tool.teeth, t0, t1, loss, False)
+    return p.rate_per_s, p.se_per_s, _orbit_sigma(st, case, cut, kicked)
+
+
+def _aluminium_pencil(fixture, factor: float):
+    """(pencil rate, SE, sigma) of the kicked aluminium run (the largest linear kick below the limit,
+    100 nm above, at 24.7 Hz) on the second differences of its sections."""
+    robot, case, st, lim = fixture
+    cut = replace(case.cut, ap_m=factor * lim)
+    amp = linear_kick_amplitude_m(chip_scale(case.tool, case.cut)) if factor < 1 else KICK_M
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", L.JointLimitWarning)
+        run = simulate(SimulationProblem(robot, replace(case, cut=cut)),
+                       LinearizedNewmark(kick_m_s=2 * math.pi * CHATTER_HZ * amp), verdict_companion=False)
+    tp = principal_period(case.tool, cut)[0]
+    t0, t1 = run.steady_window_s
+    t1 = min(t1, float(run.t_s[-1]))
+    xy = run.tcp_deviation_m[:, :2]
+    loss = regenerative_loss_per_period(run.t_s, xy, chip_scale(case.tool, cut), tp, t0, t1)
+    p = _pencil_over_gate(run.t_s, xy, tp, t0, t1, loss, True)
+    return p.rate_per_s, p.se_per_s, _orbit_sigma(st, case, cut, run)
+
+
+@pytest.mark.slow
+@pytest.mark.long
+@pytest.mark.parametrize("name, factor", [("steel", 0.5), ("steel", 0.8), ("steel_no_runout", 0.5),
+                                          ("steel_no_runout", 0.8), ("aluminium", 0.5), ("aluminium", 0.8),
+                                          ("aluminium", 1.25), ("aluminium", 2.0)])
+def test_pencil_rate_meets_the_sdm_about_its_forced_orbit(request, name, factor):
+    # The matrix pencil (timedomain/rate.py, pencil_growth_rate) over the gated window, against the
+    # SDM about the orbit by the criterion max(10 % |sigma|, 0.03 1/s) + 2 SE. Measured (bench
+    # --orbit --pencil --kick-below-nm 0, with --orbit-difference for steel): steel 0.5x -4.4969 +-
+    # 0.7975 against -3.4230, 0.8x -5.0270 +- 3.7432 against -3.6148 (both met by the SE only);
+    # steel-no-runout 0.5x -3.8398 +- 0.3078 against -3.4245, 0.8x -3.2267 +- 0.5179 against -3.6164;
+    # aluminium -0.8593, -0.1668, +0.3782, +0.4437 against -0.8647, -0.1693, +0.3793, +0.4501 1/s.
+    fixture = request.getfixturevalue(name)
+    fn = _aluminium_pencil if name == "aluminium" else _steel_difference_pencil
+    rate, se, sigma = fn(fixture, factor)
+    assert math.isfinite(rate)
+    assert abs(rate - sigma) <= max(0.1 * abs(sigma), TOL) + 2 * se
