@@ -285,7 +285,7 @@ def _mode_amplitudes(y: np.ndarray, z: np.ndarray) -> np.ndarray:
     (over channels and, for a complex z, over its cycle: sqrt(2) |a| of the real pair)."""
     v = z[None, :] ** np.arange(y.shape[0])[:, None]
     a = np.linalg.lstsq(v, y.astype(complex), rcond=None)[0]
-    pair = np.abs(z.imag) > 1e-9 * np.abs(z)
+    pair = np.abs(np.imag(z)) > 1e-9 * np.abs(z)
     return np.sqrt((np.abs(a) ** 2).mean(axis=1)) * np.where(pair, math.sqrt(2.0), 1.0)
 
 
