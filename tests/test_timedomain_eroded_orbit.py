@@ -8,7 +8,10 @@ meet the part). docs/guide/timedomain-convergence.md, "The eroded part about its
 the four factors"; the same numbers print from
 ``python bench/bench_timedomain_convergence.py --orbit --case alu-helix``. On steel without runout
 above the limit the mode saturates before full engagement: the rule must give no rate, with its
-reason (section "Steel below the limit by a rule stated before the runs")."""
+reason (section "Steel below the limit by a rule stated before the runs"). The matrix-pencil rate
+(``pencil_growth_rate``) meets the criterion on steel with and without runout below the limit
+(kicked minus unkicked, the largest linear kick) and on aluminium at the four factors (section
+"The leading multiplier by the matrix pencil")."""
 
 from __future__ import annotations
 
