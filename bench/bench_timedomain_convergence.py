@@ -32,8 +32,7 @@ surface tilt and the delayed instant at ae - entry, m = 40 / 80) and the criteri
 ``|rate - sigma| <= max(10 % |sigma|, 0.03) + 2 SE`` against the latter, with its margin (allowance
 minus ``|rate - sigma|``: met when not below 0). ``--orbit-skip-s`` starts the fit later (a
 diagnostic: the robot's faster modes first). ``--kick-below-nm 0`` kicks below the limit with the
-largest kick the chip-loss gate calls linear, ``--single-exp`` starts the fit where the gated run is
-a single exponential (both :mod:`robolobes.timedomain.rate`). ``--orbit-difference`` (below the
+largest kick the chip-loss gate calls linear (:mod:`robolobes.timedomain.rate`). ``--orbit-difference`` (below the
 limit) fits instead the kicked run minus the same run unkicked, sectioned once per tooth period:
 with runout the forced part cancels without sections once per revolution, which see only
 ``(1 - 0.936)^2`` of a decaying flip. ``--pencil`` adds the matrix-pencil (ESPRIT) rate of the
@@ -41,7 +40,7 @@ leading mode over the same gated window (:func:`robolobes.timedomain.rate.pencil
 difference's sections, or on the second differences of the single run's sections.
 
     python bench/bench_timedomain_convergence.py [--case is-1dof,alu-helix] [--factor 0.8] [--no-eroded]
-    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0] [--single-exp] [--orbit-difference] [--pencil]
+    python bench/bench_timedomain_convergence.py --orbit --case alu-helix,steel,steel-no-runout [--kick-nm 100] [--kick-below-nm 100] [--orbit-skip-s 0] [--orbit-difference] [--pencil]
 """
 
 from __future__ import annotations
@@ -269,7 +268,7 @@ def _pencil_line(p: PencilRate | None, reason: str, orbit: float) -> str:
             f"{'met' if margin >= 0 else 'NOT met'}: margin {margin:+.4f} 1/s")
 
 
-def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: bool = False,
+def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0,
                pencil: bool = False) -> dict[str, Any]:
     """The kicked eroded part at 2 deg per step, default discs: rate, SE, window, deflections, the
     first contact (s) and the chip loss of the second full-engagement period (the first whose
@@ -286,8 +285,7 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: b
     t1 = min(t1, float(run.t_s[-1]))
     loss = _period_loss(run, tp, t0, t1)
     k = int(round(skip_s / tp))
-    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:],
-                          single_exponential=single)
+    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:])
     touch = np.flatnonzero(np.linalg.norm(np.asarray(run.force_tool_n)[:, :2], axis=1) > 0)
     pen = _pencil(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], tp, g, True) if pencil else None
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v, pencil=pen,
@@ -298,7 +296,7 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0, single: b
                 lossy=int(np.sum(loss >= LOSS_LIMIT)), n_per=loss.size)
 
 
-def _difference_run(name: str, c, cut, kick_nm: float, single: bool = False, pencil: bool = False) -> dict[str, Any]:
+def _difference_run(name: str, c, cut, kick_nm: float, pencil: bool = False) -> dict[str, Any]:
     """``--orbit-difference``: the kicked eroded part minus the same run unkicked (identical until the
     kick, so the forced response, runout's included, cancels without differencing sections), its
     rate fitted over sections once per tooth period (the flip's principal period without runout),
@@ -314,25 +312,24 @@ def _difference_run(name: str, c, cut, kick_nm: float, single: bool = False, pen
     rev = cut.spindle_period_s
     loss = np.repeat(_period_loss(kicked, rev, t0, t1), case.tool.teeth)
     tp = rev / case.tool.teeth
-    g = gated_growth_rate(kicked.t_s, d, tp, t_start_s=t0, t_end_s=t1, loss=loss, single_exponential=single)
+    g = gated_growth_rate(kicked.t_s, d, tp, t_start_s=t0, t_end_s=t1, loss=loss)
     pen = _pencil(kicked.t_s, d, tp, g, False) if pencil else None
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, pencil=pen,
                 dy_in=entry_deflection(kicked), dy_mean=mean_deflection(kicked),
                 before=float(np.abs(d[kicked.t_s < t0]).max()))
 
 
-def run_difference(name: str, factors, kick_below_nm: float, single: bool = False, pencil: bool = False) -> None:
+def run_difference(name: str, factors, kick_below_nm: float, pencil: bool = False) -> None:
     """``--orbit-difference``: :func:`_difference_run` below the limit against the SDM about the orbit."""
     c = CASES[name]()
     if kick_below_nm <= 0:
         kick_below_nm = linear_kick_amplitude_m(chip_scale(c["tool"], c["cut"])) * 1e9
     lim = _limit(c)
-    print(f"\n## {name} (kicked minus unkicked, sections per tooth period): kick {kick_below_nm:g} nm"
-          + (", fit from where it is a single exponential" if single else ""), flush=True)
+    print(f"\n## {name} (kicked minus unkicked, sections per tooth period): kick {kick_below_nm:g} nm", flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
-        r = _difference_run(name, c, cut, kick_below_nm, single, pencil)
+        r = _difference_run(name, c, cut, kick_below_nm, pencil)
         orbit = _orbit_sdm(c, cut, r["dy_in"])
         win = "none" if r["window"] is None else f"{r['window'][0]:.2f}-{r['window'][1]:.2f} s"
         print(f"{name} {f:g}x: difference {_fmt(r['rate'], r['se'])} (window {win}; largest difference before "
@@ -356,7 +353,7 @@ def _orbit_sdm(c, cut, dy_m: float) -> float:
 
 
 def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: float = 0.0,
-              single: bool = False, pencil: bool = False) -> None:
+              pencil: bool = False) -> None:
     """``--orbit``: the kicked eroded part against the SDM about its forced orbit (module docstring);
     ``kick_below_nm`` <= 0: the largest linear kick (:func:`linear_kick_amplitude_m`)."""
     c = CASES[name]()
@@ -368,12 +365,11 @@ def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: 
     lim = _limit(c)
     print(f"\n## {name} (orbit): {c['cut'].spindle_rpm:g} rpm, SDM limit {lim * 1e3:.4f} mm, kick {kick_below_nm:g} "
           f"nm below the limit, {kick_nm:g} nm above, at {_chatter_hz(name, c):.2f} Hz"
-          + (f", fit from {skip_s:g} s after full engagement" if skip_s else "")
-          + (", fit from where it is a single exponential" if single else ""), flush=True)
+          + (f", fit from {skip_s:g} s after full engagement" if skip_s else ""), flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
-        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s, single, pencil)
+        r = _orbit_run(name, c, cut, kick_below_nm if f < 1 else kick_nm, skip_s, pencil)
         cpu_run = time.process_time() - c0
         sgn = 1.0 if cut.mode == "down" else -1.0
         plain = _sdm(c, replace(cut, ae_m=cut.ae_m - sgn * r["dy_mean"])).value_per_s
@@ -412,8 +408,6 @@ def main(argv=None) -> int:
                     help="with --orbit: the same below the limit, nm (0: the largest linear kick, rate.py)")
     ap.add_argument("--orbit-difference", action="store_true",
                     help="with --orbit: the kicked run minus the unkicked one, sections per tooth period")
-    ap.add_argument("--single-exp", action="store_true",
-                    help="with --orbit: start the fit where the gated run is a single exponential (rate.py)")
     ap.add_argument("--pencil", action="store_true",
                     help="with --orbit: also the matrix-pencil rate of the leading mode over the gated window (rate.py)")
     ap.add_argument("--orbit-skip-s", type=float, default=0.0,
@@ -435,9 +429,9 @@ def main(argv=None) -> int:
     if a.orbit:
         for n in names:
             if a.orbit_difference:
-                run_difference(n, factors, a.kick_below_nm, a.single_exp, a.pencil)
+                run_difference(n, factors, a.kick_below_nm, a.pencil)
             else:
-                run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s, a.single_exp, a.pencil)
+                run_orbit(n, factors, a.kick_nm, a.kick_below_nm, a.orbit_skip_s, a.pencil)
         return 0
     c = _benchmark(False)  # compile (or load) the delay kernel outside the CPU timings
     simulate(StructureProblem(c["structure"], c["tool"], c["cut"], c["law"], t_end_s=0.01), DelayNewmark())
