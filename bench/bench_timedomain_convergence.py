@@ -33,9 +33,9 @@ surface tilt and the delayed instant at ae - entry, m = 40 / 80) and the criteri
 minus ``|rate - sigma|``: met when not below 0). ``--orbit-skip-s`` starts the fit later (a
 diagnostic: the robot's faster modes first). ``--kick-below-nm 0`` kicks below the limit with the
 largest kick the chip-loss gate calls linear (:mod:`robolobes.timedomain.rate`). ``--orbit-difference`` (below the
-limit) fits instead the kicked run minus the same run unkicked, sectioned once per tooth period:
-with runout the forced part cancels without sections once per revolution, which see only
-``(1 - 0.936)^2`` of a decaying flip. ``--pencil`` adds the matrix-pencil (ESPRIT) rate of the
+limit) fits instead the kicked run minus the same run unkicked, so that the forced part, runout's
+included, cancels without second differences (which see only ``(1 - 0.936)^2`` of a flip decaying
+over a revolution), sectioned once per period of the forced orbit (the revolution with runout). ``--pencil`` adds the matrix-pencil (ESPRIT) rate of the
 leading mode over the same gated window (:func:`robolobes.timedomain.rate.pencil_growth_rate`): on the
 difference's sections, or on the second differences of the single run's sections.
 
@@ -299,8 +299,11 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0,
 def _difference_run(name: str, c, cut, kick_nm: float, pencil: bool = False) -> dict[str, Any]:
     """``--orbit-difference``: the kicked eroded part minus the same run unkicked (identical until the
     kick, so the forced response, runout's included, cancels without differencing sections), its
-    rate fitted over sections once per tooth period (the flip's principal period without runout),
-    the chip loss per revolution of the kicked run applied to both of its tooth periods."""
+    rate fitted over sections once per period of the forced orbit: the tooth period without runout;
+    the revolution with runout, where the part is met at a different deflection by each tooth, so
+    that the motion about the orbit is periodic in the revolution (the Floquet model of the pencil
+    needs the period of the linear system). The chip loss per revolution of the kicked run applies
+    to each of its tooth periods."""
     case = replace(c["case"], cut=cut)
     prob = SimulationProblem(c["robot"], case, t_end_s=c["t_end_s"])
     v = 2 * math.pi * _chatter_hz(name, c) * kick_nm * 1e-9
@@ -310,8 +313,10 @@ def _difference_run(name: str, c, cut, kick_nm: float, pencil: bool = False) -> 
     t0, t1 = kicked.steady_window_s
     t1 = min(t1, float(kicked.t_s[-1]))
     rev = cut.spindle_period_s
-    loss = np.repeat(_period_loss(kicked, rev, t0, t1), case.tool.teeth)
-    tp = rev / case.tool.teeth
+    runout = max(case.tool.runout_m) != min(case.tool.runout_m)
+    loss = _period_loss(kicked, rev, t0, t1)
+    tp = rev if runout else rev / case.tool.teeth
+    loss = loss if runout else np.repeat(loss, case.tool.teeth)
     g = gated_growth_rate(kicked.t_s, d, tp, t_start_s=t0, t_end_s=t1, loss=loss)
     pen = _pencil(kicked.t_s, d, tp, g, False) if pencil else None
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, pencil=pen,
@@ -325,7 +330,8 @@ def run_difference(name: str, factors, kick_below_nm: float, pencil: bool = Fals
     if kick_below_nm <= 0:
         kick_below_nm = linear_kick_amplitude_m(chip_scale(c["tool"], c["cut"])) * 1e9
     lim = _limit(c)
-    print(f"\n## {name} (kicked minus unkicked, sections per tooth period): kick {kick_below_nm:g} nm", flush=True)
+    per = "revolution" if max(c["tool"].runout_m) != min(c["tool"].runout_m) else "tooth period"
+    print(f"\n## {name} (kicked minus unkicked, sections per {per}): kick {kick_below_nm:g} nm", flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
         c0 = time.process_time()
@@ -407,7 +413,7 @@ def main(argv=None) -> int:
     ap.add_argument("--kick-below-nm", type=float, default=100.0,
                     help="with --orbit: the same below the limit, nm (0: the largest linear kick, rate.py)")
     ap.add_argument("--orbit-difference", action="store_true",
-                    help="with --orbit: the kicked run minus the unkicked one, sections per tooth period")
+                    help="with --orbit: the kicked run minus the unkicked one, sections per period of the forced orbit")
     ap.add_argument("--pencil", action="store_true",
                     help="with --orbit: also the matrix-pencil rate of the leading mode over the gated window (rate.py)")
     ap.add_argument("--orbit-skip-s", type=float, default=0.0,
