@@ -253,6 +253,12 @@ def _pencil(t_s, x, tp: float, g: GatedRate, second_differences: bool) -> Pencil
     return pencil_growth_rate(y, tp)
 
 
+def _margin(rate: float, se: float, sigma: float) -> tuple[float, float]:
+    """(allowance, margin) of the criterion ``|rate - sigma| <= max(10 % |sigma|, TOL) + 2 se``, 1/s."""
+    allow = max(0.1 * abs(sigma), TOL) + 2 * se
+    return allow, allow - abs(rate - sigma)
+
+
 def _pencil_line(p: PencilRate | None, reason: str, orbit: float) -> str:
     """One printed line: the pencil's rate, order, leading multiplier and the criterion against ``orbit``."""
     if p is None:
@@ -260,8 +266,7 @@ def _pencil_line(p: PencilRate | None, reason: str, orbit: float) -> str:
     if not math.isfinite(p.rate_per_s):
         return f"  pencil: no rate: {p.reason} (order {p.order}, remainder {p.residual_m:.2e} m)"
     z = p.multipliers[p.leading]
-    allow = max(0.1 * abs(orbit), TOL) + 2 * p.se_per_s
-    margin = allow - abs(p.rate_per_s - orbit)
+    _, margin = _margin(p.rate_per_s, p.se_per_s, orbit)
     return (f"  pencil {_fmt(p.rate_per_s, p.se_per_s)} (order {p.order}, remainder {p.residual_m:.2e} m; leading "
             f"|z| {abs(z):.4f} at {math.degrees(float(np.angle(z))):+.1f} deg, {p.amplitudes_m[p.leading]:.2e} m; "
             f"|z| all {' '.join(f'{abs(v):.3f}' for v in p.multipliers)}); criterion "
@@ -341,8 +346,7 @@ def run_difference(name: str, factors, kick_below_nm: float, pencil: bool = Fals
         print(f"{name} {f:g}x: difference {_fmt(r['rate'], r['se'])} (window {win}; largest difference before "
               f"full engagement {r['before']:.2e} m){'; ' + r['reason'] if r['reason'] else ''}", flush=True)
         if math.isfinite(r["rate"]):
-            allow = max(0.1 * abs(orbit), TOL) + 2 * r["se"]
-            margin = allow - abs(r["rate"] - orbit)
+            _, margin = _margin(r["rate"], r["se"], orbit)
             print(f"  SDM about the orbit {orbit:+.4f} 1/s; criterion {'met' if margin >= 0 else 'NOT met'}: "
                   f"margin {margin:+.4f} 1/s; CPU {time.process_time() - c0:.1f} s", flush=True)
         else:
@@ -390,8 +394,7 @@ def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: 
         print(f"  deflection mean {r['dy_mean'] * 1e6:.2f} um, entry {r['dy_in'] * 1e6:.2f} um; SDM at ae - mean "
               f"{plain:+.4f}, SDM about the orbit {orbit:+.4f} 1/s", flush=True)
         if math.isfinite(r["rate"]):
-            allow = max(0.1 * abs(orbit), TOL) + 2 * r["se"]
-            margin = allow - abs(r["rate"] - orbit)
+            allow, margin = _margin(r["rate"], r["se"], orbit)
             verdict = "met" if margin >= 0 else "NOT met"
             print(f"  criterion {verdict}: |rate - sigma| {abs(r['rate'] - orbit):.4f}, allowance {allow:.4f}, "
                   f"margin {margin:+.4f} 1/s; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)

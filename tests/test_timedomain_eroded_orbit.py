@@ -57,22 +57,25 @@ def aluminium():
     return robot, case, st, float(lim.depth_limit_m[0])
 
 
+def _kicked(robot, case, cut, kick_m_s: float, t_end_s: float | None = None):
+    """(run, principal period s, steady window start s, its end s, cut-plane deviation (n, 2) m) of
+    the eroded part kicked by ``kick_m_s`` at full engagement."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", L.JointLimitWarning)  # the start pose's A3, accepted within 5 deg
+        run = simulate(SimulationProblem(robot, replace(case, cut=cut), t_end_s=t_end_s),
+                       LinearizedNewmark(kick_m_s=kick_m_s), verdict_companion=False)
+    t0, t1 = run.steady_window_s
+    return run, principal_period(case.tool, cut)[0], t0, min(t1, float(run.t_s[-1])), run.tcp_deviation_m[:, :2]
+
+
 def _rate_and_reference(aluminium, factor: float) -> tuple[float, float, float]:
     """(eroded rate 1/s, its SE 1/s, SDM exponent about the forced orbit 1/s) at ``factor`` x the limit."""
     robot, case, st, lim = aluminium
     cut = replace(case.cut, ap_m=factor * lim)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", L.JointLimitWarning)  # the start pose's A3, accepted within 5 deg
-        run = simulate(SimulationProblem(robot, replace(case, cut=cut)),
-                       LinearizedNewmark(kick_m_s=2 * math.pi * CHATTER_HZ * KICK_M), verdict_companion=False)
-    tp = principal_period(case.tool, cut)[0]
-    t0, t1 = run.steady_window_s
+    run, tp, t0, t1, xy = _kicked(robot, case, cut, 2 * math.pi * CHATTER_HZ * KICK_M)
     # no chip-loss gate: the bench's per-period loss stays below 1 % at every factor (max 0.005)
-    g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0, t_end_s=min(t1, run.t_s[-1]))
-    narrow = replace(cut, ae_m=cut.ae_m - entry_deflection(run))  # down-milling: ae minus the deflection
-    e = entry_shift_exponent(LobeProblem(st, case.tool, narrow, case.law), SemiDiscretization(m=40),
-                             surface_tilt=True, delay_time=True)
-    return g.rate_per_s, g.se_per_s, float(e.value_per_s)
+    g = gated_growth_rate(run.t_s, xy, tp, t_start_s=t0, t_end_s=t1)
+    return g.rate_per_s, g.se_per_s, _orbit_sigma(st, case, cut, run)
 
 
 @pytest.mark.slow
@@ -113,14 +116,7 @@ def test_steel_above_the_limit_gives_no_rate_and_says_why(steel_no_runout):
     robot, case, _, lim = steel_no_runout
     cut = replace(case.cut, ap_m=1.25 * lim)
     flip_hz = cut.spindle_rpm / 60.0 * case.tool.teeth / 2.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", L.JointLimitWarning)
-        run = simulate(SimulationProblem(robot, replace(case, cut=cut), t_end_s=4.5),
-                       LinearizedNewmark(kick_m_s=2 * math.pi * flip_hz * KICK_M), verdict_companion=False)
-    tp = principal_period(case.tool, cut)[0]
-    t0, t1 = run.steady_window_s
-    t1 = min(t1, float(run.t_s[-1]))
-    xy = run.tcp_deviation_m[:, :2]
+    run, tp, t0, t1, xy = _kicked(robot, case, cut, 2 * math.pi * flip_hz * KICK_M, t_end_s=4.5)
     loss = regenerative_loss_per_period(run.t_s, xy, chip_scale(case.tool, cut), tp, t0, t1)
     assert (loss[1:] >= 0.05).all()
     g = gated_growth_rate(run.t_s, xy, tp, t_start_s=t0, t_end_s=t1, loss=loss)
@@ -188,14 +184,7 @@ def _aluminium_pencil(fixture, factor: float):
     robot, case, st, lim = fixture
     cut = replace(case.cut, ap_m=factor * lim)
     amp = linear_kick_amplitude_m(chip_scale(case.tool, case.cut)) if factor < 1 else KICK_M
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", L.JointLimitWarning)
-        run = simulate(SimulationProblem(robot, replace(case, cut=cut)),
-                       LinearizedNewmark(kick_m_s=2 * math.pi * CHATTER_HZ * amp), verdict_companion=False)
-    tp = principal_period(case.tool, cut)[0]
-    t0, t1 = run.steady_window_s
-    t1 = min(t1, float(run.t_s[-1]))
-    xy = run.tcp_deviation_m[:, :2]
+    run, tp, t0, t1, xy = _kicked(robot, case, cut, 2 * math.pi * CHATTER_HZ * amp)
     loss = regenerative_loss_per_period(run.t_s, xy, chip_scale(case.tool, cut), tp, t0, t1)
     p = _pencil_over_gate(run.t_s, xy, tp, t0, t1, loss, True)
     return p.rate_per_s, p.se_per_s, _orbit_sigma(st, case, cut, run)
