@@ -74,16 +74,16 @@ from robolobes.timedomain import (
     simulate,
 )
 from robolobes.timedomain.delay import StructureProblem
-from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection
+from robolobes.timedomain.forced_orbit import entry_deflection, mean_deflection, orbit_period_s
 from robolobes.timedomain.rate import (
-    GatedRate,
     PencilRate,
     gated_growth_rate,
     linear_kick_amplitude_m,
-    pencil_growth_rate,
+    pencil_over_window,
     regenerative_loss_per_period,
 )
-from robolobes.timedomain.verdict import LOSS_LIMIT, GrowthRule, chip_scale, poincare_sections
+from robolobes.timedomain.summary import has_runout
+from robolobes.timedomain.verdict import LOSS_LIMIT, chip_scale
 
 FACTORS = (0.5, 0.8, 1.25, 2.0)
 STEPS_DEG = (2.0, 1.0, 0.5)
@@ -168,9 +168,7 @@ def _eroded(c, cut, deg, n_discs=None):
     c0 = time.process_time()
     run = simulate(prob, LinearizedNewmark(deg_per_step=deg, n_discs=n_discs))
     cpu = time.process_time() - c0
-    tp = principal_period(case.tool, cut)[0]
-    if max(case.tool.runout_m) != min(case.tool.runout_m):
-        tp = cut.spindle_period_s  # with runout the forced response repeats once per revolution
+    tp = orbit_period_s(case.tool, cut)  # with runout the forced response repeats once per revolution
     t0, t1 = run.steady_window_s
     g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0, t_end_s=min(t1, run.t_s[-1]))
     sel = (run.t_s >= t0) & (run.t_s <= t1)
@@ -240,23 +238,19 @@ def _period_loss(run, tp: float, t0: float, t1: float) -> np.ndarray:
     return regenerative_loss_per_period(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], chip, tp, t0, t1)
 
 
-def _pencil(t_s, x, tp: float, g: GatedRate, second_differences: bool) -> PencilRate | None:
-    """The pencil's rate over the gated window of ``g`` (None: no window): sections of ``x`` (n, 2), m,
-    per period ``tp`` at the rule's phases, (K, 2 P); their second differences for a single run."""
-    if g.window_s is None:
-        return None
-    lo, hi = g.window_s
-    p = poincare_sections(t_s, x, tp, lo, hi + 1e-9 * tp, GrowthRule().phases)
-    y = p.reshape(p.shape[0], -1)
-    if second_differences:
-        y = y[2:] - 2 * y[1:-1] + y[:-2]
-    return pencil_growth_rate(y, tp)
-
-
 def _margin(rate: float, se: float, sigma: float) -> tuple[float, float]:
     """(allowance, margin) of the criterion ``|rate - sigma| <= max(10 % |sigma|, TOL) + 2 se``, 1/s."""
     allow = max(0.1 * abs(sigma), TOL) + 2 * se
     return allow, allow - abs(rate - sigma)
+
+
+def _criterion_line(rate: float, se: float, sigma: float, cpu: str) -> str:
+    """One printed line: the criterion against ``sigma`` for ``rate`` +- ``se`` (nan: no rate), 1/s."""
+    if not math.isfinite(rate):
+        return f"  criterion not met: no rate; {cpu}"
+    allow, margin = _margin(rate, se, sigma)
+    return (f"  criterion {'met' if margin >= 0 else 'NOT met'}: |rate - sigma| {abs(rate - sigma):.4f}, allowance "
+            f"{allow:.4f}, margin {margin:+.4f} 1/s; {cpu}")
 
 
 def _pencil_line(p: PencilRate | None, reason: str, orbit: float) -> str:
@@ -283,16 +277,14 @@ def _orbit_run(name: str, c, cut, kick_nm: float, skip_s: float = 0.0,
     v = 2 * math.pi * _chatter_hz(name, c) * kick_nm * 1e-9
     run = simulate(SimulationProblem(c["robot"], case, t_end_s=c["t_end_s"]), LinearizedNewmark(kick_m_s=v),
                    verdict_companion=False)
-    tp = principal_period(case.tool, cut)[0]
-    if max(case.tool.runout_m) != min(case.tool.runout_m):
-        tp = cut.spindle_period_s  # with runout the forced response repeats once per revolution
+    tp = orbit_period_s(case.tool, cut)  # with runout the forced response repeats once per revolution
     t0, t1 = run.steady_window_s
     t1 = min(t1, float(run.t_s[-1]))
     loss = _period_loss(run, tp, t0, t1)
     k = int(round(skip_s / tp))
     g = gated_growth_rate(run.t_s, run.tcp_deviation_m[:, :2], tp, t_start_s=t0 + k * tp, t_end_s=t1, loss=loss[k:])
     touch = np.flatnonzero(np.linalg.norm(np.asarray(run.force_tool_n)[:, :2], axis=1) > 0)
-    pen = _pencil(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], tp, g, True) if pencil else None
+    pen = pencil_over_window(run.t_s, np.asarray(run.tcp_deviation_m)[:, :2], tp, g, second_differences=True) if pencil else None
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, v=v, pencil=pen,
                 contact=float(run.t_s[touch[0]]) if touch.size else math.nan, t0=t0,
                 loss1=float(loss[1]) if loss.size > 1 else math.nan,
@@ -317,13 +309,11 @@ def _difference_run(name: str, c, cut, kick_nm: float, pencil: bool = False) -> 
     d = np.asarray(kicked.tcp_deviation_m)[:, :2] - np.asarray(plain.tcp_deviation_m)[:, :2]
     t0, t1 = kicked.steady_window_s
     t1 = min(t1, float(kicked.t_s[-1]))
-    rev = cut.spindle_period_s
-    runout = max(case.tool.runout_m) != min(case.tool.runout_m)
-    loss = _period_loss(kicked, rev, t0, t1)
-    tp = rev if runout else rev / case.tool.teeth
-    loss = loss if runout else np.repeat(loss, case.tool.teeth)
+    tp = orbit_period_s(case.tool, cut)
+    loss = _period_loss(kicked, cut.spindle_period_s, t0, t1)
+    loss = np.repeat(loss, round(cut.spindle_period_s / tp))  # the revolution's loss for each of its periods
     g = gated_growth_rate(kicked.t_s, d, tp, t_start_s=t0, t_end_s=t1, loss=loss)
-    pen = _pencil(kicked.t_s, d, tp, g, False) if pencil else None
+    pen = pencil_over_window(kicked.t_s, d, tp, g, second_differences=False) if pencil else None
     return dict(rate=g.rate_per_s, se=g.se_per_s, window=g.window_s, reason=g.reason, pencil=pen,
                 dy_in=entry_deflection(kicked), dy_mean=mean_deflection(kicked),
                 before=float(np.abs(d[kicked.t_s < t0]).max()))
@@ -335,7 +325,7 @@ def run_difference(name: str, factors, kick_below_nm: float, pencil: bool = Fals
     if kick_below_nm <= 0:
         kick_below_nm = linear_kick_amplitude_m(chip_scale(c["tool"], c["cut"])) * 1e9
     lim = _limit(c)
-    per = "revolution" if max(c["tool"].runout_m) != min(c["tool"].runout_m) else "tooth period"
+    per = "revolution" if has_runout(c["tool"]) else "tooth period"
     print(f"\n## {name} (kicked minus unkicked, sections per {per}): kick {kick_below_nm:g} nm", flush=True)
     for f in factors:
         cut = replace(c["cut"], ap_m=f * lim)
@@ -345,12 +335,8 @@ def run_difference(name: str, factors, kick_below_nm: float, pencil: bool = Fals
         win = "none" if r["window"] is None else f"{r['window'][0]:.2f}-{r['window'][1]:.2f} s"
         print(f"{name} {f:g}x: difference {_fmt(r['rate'], r['se'])} (window {win}; largest difference before "
               f"full engagement {r['before']:.2e} m){'; ' + r['reason'] if r['reason'] else ''}", flush=True)
-        if math.isfinite(r["rate"]):
-            _, margin = _margin(r["rate"], r["se"], orbit)
-            print(f"  SDM about the orbit {orbit:+.4f} 1/s; criterion {'met' if margin >= 0 else 'NOT met'}: "
-                  f"margin {margin:+.4f} 1/s; CPU {time.process_time() - c0:.1f} s", flush=True)
-        else:
-            print(f"  SDM about the orbit {orbit:+.4f} 1/s; no rate; CPU {time.process_time() - c0:.1f} s", flush=True)
+        print(f"  SDM about the orbit {orbit:+.4f} 1/s", flush=True)
+        print(_criterion_line(r["rate"], r["se"], orbit, f"CPU {time.process_time() - c0:.1f} s"), flush=True)
         if pencil:
             print(_pencil_line(r["pencil"], r["reason"], orbit), flush=True)
 
@@ -393,13 +379,7 @@ def run_orbit(name: str, factors, kick_nm: float, kick_below_nm: float, skip_s: 
               f"period {r['loss1']:.3f})", flush=True)
         print(f"  deflection mean {r['dy_mean'] * 1e6:.2f} um, entry {r['dy_in'] * 1e6:.2f} um; SDM at ae - mean "
               f"{plain:+.4f}, SDM about the orbit {orbit:+.4f} 1/s", flush=True)
-        if math.isfinite(r["rate"]):
-            allow, margin = _margin(r["rate"], r["se"], orbit)
-            verdict = "met" if margin >= 0 else "NOT met"
-            print(f"  criterion {verdict}: |rate - sigma| {abs(r['rate'] - orbit):.4f}, allowance {allow:.4f}, "
-                  f"margin {margin:+.4f} 1/s; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)
-        else:
-            print(f"  criterion not met: no rate; CPU run {cpu_run:.1f} s, all {cpu:.1f} s", flush=True)
+        print(_criterion_line(r["rate"], r["se"], orbit, f"CPU run {cpu_run:.1f} s, all {cpu:.1f} s"), flush=True)
         if pencil:
             print(_pencil_line(r["pencil"], r["reason"], orbit), flush=True)
 

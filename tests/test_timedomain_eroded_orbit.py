@@ -28,14 +28,14 @@ from robolobes.cases.milling import principal_period
 from robolobes.lobes import LobeProblem, PhysicalStructure, SemiDiscretization, solve
 from robolobes.lobes.entry_shift import entry_shift_exponent
 from robolobes.timedomain import LinearizedNewmark, SimulationProblem, simulate
-from robolobes.timedomain.forced_orbit import entry_deflection
+from robolobes.timedomain.forced_orbit import entry_deflection, orbit_period_s
 from robolobes.timedomain.rate import (
     gated_growth_rate,
     linear_kick_amplitude_m,
-    pencil_growth_rate,
+    pencil_over_window,
     regenerative_loss_per_period,
 )
-from robolobes.timedomain.verdict import GrowthRule, chip_scale, poincare_sections
+from robolobes.timedomain.verdict import chip_scale
 
 KICK_M = 1e-7  # amplitude of the kick's oscillation, m
 CHATTER_HZ = 24.7  # the aluminium case's chatter frequency, Hz
@@ -145,12 +145,11 @@ def _orbit_sigma(st, case, cut, run) -> float:
 
 
 def _pencil_over_gate(t_s, x, tp, t0, t1, loss, second_differences: bool):
-    """The pencil over the gated window of ``x`` (n, 2), m (the bench's ``_pencil``)."""
+    """The pencil over the gated window of ``x`` (n, 2), m."""
     g = gated_growth_rate(t_s, x, tp, t_start_s=t0, t_end_s=t1, loss=loss)
-    assert g.window_s is not None, g.reason
-    p = poincare_sections(t_s, x, tp, g.window_s[0], g.window_s[1] + 1e-9 * tp, GrowthRule().phases)
-    y = p.reshape(p.shape[0], -1)
-    return pencil_growth_rate(y[2:] - 2 * y[1:-1] + y[:-2] if second_differences else y, tp)
+    p = pencil_over_window(t_s, x, tp, g, second_differences=second_differences)
+    assert p is not None, g.reason  # None: no gated window
+    return p
 
 
 def _steel_difference_pencil(fixture, factor: float):
@@ -170,11 +169,10 @@ def _steel_difference_pencil(fixture, factor: float):
     t0, t1 = kicked.steady_window_s
     t1 = min(t1, float(kicked.t_s[-1]))
     rev = cut.spindle_period_s
-    runout = max(case.tool.runout_m) != min(case.tool.runout_m)
+    tp = orbit_period_s(case.tool, cut)
     loss = regenerative_loss_per_period(kicked.t_s, kicked.tcp_deviation_m[:, :2], chip_scale(case.tool, cut), rev,
                                         t0, t1)
-    tp = rev if runout else rev / case.tool.teeth
-    p = _pencil_over_gate(kicked.t_s, d, tp, t0, t1, loss if runout else np.repeat(loss, case.tool.teeth), False)
+    p = _pencil_over_gate(kicked.t_s, d, tp, t0, t1, np.repeat(loss, round(rev / tp)), False)
     return p.rate_per_s, p.se_per_s, _orbit_sigma(st, case, cut, kicked)
 
 

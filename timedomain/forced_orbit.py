@@ -17,7 +17,15 @@ import numpy as np
 
 from robolobes.cases.milling import principal_period
 
-__all__ = ["entry_deflection", "mean_deflection", "sync_deflection"]
+__all__ = ["entry_deflection", "mean_deflection", "orbit_period_s", "sync_deflection"]
+
+
+def orbit_period_s(tool, cut) -> float:
+    """Period of the forced orbit, s: the principal (tooth) period, or the spindle revolution for a
+    tool with runout, whose teeth meet the part at different deflections (the orbit and the motion
+    about it then repeat once per revolution)."""
+    from .summary import has_runout
+    return cut.spindle_period_s if has_runout(tool) else principal_period(tool, cut)[0]
 
 
 def _steady(r) -> np.ndarray:

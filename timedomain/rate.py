@@ -52,7 +52,8 @@ from .verdict import (
 )
 
 __all__ = ["MIN_DIFFERENCES", "PENCIL_MAX_ORDER", "RESOLVED_FACTOR", "GatedRate", "PencilRate", "gated_growth_rate",
-           "linear_kick_amplitude_m", "loss_per_period", "pencil_growth_rate", "regenerative_loss_per_period"]
+           "linear_kick_amplitude_m", "loss_per_period", "pencil_growth_rate", "pencil_over_window",
+           "regenerative_loss_per_period"]
 
 #: The motion must exceed this multiple of the verdict's resolution to enter the fit.
 RESOLVED_FACTOR = 10.0
@@ -328,3 +329,18 @@ def pencil_growth_rate(sections, period_s: float, *, rule: GrowthRule = _DEFAULT
     rate = math.log(abs(z[lead])) / period_s
     se = _jackknife_se(h, r, c, complex(z[lead]), period_s)
     return PencilRate(rate, se, r, z, amp, lead, resid)
+
+
+def pencil_over_window(t_s, x, period_s: float, gated: GatedRate, *, second_differences: bool) -> PencilRate | None:
+    """:func:`pencil_growth_rate` over the window of a gated fit (None where it has none): the
+    Poincare sections of ``x`` (n, m), m, at times ``t_s`` (n,), s, per ``period_s`` at the rule's
+    phases, as (K, m P); their second differences for a single run (``second_differences``), as they
+    are for the kicked-minus-unkicked difference of two runs (False)."""
+    if gated.window_s is None:
+        return None
+    lo, hi = gated.window_s
+    p = poincare_sections(t_s, x, period_s, lo, hi + 1e-9 * period_s, _DEFAULT_RULE.phases)
+    y = p.reshape(p.shape[0], -1)
+    if second_differences:
+        y = y[2:] - 2 * y[1:-1] + y[:-2]
+    return pencil_growth_rate(y, period_s)
