@@ -50,6 +50,7 @@ def methods():
          RefinedSDM(SemiDiscretization(search="plain"))),
         ("RefinedSDM m0 = 20, tol 1 %", RefinedSDM(SemiDiscretization(m=20))),
         ("RefinedSDM free-exact m0 = 20, tol 1 %", RefinedSDM(SemiDiscretization(m=20, scheme="free-exact"))),
+        ("RefinedSDM free-exact m0 = 40, tol 1 %", RefinedSDM(SemiDiscretization(m=40, scheme="free-exact"))),
         ("ZOA", ZeroOrder()),
     ] + collocations()
 

@@ -263,7 +263,8 @@ def _method(args):
     m = RefinedSDM().m if args.m is None else args.m
     if not 2 <= m <= MAX_M:
         raise LobeError(f"--m must be an integer from 2 to {MAX_M} (steps per principal period), got {m}")
-    sdm = SemiDiscretization(m=m, scheme=args.scheme or "sdm")
+    pre = RefinedSDM().base.prescan_m  # the library default's coarser prescan, where it is coarser
+    sdm = SemiDiscretization(m=m, scheme=args.scheme or "sdm", prescan_m=pre if pre is not None and pre < m else None)
     if args.no_refine:
         if args.tol_pct is not None:
             raise LobeError("--tol-pct has no effect with --no-refine (one level, no error estimate)")

@@ -90,8 +90,9 @@ class SemiDiscretization:
         (:func:`robolobes.core.numerics.richardson`, the one definition), flagged by the rule of
         :mod:`lobes.refine` (``RefinedSDM`` with ``m_max = 2 m``).
     prescan : bool or None
-        In :func:`lobes.solve` with ``scheme="sdm"``, make the coarse depth scan with the cheap
-        "free-exact" scheme and verify each bracket with the SDM (where the check fails, the SDM
+        In :func:`lobes.solve` with ``scheme="sdm"`` (or "free-exact" with ``prescan_m < m``), make
+        the coarse depth scan with the cheap "free-exact" scheme (at ``prescan_m``) and verify each
+        bracket with the SDM (where the check fails, the SDM
         walks along the depth grid from the failed end to its own sign change). The limits are
         the SDM's; only the bracketing is accelerated. None (default): only for structures with
         at least 12 states, where the SDM's per-step exponentials dominate.

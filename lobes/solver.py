@@ -582,9 +582,10 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     fast = engine.method.search in ("fast", "fast-wide")
     pre = None
     use_pre = engine.method.prescan if engine.method.prescan is not None else engine.ns >= 12
-    if engine.method.scheme == "sdm" and use_pre and start is None:
-        pre = SDMEngine(engine.problem, replace(engine.method, scheme="free-exact",
-                                                m=engine.method.prescan_m or engine.method.m), depth_max)
+    pre_m = engine.method.prescan_m or engine.method.m
+    cheaper = engine.method.scheme == "sdm" or pre_m < engine.method.m  # free-exact: only a coarser prescan pays
+    if cheaper and use_pre and start is None:
+        pre = SDMEngine(engine.problem, replace(engine.method, scheme="free-exact", m=pre_m), depth_max)
     for c0 in range(0, S, chunk):
         r = rpm[c0:c0 + chunk]
         T = engine.period_s(r)

@@ -49,6 +49,18 @@ def test_modal_json_and_png(tmp_path, capsys):
     assert sorted(x.name for x in tmp_path.iterdir()) == ["lobes.png", "modes.toml"]  # no temp file left
 
 
+def test_default_method_is_the_library_default():
+    # `robolobes lobes` with no method flag solves with RefinedSDM(), the library's default (its
+    # coarser free-exact prescan included); --m 20 has no coarser prescan (20 is not below 20)
+    from robolobes.lobes import RefinedSDM
+    from robolobes.lobes.cli import _method
+
+    args = parser().parse_args(["lobes", "--case", "tx200-steel"])
+    assert _method(args) == RefinedSDM()
+    low = _method(parser().parse_args(["lobes", "--case", "tx200-steel", "--m", "20"]))
+    assert isinstance(low, RefinedSDM) and low.base.m == 20 and low.base.prescan_m is None
+
+
 def test_interrupted_plot_leaves_no_file(tmp_path, monkeypatch):
     f = tmp_path / "modes.toml"
     f.write_text(MODAL)

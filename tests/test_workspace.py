@@ -364,3 +364,21 @@ def test_coarse_prescan_keeps_the_sdm_limits(steel_case, tx200_robot):
     b = solve(p, SemiDiscretization(m=40, prescan_m=12), speeds).depth_limit_m
     assert np.array_equal(np.isfinite(a), np.isfinite(b))
     np.testing.assert_allclose(b[np.isfinite(a)], a[np.isfinite(a)], rtol=1e-3)
+
+
+def test_free_exact_scheme_takes_a_coarser_prescan_and_keeps_its_limits(steel_case, tx200_robot):
+    # scheme="free-exact" with prescan_m < m: the prescan at prescan_m only brackets, the scheme
+    # at m verifies and refines (as for the SDM above), so the limits equal those of the same
+    # scheme scanned at m itself to the root bracket (rtol 1e-3 of solve). Without the coarser
+    # prescan the scheme is its own scan (no prescan evaluations).
+    robot = tx200_robot("basic")
+    lin = linearize.linearize(robot, steel_case.path.start_q_rad)
+    p = LobeProblem(PhysicalStructure.from_linear(lin, steel_case.cut.feed_direction), steel_case.tool, steel_case.cut, steel_case.law)
+    speeds = np.linspace(2000, 8000, 7)
+    a = solve(p, SemiDiscretization(m=40, scheme="free-exact"), speeds)
+    b = solve(p, SemiDiscretization(m=40, scheme="free-exact", prescan_m=20), speeds)
+    assert "prescan_evaluations" not in a.stats and b.stats["prescan_evaluations"] > 0
+    assert b.stats["evaluations"] < a.stats["evaluations"]
+    fin = np.isfinite(a.depth_limit_m)
+    assert np.array_equal(fin, np.isfinite(b.depth_limit_m)) and fin.any()
+    np.testing.assert_allclose(b.depth_limit_m[fin], a.depth_limit_m[fin], rtol=1e-3)
