@@ -108,6 +108,38 @@ def test_chatter_frequency_masks_tooth_harmonics_only_when_asked():
         chatter_frequency(t, x, FS, harmonics="tooth")
 
 
+def _flip_bursts(signs, t, f_carrier_hz, rate_hz=7.0):
+    """Bursts of a carrier at ``f_carrier_hz`` (Gaussian envelopes, 20 ms, 10 um, ``rate_hz`` apart from
+    ``0.5 / rate_hz`` on), burst ``i`` with the sign ``signs[i]``; shape (n,), m."""
+    env = sum(sg * np.exp(-0.5 * ((t - (i + 0.5) / rate_hz) / 0.02) ** 2) for i, sg in enumerate(signs))
+    return 1e-5 * env * np.cos(2 * math.pi * f_carrier_hz * t)
+
+
+def test_chatter_frequency_tells_a_line_from_a_band():
+    # Steel at 5000 rpm (the flip at half the 166.7 Hz tooth passing): a 4 s window, 7 bursts per second,
+    # 4 quarters of 7 bursts each, on a forced response at the tooth harmonics.
+    fs, fc = 5000 / 60, 5000 / 60
+    t = np.arange(4 * 15000 + 1) / 15000.0
+    forced = 5e-5 * np.cos(2 * math.pi * 2 * fs * t) + 2e-5 * np.sin(2 * math.pi * 4 * fs * t)
+    # bursts of one sign: periodic, lines at fc + k 7 Hz; the highest is the carrier and a line
+    same = chatter_frequency(t, forced + _flip_bursts(np.ones(28), t, fc), fs, teeth=2, harmonics="tooth")
+    assert same.is_line and same.coherence > 0.999
+    assert_allclose(same.freq_hz, fc, atol=0.02 * same.resolution_hz)
+    # the same bursts, + in the first half and - in the second: the carrier's Hann-weighted sum is
+    # 0 (the halves cancel), the spectrum a band; its highest peak lies off the carrier, and it is not a line
+    swap = chatter_frequency(t, forced + _flip_bursts(np.repeat([1, 1, -1, -1], 7), t, fc), fs, teeth=2,
+                             harmonics="tooth")
+    assert not swap.is_line
+    assert abs(swap.freq_hz - fc) > swap.resolution_hz
+    # a line keeps its phase whatever its envelope (growing 100-fold) and through a drift of one bin
+    grow = chatter_frequency(t, forced + 1e-7 * np.exp(t * math.log(100) / 4) * np.sin(2 * math.pi * 77.7 * t), fs,
+                             teeth=2, harmonics="tooth")
+    assert grow.coherence > 1 - 1e-6 and grow.is_line
+    for bins, line in ((1, True), (4, False)):  # the frequency sweeps ``bins / T`` over the window T = 4 s
+        chirp = forced + 1e-5 * np.sin(2 * math.pi * (fc * t + 0.5 * bins / 16 * t ** 2))
+        assert chatter_frequency(t, chirp, fs, teeth=2, harmonics="tooth").is_line == line, bins
+
+
 # ---- roughness ----------------------------------------------------------------------------------
 def _profile(length=4e-3, dx=0.5e-6):
     return np.arange(int(round(length / dx)) + 1) * dx

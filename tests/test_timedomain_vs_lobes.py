@@ -27,6 +27,7 @@ from robolobes.lobes import stability
 from robolobes.lobes.structure import PhysicalStructure
 from robolobes.cases.milling import principal_period
 from robolobes.timedomain import LinearizedNewmark, NonlinearNewmark, SimulationProblem, simulate
+from robolobes.timedomain.signals import LINE_COHERENCE
 from robolobes.timedomain.verdict import (beat_period_s, floquet_rate_per_s, growth_rate,
                                           verdict_summary)
 
@@ -78,14 +79,40 @@ def _alu_run(tx200_robot, variant, linearized=True):
 # Four speeds along the steel diagram of the 6-DOF model, chosen before looking at the results
 # (the operating speed and both sides of it): a Hopf lobe at 2000 rpm, flip lobes above.
 SPEEDS = (2000.0, 3100.0, 4000.0, 5000.0)
-# At 5000 rpm (a flip lobe, 83.33 Hz) the saturated chatter frequency at 1.25x looks ill-conditioned:
-# one build of the code gave 83.3 Hz and another 81.9 Hz (1.7 %), with identical lobes; the only input
-# difference found was the last digit of the pass's joint angles (1e-13, the OPW inverse against the
-# earlier Paul decomposition). The verdicts were right in both. Cause not analysed: not strict, so
-# that either outcome is reported, never hidden.
-_SPEED_PARAMS = [pytest.param(r, marks=pytest.mark.xfail(strict=False, reason=(
-    "saturated chatter frequency at 1.25x the 5000 rpm flip lobe moves by 1.7 % under a 1e-13 change of the "
-    "pass"))) if r == 5000.0 else r for r in SPEEDS]
+# At 5000 rpm (a flip lobe, 83.33 Hz) the saturated chatter at 1.25x is not periodic: it comes in
+# bursts 7.2 Hz apart, each a flip exactly at half the tooth passing, whose sign changes irregularly
+# from burst to burst (11 changes among 34 bursts). The motion is sensitive: two runs whose start joint
+# angles differ by 1e-13 rad part as exp(3.6 t), from 1e-14 m to 1e-6 m over 4.5 s (at 4000 rpm, a
+# locked flip, they stay below 1e-13 m). Its spectrum is a band of about +-10 Hz with a dip at 83.33 Hz
+# itself; the highest peak is where the sign pattern puts it: 82.09 Hz here, 81.9 and 83.3 Hz in two
+# earlier builds. So the time domain reports no chatter frequency there (the peak is not a spectral
+# line: timedomain/signals.py, phase coherence 0.44 < 0.9), and the test compares the carrier
+# (_carrier_hz, insensitive to the sign changes) with the lobes at every speed, and the library's
+# chatter frequency wherever it reports one. All four speeds strict.
+_SPEED_PARAMS = SPEEDS
+
+
+def _carrier_hz(run, f_ref_hz: float) -> float:
+    """Carrier frequency of the TCP deviation (x, y) of ``run`` over its steady window, Hz: the
+    frequency ``f`` within 10 % of ``f_ref_hz`` (0.02 Hz steps) at which the deviation, demodulated by
+    ``exp(-2 pi i f t)`` and averaged over each spindle revolution (``z_k``, per axis), keeps one
+    phase up to its sign: the largest ``sum_axes |sum_k z_k^2| / sum |z_k|^2`` (1 for a line at
+    ``f``; a sign change between bursts leaves it unchanged, a frequency offset ``df`` turns the
+    phase of ``z_k^2`` by ``4 pi df`` per second)."""
+    t0, t1 = run.steady_window_s
+    t, y = run.t_s, run.tcp_deviation_m[:, :2]
+    per_rev = int(round(run.problem.case.cut.spindle_period_s / (t[1] - t[0])))
+    keep = np.flatnonzero((t >= t0) & (t <= t1))
+    k = keep.size // per_rev
+    tt = t[keep[:k * per_rev]].reshape(k, per_rev)
+    yy = (y[keep[:k * per_rev]] - y[keep].mean(0)).reshape(k, per_rev, 2)
+    f = f_ref_hz * (1.0 + np.arange(-0.1, 0.1, 0.02 / f_ref_hz))
+    arg = 2 * np.pi * np.outer(tt[0] - tt[0, 0], f)  # (per_rev, F): phase within a revolution, rad
+    rows = yy.transpose(0, 2, 1).reshape(2 * k, per_rev)
+    inner = (rows @ np.cos(arg) - 1j * (rows @ np.sin(arg))).reshape(k, 2, f.size)
+    z = inner * np.exp(-2j * np.pi * np.outer(tt[:, 0], f))[:, None, :]  # (k, 2, F)
+    score = np.abs((z ** 2).sum(0)).sum(0) / (np.abs(z) ** 2).sum((0, 1))
+    return float(f[np.argmax(score)])
 
 
 @pytest.mark.parametrize("rpm", _SPEED_PARAMS)
@@ -96,19 +123,25 @@ def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(tx200_robot,
     # feed of 0.1 mm/tooth (the linear limit does not depend on the feed; a faster feed reaches
     # full engagement sooner). Expect: stable at 0.8, unstable at 1.25 ("undetermined" is not
     # agreement), and, when unstable, the chatter frequency of the lobes' critical solution
-    # within the spectral resolution (0.5 Hz) plus the nonlinear shift of saturated chatter (1 %).
+    # within the spectral resolution (0.5 Hz) plus the nonlinear shift of saturated chatter (1 %):
+    # the carrier of the motion always, the library's chatter frequency whenever it reports one
+    # (when it does not, its peak must not be a line: saturated chatter that is not periodic).
     tool = replace(STEEL.tool, runout_m=(0.0, 0.0))
     cut = replace(STEEL.cut, spindle_rpm=rpm, feed_per_tooth_m=1e-4)
     op = stability(LobeProblem(_structure(tx200_robot("basic"), STEEL), tool, cut, STEEL.law), SemiDiscretization(m=40))
     assert op.depth_limit_m < 0.01
     for factor, expect in ((0.8, "stable"), (1.25, "unstable")):
         case = replace(STEEL, tool=tool, cut=replace(cut, ap_m=factor * op.depth_limit_m))
-        s = _run(tx200_robot("basic"), case).summary
+        run = _run(tx200_robot("basic"), case)
+        s = run.summary
         assert s is not None
         assert s.verdict.status == expect, (rpm, factor, s.verdict.reason)
         if expect == "unstable":
-            assert s.chatter_freq_hz is not None
-            assert_allclose(s.chatter_freq_hz, op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
+            assert_allclose(_carrier_hz(run, op.limit_chatter_freq_hz), op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
+            if s.chatter_freq_hz is None:
+                assert s.nonsynchronous_coherence is not None and s.nonsynchronous_coherence < LINE_COHERENCE
+            else:
+                assert_allclose(s.chatter_freq_hz, op.limit_chatter_freq_hz, rtol=0.01, atol=0.5)
 
 
 def test_principal_period():

@@ -72,7 +72,8 @@ def run_simulate(args) -> int:
         st = s.get("stable")
         print(f"{case.name} [{args.variant}], damping x{args.damping_scale:g}: "
               f"{'stable' if st else 'UNSTABLE' if st is False else 'no verdict'}"
-              + (f", chatter at {s['chatter_freq_hz']:.1f} Hz" if s.get("chatter_freq_hz") else ""))
+              + (f", chatter at {s['chatter_freq_hz']:.1f} Hz" if s.get("chatter_freq_hz") else
+                 ", chatter in a band (no spectral line)" if st is False else ""))
         fs = s.get("force_stats_paper_axes")
         if fs:
             lo, hi = s["force_stats_window_s"]

@@ -62,11 +62,15 @@ class SimulationSummary:
     stability : dict or None
         The verdict rule's other numbers (window, periods, degrees of freedom).
     chatter_freq_hz : float or None
-        Chatter frequency (only when unstable), Hz.
+        Chatter frequency (only when unstable, and only when the non-synchronous peak is a spectral
+        line: ``nonsynchronous_coherence >= timedomain.signals.LINE_COHERENCE``), Hz.
     nonsynchronous_peak_hz : float or None
         Strongest non-synchronous peak of the TCP deviation, Hz.
     nonsynchronous_ratio : float or None
         Its amplitude over the forced response's.
+    nonsynchronous_coherence : float or None
+        Its phase coherence over the quarters of the window (1: a line; low: a band, as the
+        bursts of saturated chatter whose sign changes from burst to burst).
     note : str or None
         Why the verdict or the statistics are missing.
     tcp_deviation_y_um : dict or None
@@ -113,6 +117,7 @@ class SimulationSummary:
     chatter_freq_hz: float | None = None
     nonsynchronous_peak_hz: float | None = None
     nonsynchronous_ratio: float | None = None
+    nonsynchronous_coherence: float | None = None
     note: str | None = None
     tcp_deviation_y_um: dict | None = None
     wall_x_range_m: tuple[float, float] | None = None

@@ -20,7 +20,7 @@ __all__ = ["needs_companion", "companion_problem", "with_companion_verdict", "VE
 #: The summary fields the companion run decides.
 #: (``verdict`` is the Verdict object: JSON verdict / stable / verdict_reason.)
 VERDICT_FIELDS = tuple(k for k in VERDICT_KEYS if k not in ("stable", "verdict_reason")) + (
-    "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio", "note")
+    "chatter_freq_hz", "nonsynchronous_peak_hz", "nonsynchronous_ratio", "nonsynchronous_coherence", "note")
 #: Longest steady cut simulated by the companion run, s.
 COMPANION_STEADY_S = 2.0
 

@@ -106,7 +106,9 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float], pol
     on the TCP deviation (x, y) over the steady ``window`` (the rule is stated once, in
     :mod:`timedomain.verdict`: growth rate of the non-synchronous motion with its 95 % interval,
     saturated chatter by the regenerative chip ratio, no decision on a window shorter than the
-    structure's beat period ``poles_rad_s``), plus the chatter frequency, reported when unstable.
+    structure's beat period ``poles_rad_s``), plus the chatter frequency, reported when unstable and
+    the peak is a spectral line (:attr:`timedomain.signals.ChatterFrequency.is_line`: saturated
+    chatter that is not periodic has a band, not a frequency).
     """
     case = result.problem.case
     t = np.asarray(result.t_s)
@@ -118,9 +120,10 @@ def stability_verdict(result: SimulationResult, window: tuple[float, float], pol
                            t_start_s=window[0], t_end_s=window[1])
     stable = out.pop("stable")
     out["verdict"] = Verdict(out["verdict"], out.pop("verdict_reason") or "")
-    out["chatter_freq_hz"] = cf.freq_hz if stable is False else None
+    out["chatter_freq_hz"] = cf.freq_hz if (stable is False and cf.is_line) else None
     out["nonsynchronous_peak_hz"] = cf.freq_hz
     out["nonsynchronous_ratio"] = cf.ratio
+    out["nonsynchronous_coherence"] = cf.coherence
     return out
 
 
