@@ -563,6 +563,15 @@ def _verified_search(engine: SDMEngine, rpm, rho0, lo, hi, grid, rtol, stats, st
     return est, hi, np.isfinite(hi)
 
 
+def _prescan_pays(method) -> bool:
+    """Whether a free-exact prescan is cheaper than the scan at ``method.m``: always for the SDM
+    (its step exponentials depend on the depth), for the free-exact scheme only at a coarser
+    ``prescan_m < m``, never for other schemes (collocation: ``prescan = False``)."""
+    if method.scheme == "sdm":
+        return True
+    return method.scheme == "free-exact" and method.prescan_m is not None and method.prescan_m < method.m
+
+
 def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: int, rtol: float,
                 stats: dict, progress: ProgressCallback | None, chunk: int | None, done0: int = 0, total: int | None = None,
                 start: np.ndarray | None = None):
@@ -582,9 +591,8 @@ def _sdm_limits(engine: SDMEngine, rpm: np.ndarray, depth_max: float, n_coarse: 
     fast = engine.method.search in ("fast", "fast-wide")
     pre = None
     use_pre = engine.method.prescan if engine.method.prescan is not None else engine.ns >= 12
-    pre_m = engine.method.prescan_m or engine.method.m
-    cheaper = engine.method.scheme == "sdm" or pre_m < engine.method.m  # free-exact: only a coarser prescan pays
-    if cheaper and use_pre and start is None:
+    if use_pre and start is None and _prescan_pays(engine.method):
+        pre_m = engine.method.prescan_m or engine.method.m
         pre = SDMEngine(engine.problem, replace(engine.method, scheme="free-exact", m=pre_m), depth_max)
     for c0 in range(0, S, chunk):
         r = rpm[c0:c0 + chunk]
