@@ -89,7 +89,6 @@ SPEEDS = (2000.0, 3100.0, 4000.0, 5000.0)
 # line: timedomain/signals.py, phase coherence 0.44 < 0.9), and the test compares the carrier
 # (_carrier_hz, insensitive to the sign changes) with the lobes at every speed, and the library's
 # chatter frequency wherever it reports one. All four speeds strict.
-_SPEED_PARAMS = SPEEDS
 
 
 def _carrier_hz(run, f_ref_hz: float) -> float:
@@ -115,7 +114,7 @@ def _carrier_hz(run, f_ref_hz: float) -> float:
     return float(f[np.argmax(score)])
 
 
-@pytest.mark.parametrize("rpm", _SPEED_PARAMS)
+@pytest.mark.parametrize("rpm", SPEEDS)
 def test_time_domain_agrees_with_lobes_at_0p8_and_1p25_of_the_limit(tx200_robot, rpm):
     # Reference: the SDM limit (m = 40/80, Richardson) at this speed. The time domain cuts the
     # whole pass at 0.8 and 1.25 times it. The tool has no runout (the TX200 steel tool's 6.9 um
