@@ -458,9 +458,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"error estimate <= {100 * method.tol:g} % at {len(speeds) - nu} / {len(speeds)} speeds "
                   f"(levels m = {'/'.join(str(x) for x in result.stats['m_levels'])})"
                   + (f"; {nu} speeds unconverged at m = {method.m_max}" if nu else ""))
+        if isinstance(method, ZeroOrder):
+            print("no error estimate: the zero-order approximation keeps only the time average of the cutting "
+                  "force; its distance to the limits of --method sdm is not estimated")
         if op is not None:
+            err = "no error estimate" if math.isnan(op.margin_error) else f"+-{op.margin_error:.2g}"
+            mu = "" if math.isnan(op.spectral_radius) else f", |mu| = {op.spectral_radius:.7f}"
             print(f"operating point {op.spindle_rpm:.6g} rpm, {op.depth_m * 1e3:.4g} mm: {op.verdict.status}, "
-                  f"margin {op.margin:+.4g} (+-{op.margin_error:.2g}), |mu| = {op.spectral_radius:.7f}, "
-                  f"{op.bifurcation}, chatter {op.chatter_freq_hz:.5g} Hz")
+                  f"margin {op.margin:+.4g} ({err}){mu}, {op.bifurcation}, chatter {op.chatter_freq_hz:.5g} Hz")
             print(f"  verdict: {op.verdict.reason}")
     return 0

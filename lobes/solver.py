@@ -71,11 +71,13 @@ class StabilityPoint:
         ``depth_limit / depth - 1`` (> 0 stable): how much deeper one may cut at this speed.
         ``inf`` when no limit was found below ``depth_max_m`` (then ``margin`` >= that bound).
     margin_error : float
-        Bound on ``margin`` from the discretization error of ``depth_limit`` (0 for ZeroOrder).
+        Bound on ``margin`` from the discretization error of ``depth_limit`` (NaN for ZeroOrder: not
+        estimated).
     radius_margin : float
         ``1 - spectral_radius`` (NaN for ZeroOrder).
     depth_limit_m, depth_limit_error_m : float
-        Critical depth at this speed (smallest unstable depth, m) and its error estimate (:mod:`lobes.refine`).
+        Critical depth at this speed (smallest unstable depth, m) and its error estimate (:mod:`lobes.refine`;
+        NaN for ZeroOrder: not estimated).
     chatter_freq_hz : float
         Frequency of the critical Floquet solution at the operating point, Hz.
     bifurcation : {"hopf", "flip", "fold", "none"}
@@ -913,17 +915,21 @@ def depth_verdict(depth_m: float, limit_m: float, error_m: float, m_levels: tupl
 
 
 def _zoa_point(problem: LobeProblem, method: ZeroOrder, dmax: float) -> StabilityPoint:
-    """StabilityPoint of the zero-order approximation (its limit is exact for its model: no error bound)."""
+    """StabilityPoint of the zero-order approximation. Its limit is that of the time-averaged model,
+    whose distance to the milling model's limit is not estimated: the errors are NaN and the
+    verdict's reason says so (``bench/bench_lobes_levels.py``: on the TX200 the ZOA limits are up to
+    2.5 times the refined SDM's)."""
     rpm, depth = float(problem.cut.spindle_rpm), float(problem.cut.ap_m)
     b, f = ZOAEngine(problem, method).limits(np.array([rpm]))
     b, f = float(b[0]), float(f[0])
     b = b if b <= dmax else math.inf
+    where = (f"no limit up to the {dmax * 1e3:.5g} mm searched" if math.isinf(b) else
+             f"depth {depth * 1e3:.5g} mm {'below' if depth < b else 'at or above'} the limit {b * 1e3:.5g} mm")
     verdict = Verdict("stable" if depth < b else "unstable",
-                      f"ZOA: depth {depth * 1e3:.5g} mm {'below' if depth < b else 'at or above'} the limit "
-                      f"{b * 1e3:.5g} mm")
+                      f"ZOA: {where} (zero-order approximation: its error is not estimated)")
     bif = "hopf" if math.isfinite(b) else "none"
-    return StabilityPoint(rpm, depth, math.nan, complex(math.nan, math.nan), verdict, b / depth - 1, 0.0,
-                          math.nan, b, 0.0, f, bif, bif, f, method,
+    return StabilityPoint(rpm, depth, math.nan, complex(math.nan, math.nan), verdict, b / depth - 1, math.nan,
+                          math.nan, b, math.nan, f, bif, bif, f, method,
                           ({"m": None, "depth_limit_m": b, "stable": depth < b},))
 
 

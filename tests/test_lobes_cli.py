@@ -137,3 +137,25 @@ def test_refinement_options_are_checked_before_any_work(tmp_path, extra, match):
     args = parser().parse_args(["lobes", "--modal", str(f), *TOOLARGS, "--n-rpm", "3", "--quiet", *extra])
     with pytest.raises(LobeError, match=match):
         args.run(args)
+
+
+def test_zoa_operating_point_says_it_has_no_error_estimate(tmp_path, capsys):
+    # the ZOA's limit is that of the time-averaged model: its distance to the milling model's limit
+    # is not estimated, so the errors are NaN (null in the JSON), never 0, and the text says so
+    from robolobes.lobes import ZeroOrder, stability
+    from test_lobes_accuracy import lobe_problem
+
+    pt = stability(lobe_problem("1dof-aD0.05-down"), ZeroOrder())
+    assert math.isnan(pt.margin_error) and math.isnan(pt.depth_limit_error_m) and pt.limit_status == "no-estimate"
+    assert "its error is not estimated" in pt.verdict.reason
+    f = tmp_path / "modes.toml"
+    f.write_text(MODAL)
+    common = ["lobes", "--modal", str(f), *TOOLARGS, "--method", "zoa", "--rpm-min", "18000", "--rpm-max", "19000",
+              "--n-rpm", "5", "--at-rpm", "10000", "--at-depth-mm", "1"]
+    assert run(parser().parse_args([*common, "--json", "--quiet"])) == 0
+    op = json.loads(capsys.readouterr().out)["operating_point"]
+    assert op["margin_error"] is None and op["depth_limit_error_m"] is None and op["limit_status"] == "no-estimate"
+    assert run(parser().parse_args([*common, "--quiet"])) == 0
+    text = capsys.readouterr().out
+    assert "(no error estimate)" in text and "+-0" not in text and "|mu|" not in text
+    assert "no error estimate: the zero-order approximation" in text
