@@ -203,19 +203,24 @@ def zoa_check(tx200: bool) -> None:
         shift = first_harmonic_shift(p, rpm, np.where(found, b, np.nan), np.asarray(r.chatter_freq_hz, dtype=float))
         err = np.abs(np.minimum(b, DEPTH_MAX_M) / b_ref - 1)
         off, flag = found & (err > TOL), found & (shift > TOL)
-        j = int(np.argmax(np.where(found, err, -1.0)))
+        j = _largest(err, found)
         side = "above" if b[j] > b_ref[j] else "below"
         print(f"{name} (against {against}) | {int(found.sum())} of {len(rpm)} | {int(off.sum())} | "
-              f"{100 * err[j]:.0f} % at {rpm[j]:.0f} rpm ({side}) | {int((off & flag).sum())} of {int(off.sum())} | "
+              f"{_worst(err, rpm, found)} ({side}) | {int((off & flag).sum())} of {int(off.sum())} | "
               f"{int((found & ~off & flag).sum())} of {int((found & ~off).sum())} | {_worst(err, rpm, off & ~flag)}",
               flush=True)
+
+
+def _largest(err: np.ndarray, where: np.ndarray) -> int:
+    """Index of the largest of ``err`` (S,) where ``where`` (S,) holds (some must)."""
+    return int(np.argmax(np.where(where, err, -1.0)))
 
 
 def _worst(err: np.ndarray, rpm: np.ndarray, where: np.ndarray) -> str:
     """The largest of ``err`` (S,) where ``where`` (S,) holds, with its speed; '-' if none."""
     if not where.any():
         return "-"
-    j = int(np.argmax(np.where(where, err, -1.0)))
+    j = _largest(err, where)
     return f"{100 * err[j]:.0f} % at {rpm[j]:.0f} rpm"
 
 
