@@ -1,6 +1,6 @@
 """One model and one linearization per (robot, variant, damping scale, pose), shared by the study.
 
-The modes, the FRFs, the operating points, the lobe diagrams, the absolute limits and the damping
+The modes, the FRFs, the operating points, the lobe diagrams, the lowest limits and the damping
 search all need the robot linearized at the same few poses; before, each section built and
 linearized its own copy (up to six linearizations of one (variant, pose)). :class:`Linearizations`
 builds each robot once and linearizes it once per pose; ``share=False`` turns the sharing off (the

@@ -165,13 +165,14 @@ def relative_agreement(label: str, ours: float, reference: float, unit: str, dig
     return f"{label} {_num(ours, digits)} {unit}, {d:.1f} % from {ref_label} {_num(reference, digits)} {unit}"
 
 
-def limit_scaling(ktc_ratio: float, absolute_ratio: float, local_ratio: float) -> str:
-    """Steel's larger force coefficient against how much smaller its limits are."""
-    ca, cl = ratio_comparison(absolute_ratio, ktc_ratio), ratio_comparison(local_ratio, ktc_ratio)
+def limit_scaling(ktc_ratio: float, lowest_ratio: float, local_ratio: float) -> str:
+    """Steel's larger force coefficient against how much smaller its limits are (its lowest limit
+    over a speed range, and its limit at its cut speed)."""
+    ca, cl = ratio_comparison(lowest_ratio, ktc_ratio), ratio_comparison(local_ratio, ktc_ratio)
     why = ("" if ca == cl == "about as much as" else
            " (the limits also depend on Krc/Ktc, the immersion and the mode directions, not on Ktc alone)")
-    return (f"Steel takes {ktc_ratio:.2f} times the tangential force per unit chip (Ktc). Its absolute "
-            f"(ZOA) limit is {absolute_ratio:.1f} times smaller than aluminium's, {ca} the Ktc ratio, and its "
+    return (f"Steel takes {ktc_ratio:.2f} times the tangential force per unit chip (Ktc). Its lowest "
+            f"limit over 300-30000 rpm is {lowest_ratio:.1f} times smaller than aluminium's, {ca} the Ktc ratio, and its "
             f"limit at its own cut speed {local_ratio:.1f} times smaller, {cl} the Ktc ratio{why}.")
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from robolobes.core.verdict import Status, Verdict
 
-__all__ = ["ModeSet", "DominantMode", "OperatingPoint", "LobeDiagram", "AbsoluteLimit", "TimeDomainRun",
+__all__ = ["ModeSet", "DominantMode", "OperatingPoint", "LobeDiagram", "LowestLimit", "TimeDomainRun",
            "DampingProbe", "DampingSearch", "Tab10Row", "RoughnessRow", "MaterialFacts", "StudyResult",
            "as_verdict"]
 
@@ -106,12 +106,20 @@ class LobeDiagram:
 
 
 @dataclass(frozen=True)
-class AbsoluteLimit:
-    """The smallest ZOA limit over 300-30000 rpm: the asymptote under all lobes."""
+class LowestLimit:
+    """The lowest limit of the default refined lobes (``RefinedSDM()``) over 300-30 000 rpm (by
+    :func:`robolobes.study.compute.lowest_limit`: 400 geometric speeds, then a local search in
+    speed at the three lowest sampled minima): ``depth_m`` (m) with its error estimate
+    ``depth_error_m`` (m), the speed ``at_rpm`` (rpm), the bifurcation and the chatter frequency
+    ``chatter_freq_hz`` (Hz) there. Not the zero-order approximation's "absolute limit", which on
+    this robot lies 45-51 % above it (the study guide)."""
 
     material: str
     depth_m: float
+    depth_error_m: float
     at_rpm: float
+    bifurcation: str
+    chatter_freq_hz: float
     variant: str = "basic"
     pose: str = "start"
 
@@ -203,7 +211,7 @@ class MaterialFacts:
     bifurcation: str
     chatter_freq_hz_lobes: float
     dominant_mode: DominantMode | None
-    absolute_limit_zoa_m: float
+    lowest_limit_m: float
     time_domain_verdict_basic: Verdict
     chatter_freq_hz_time_domain: float | None
 
@@ -216,8 +224,8 @@ class MaterialFacts:
         return self.krc_pa / self.ktc_pa
 
     @property
-    def local_over_absolute(self) -> float:
-        return self.local_limit_m / self.absolute_limit_zoa_m
+    def local_over_lowest(self) -> float:
+        return self.local_limit_m / self.lowest_limit_m
 
 
 @dataclass(frozen=True)
@@ -231,7 +239,7 @@ class StudyResult:
     modes: tuple                     # ModeSet
     operating_points: tuple          # OperatingPoint
     diagrams: tuple                  # LobeDiagram
-    absolute_limits: tuple           # AbsoluteLimit
+    lowest_limits: tuple             # LowestLimit
     td_linearized: bool
     time_domain: tuple               # TimeDomainRun (nominal damping, all variants; then damped steel)
     damping_lobes: DampingSearch
@@ -265,8 +273,8 @@ class StudyResult:
         return next((r for r in self.time_domain if (r.material, r.variant) == (material, variant)
                      and math.isclose(r.damping_scale, damping_scale)), None)
 
-    def absolute_limit(self, material: str) -> AbsoluteLimit:
-        return next(a for a in self.absolute_limits if a.material == material)
+    def lowest_limit(self, material: str) -> LowestLimit:
+        return next(a for a in self.lowest_limits if a.material == material)
 
     @property
     def ktc_ratio_steel_over_aluminium(self) -> float:

@@ -35,7 +35,7 @@ def facts_json(f: MaterialFacts) -> dict:
     out = _plain(f, skip=("lobes_verdict", "time_domain_verdict_basic"))
     out.update(lobes_verdict=f.lobes_verdict.status, time_domain_verdict_basic=f.time_domain_verdict_basic.status,
                tooth_passing_over_lowest_mode=f.tooth_passing_over_lowest_mode, krc_over_ktc=f.krc_over_ktc,
-               local_over_absolute=f.local_over_absolute)
+               local_over_lowest=f.local_over_lowest)
     return out
 
 
@@ -62,16 +62,17 @@ def to_json(res: StudyResult) -> dict:
         lobes[d.material][d.variant][d.pose]["diagram"] = {
             "rpm": d.spindle_rpm, "depth_limit_m": d.depth_limit_m, "chatter_freq_hz": d.chatter_freq_hz,
             "bifurcation": list(d.bifurcation), "wall_s": d.wall_s, "figure": d.figure}
-    for a in res.absolute_limits:
-        lobes[a.material]["absolute_limit_zoa"] = {"depth_m": a.depth_m, "at_rpm": a.at_rpm, "variant": a.variant,
-                                                   "pose": a.pose}
+    for a in res.lowest_limits:
+        lobes[a.material]["lowest_limit"] = {**_plain(a, skip=("material",)), "method": "RefinedSDM()",
+                                             "search": "400 geometric speeds over 300-30000 rpm, then Brent's "
+                                                       "bounded search at the 3 lowest sampled minima"}
     runs = {r.key: _run_json(r) for r in res.time_domain if r.damping_scale == 1.0}
     damped = [_run_json(r) for r in res.time_domain if r.damping_scale != 1.0]
     al, st = res.facts["aluminium"], res.facts["steel"]
     explanation: dict[str, object] = {mat: facts_json(f) for mat, f in res.facts.items()}
     explanation.update(
         ktc_ratio_steel_over_aluminium=res.ktc_ratio_steel_over_aluminium,
-        absolute_limit_ratio_aluminium_over_steel=al.absolute_limit_zoa_m / st.absolute_limit_zoa_m,
+        lowest_limit_ratio_aluminium_over_steel=al.lowest_limit_m / st.lowest_limit_m,
         local_limit_ratio_aluminium_over_steel=al.local_limit_m / st.local_limit_m)
     return to_jsonable({
         "source": SOURCE, "provenance": res.provenance, "settings": _plain(res.settings), "cases": res.cases,

@@ -16,7 +16,7 @@ import robolobes.study.compute as compute
 from robolobes.core.verdict import Verdict
 from robolobes.main import main as robolobes_main
 from robolobes.study import prose
-from robolobes.study.findings import findings, tab10_deviation
+from robolobes.study.findings import findings, summary_table, tab10_deviation
 from robolobes.study.readme import BEGIN, END, readme_block, replace_block
 from robolobes.study.result import DampingProbe
 
@@ -171,6 +171,42 @@ def test_findings_wording_follows_the_results_file():
     assert "5 of the 6 modes" in " ".join(findings(d))
 
 
+def test_lowest_limit_cell_states_its_speed_and_estimated_error():
+    data = copy.deepcopy(json.loads(COMMITTED.read_text()))
+    low = data["lobes"]["steel"]["lowest_limit"]
+    low.update(depth_m=2e-5, depth_error_m=2e-7, at_rpm=1234.4, bifurcation="flip", chatter_freq_hz=20.58)
+    table = summary_table(data)
+    # 2e-7 / 2e-5 = 1 %
+    assert "| 0.02 mm at 1234 rpm (flip, 20.6 Hz; estimated error 1 %) |" in table
+
+
+def test_lowest_limit_finds_a_lobe_bottom_between_two_speeds(monkeypatch):
+    # A known depth against speed: 1 mm everywhere, a wide lobe down to 0.03 mm at 635 rpm, and a
+    # lobe only 20 rpm wide down to 0.02 mm at 958.3 rpm, with a jump at its left edge (as the
+    # TX200's lobe there). The 400-speed grid samples the narrow lobe 4.2 rpm off its bottom
+    # (0.02 (1 + (4.2 / 3)^2) = 0.059 mm), so the grid's own minimum is the wide lobe's 0.03 mm,
+    # 50 % above the answer; only the local search finds 0.02 mm.
+    from types import SimpleNamespace
+
+    import robolobes.lobes.solver as solver
+
+    def depth(x):
+        x = np.asarray(x, float)
+        wide = 0.03e-3 * (1 + ((x - 635.0) / 20.0) ** 2)
+        narrow = np.where((x > 954.0) & (x < 974.0), 0.02e-3 * (1 + ((x - 958.3) / 3.0) ** 2), np.inf)
+        return np.minimum(np.minimum(wide, narrow), 1e-3)
+
+    fake = lambda problem, method, rpm, depth_max_m: SimpleNamespace(spindle_rpm=np.asarray(rpm, float),
+                                                                     depth_limit_m=depth(rpm))
+    monkeypatch.setattr(solver, "solve", fake)
+    rpm = np.geomspace(300, 30000, 400)
+    assert_allclose(depth(rpm).min(), 0.03e-3, rtol=1e-3)
+    r, j = compute.lowest_limit(None, rpm)
+    # Brent's bounded search to xatol = 1e-4 x 958 rpm = 0.1 rpm: depth within 0.02 (0.1 / 3)^2 = 2e-5 mm
+    assert_allclose(r.spindle_rpm[j], 958.3, atol=0.1)
+    assert_allclose(r.depth_limit_m[j], 0.02e-3, rtol=1e-3)
+
+
 def test_replace_block_needs_both_markers():
     with pytest.raises(ValueError):
         replace_block("no markers here", f"{BEGIN}\nx\n{END}")
@@ -215,6 +251,28 @@ def test_aluminium_stable_and_steel_unstable_in_lobes_and_time_domain(quick):
     for variant in ("basic", "gravity", "orthogonal", "backlash"):
         assert td[f"aluminium/{variant}"]["verdict"] == "stable"
         assert td[f"steel/{variant}"]["verdict"] == "unstable"
+
+
+def test_lowest_limit_is_the_operating_points_limit_at_its_speed(quick):
+    # A second path through the lobes: the operating point's own refined search at one speed
+    # (lobes.stability) against the diagram's batched search that found the lowest of 400 speeds.
+    # 1 % on either side is the refined error target; the diagram's estimate is far below it.
+    from dataclasses import replace
+
+    from robolobes.lobes import stability
+    from robolobes.study.linearizations import Linearizations
+    _, res = quick
+    cs, pas, _ = compute.load_inputs()
+    theta = compute.study_poses(pas)["start"]
+    lins = Linearizations()
+    for mat, case in cs.items():
+        low = res["lobes"][mat]["lowest_limit"]
+        assert low["depth_error_m"] <= 0.01 * low["depth_m"]
+        _, st = lins.structure(case, "basic", "start", theta)
+        for scale, status in ((0.99, "stable"), (1.01, "unstable")):
+            cut = replace(case.cut, spindle_rpm=low["at_rpm"], ap_m=scale * low["depth_m"])
+            op = stability(compute._lobe_problem(st, replace(case, cut=cut)))
+            assert op.verdict.status == status, (mat, scale, op.verdict)
 
 
 def test_time_domain_chatters_at_the_lobes_frequency(quick):
