@@ -33,12 +33,17 @@ def _user_chose() -> bool:
 
 
 def _get_controller():
-    """One threadpoolctl controller, made on first use (after numpy and scipy loaded their BLAS).
+    """One threadpoolctl controller, made on first use, after numpy and scipy loaded their BLAS.
 
     Re-used because inspecting the loaded libraries costs ~1 ms per call, limiting with a kept
-    controller ~0.1 ms."""
+    controller ~0.1 ms. A controller knows only the libraries loaded when it was made, and scipy
+    ships its own OpenBLAS, loaded when ``scipy.linalg`` is first imported: so it is imported
+    here first. (Before, after a first call made before that import, scipy's BLAS was never
+    limited in that process; ``tests/test_threads.py``.)"""
     global _controller
     if _controller is None:
+        import numpy  # noqa: F401  (its OpenBLAS)
+        import scipy.linalg  # noqa: F401  (scipy's own OpenBLAS)
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
