@@ -1,4 +1,4 @@
-"""Two cheaper routes to the refined diagram, measured and not adopted: a coarser first level, and the ZOA.
+"""Cheaper routes to the refined diagram, measured and not adopted: coarser first levels, and the ZOA.
 
 Run: .venv/bin/python bench/bench_lobes_levels.py [--skip-tx200] [--skip-benchmark]
 
@@ -28,7 +28,16 @@ Run: .venv/bin/python bench/bench_lobes_levels.py [--skip-tx200] [--skip-benchma
    directional matrix of the whole cutter per unit depth, from ``DirectionalPlan.wbar`` with 512
    steps); the check flags a limit where the eigenvalue nearest the ZOA's moves by more than 1 %.
    Printed: how many of the ZOA limits more than 1 % off are flagged, and the largest miss not
-   flagged, on the benchmark and on the TX200. One BLAS thread.
+   flagged, on the benchmark and on the TX200.
+5. **The pairs 30/40 and 30/45** (``RefinedSDM`` from m = 30 with level ratio 4/3: 30, 40, 53 ...,
+   and 1.5: 30, 45, 68 ...; prescan m = 20). On the TX200 (100 speeds, as item 2): CPU against
+   the default in the same run, the largest difference of the limits to the default's, the
+   statuses. On the benchmark, at the reference speeds (as item 3): the largest pointwise error to
+   the reference (which has its own error, up to 0.2 %), the speeds where it is over 1 % while
+   the method's own estimate is at most 1 %, the speeds where it exceeds that estimate by more
+   than 0.2 %, and the same for the default.
+
+One BLAS thread.
 """
 
 from __future__ import annotations
@@ -113,6 +122,49 @@ def tx200_cost() -> None:
             d = np.abs(np.minimum(r.depth_limit_m, DEPTH_MAX_M) / b0 - 1)
             print(f"{name} | {label} | {c:.2f} | {c0 / c:.2f} | {100 * d.max():.3f} % | {_statuses(r.status)} | "
                   f"{1e3 * c / len(rpm):.1f} / {c / len(rpm) / MAP_TARGET_S_PER_SPEED:.2f}", flush=True)
+
+
+PAIRS = (("pair 30/40", RefinedSDM(SemiDiscretization(m=30, prescan_m=20), ratio=4 / 3)),
+         ("pair 30/45", RefinedSDM(SemiDiscretization(m=30, prescan_m=20), ratio=1.5)))
+
+
+def tx200_pairs() -> None:
+    rpm = np.linspace(2000, 25000, 100)
+    print("5a. TX200, 100 speeds, CPU of this process: the pairs from m = 30 against the default")
+    print("case | method | CPU s | ratio to the default | largest diff to the default | statuses | "
+          "ms per speed / map target (12 ms)")
+    for name in ("tx200-steel", "tx200-aluminium"):
+        p = tx200_problem(name)
+        t0 = time.process_time()
+        b0 = np.minimum(solve(p, RefinedSDM(), rpm, depth_max_m=DEPTH_MAX_M).depth_limit_m, DEPTH_MAX_M)
+        c0 = time.process_time() - t0
+        for label, meth in PAIRS:
+            t0 = time.process_time()
+            r = solve(p, meth, rpm, depth_max_m=DEPTH_MAX_M)
+            c = time.process_time() - t0
+            d = np.abs(np.minimum(r.depth_limit_m, DEPTH_MAX_M) / b0 - 1)
+            print(f"{name} | {label} | {c:.2f} | {c0 / c:.2f} | {100 * d.max():.3f} % | {_statuses(r.status)} | "
+                  f"{1e3 * c / len(rpm):.1f} / {c / len(rpm) / MAP_TARGET_S_PER_SPEED:.2f}", flush=True)
+
+
+def benchmark_pairs() -> None:
+    print("5b. benchmark (independent plain reference, its own error up to 0.2 %), at the reference speeds")
+    print("case | method | largest pointwise error | over 1 % with an estimate <= 1 % | "
+          "above the own estimate + 0.2 % | finite limits")
+    for name, rows in ref.load()["cases"].items():
+        rows = [r for r, ok in zip(rows, ref.usable(rows)) if ok]
+        rpm = np.array([r["rpm"] for r in rows])
+        b_ref = np.array([r["depth_m"] for r in rows])
+        p = lobe_problem(name)
+        for label, meth in (("default", RefinedSDM()),) + PAIRS:
+            r = solve(p, meth, rpm, depth_max_m=ref.DEPTH_MAX)
+            b, e = r.depth_limit_m, r.depth_error_m
+            fin = np.isfinite(b) & np.isfinite(b_ref) & (b_ref < ref.DEPTH_MAX)
+            err = np.abs(b[fin] / b_ref[fin] - 1)
+            over = (err > TOL) & (e[fin] <= TOL * b[fin])
+            under = err > e[fin] / b[fin] + ref.REF_TOL
+            print(f"{name} | {label} | {100 * err.max():.3f} % | {int(over.sum())} | {int(under.sum())} | "
+                  f"{int(fin.sum())}", flush=True)
 
 
 def _statuses(status: np.ndarray | None) -> str:
@@ -226,8 +278,8 @@ def _worst(err: np.ndarray, rpm: np.ndarray, where: np.ndarray) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--skip-tx200", action="store_true", help="only the benchmark items (3, and 4 without the TX200)")
-    ap.add_argument("--skip-benchmark", action="store_true", help="only the TX200 items (1, 2)")
+    ap.add_argument("--skip-tx200", action="store_true", help="only the benchmark items (3, 4 without the TX200, 5b)")
+    ap.add_argument("--skip-benchmark", action="store_true", help="only the TX200 items (1, 2, 5a)")
     args = ap.parse_args(argv)
     if not args.skip_tx200:
         tx200_levels()
@@ -235,6 +287,10 @@ def main(argv=None) -> int:
     if not args.skip_benchmark:
         benchmark_order_check()
         zoa_check(not args.skip_tx200)
+    if not args.skip_tx200:
+        tx200_pairs()
+    if not args.skip_benchmark:
+        benchmark_pairs()
     return 0
 
 
