@@ -100,11 +100,26 @@ def tx200_levels() -> None:
 
 
 def tx200_cost() -> None:
-    rpm = np.linspace(2000, 25000, 100)
     rows = [("RefinedSDM from m = 20, prescan m = 10", RefinedSDM(SemiDiscretization(m=20, prescan_m=10))),
             ("RefinedSDM free-exact from m = 20, prescan m = 10",
              RefinedSDM(SemiDiscretization(m=20, scheme="free-exact", prescan_m=10)))]
-    print("2. TX200, 100 speeds, CPU of this process: starting the refinement at m = 20 against the default")
+    against_default("2. TX200, 100 speeds, CPU of this process: starting the refinement at m = 20 against the default",
+                    rows)
+
+
+PAIRS = (("pair 30/40", RefinedSDM(SemiDiscretization(m=30, prescan_m=20), ratio=4 / 3)),
+         ("pair 30/45", RefinedSDM(SemiDiscretization(m=30, prescan_m=20), ratio=1.5)))
+
+
+def tx200_pairs() -> None:
+    against_default("5a. TX200, 100 speeds, CPU of this process: the pairs from m = 30 against the default", PAIRS)
+
+
+def against_default(title: str, rows) -> None:
+    """The default and each ``(label, method)`` of ``rows`` on the TX200 steel and aluminium
+    diagrams (100 speeds): CPU, ratio, largest difference of the limits, statuses, ms per speed."""
+    rpm = np.linspace(2000, 25000, 100)
+    print(title)
     print("case | method | CPU s | ratio to the default | largest diff to the default | statuses | "
           "ms per speed / map target (12 ms)")
     for name in ("tx200-steel", "tx200-aluminium"):
@@ -116,29 +131,6 @@ def tx200_cost() -> None:
         print(f"{name} | RefinedSDM (default) | {c0:.2f} | 1 | - | {_statuses(r0.status)} | "
               f"{1e3 * c0 / len(rpm):.1f} / {c0 / len(rpm) / MAP_TARGET_S_PER_SPEED:.2f}", flush=True)
         for label, meth in rows:
-            t0 = time.process_time()
-            r = solve(p, meth, rpm, depth_max_m=DEPTH_MAX_M)
-            c = time.process_time() - t0
-            d = np.abs(np.minimum(r.depth_limit_m, DEPTH_MAX_M) / b0 - 1)
-            print(f"{name} | {label} | {c:.2f} | {c0 / c:.2f} | {100 * d.max():.3f} % | {_statuses(r.status)} | "
-                  f"{1e3 * c / len(rpm):.1f} / {c / len(rpm) / MAP_TARGET_S_PER_SPEED:.2f}", flush=True)
-
-
-PAIRS = (("pair 30/40", RefinedSDM(SemiDiscretization(m=30, prescan_m=20), ratio=4 / 3)),
-         ("pair 30/45", RefinedSDM(SemiDiscretization(m=30, prescan_m=20), ratio=1.5)))
-
-
-def tx200_pairs() -> None:
-    rpm = np.linspace(2000, 25000, 100)
-    print("5a. TX200, 100 speeds, CPU of this process: the pairs from m = 30 against the default")
-    print("case | method | CPU s | ratio to the default | largest diff to the default | statuses | "
-          "ms per speed / map target (12 ms)")
-    for name in ("tx200-steel", "tx200-aluminium"):
-        p = tx200_problem(name)
-        t0 = time.process_time()
-        b0 = np.minimum(solve(p, RefinedSDM(), rpm, depth_max_m=DEPTH_MAX_M).depth_limit_m, DEPTH_MAX_M)
-        c0 = time.process_time() - t0
-        for label, meth in PAIRS:
             t0 = time.process_time()
             r = solve(p, meth, rpm, depth_max_m=DEPTH_MAX_M)
             c = time.process_time() - t0
