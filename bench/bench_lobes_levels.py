@@ -143,11 +143,7 @@ def benchmark_pairs() -> None:
     print("5b. benchmark (independent plain reference, its own error up to 0.2 %), at the reference speeds")
     print("case | method | largest pointwise error | over 1 % with an estimate <= 1 % | "
           "above the own estimate + 0.2 % | finite limits")
-    for name, rows in ref.load()["cases"].items():
-        rows = [r for r, ok in zip(rows, ref.usable(rows)) if ok]
-        rpm = np.array([r["rpm"] for r in rows])
-        b_ref = np.array([r["depth_m"] for r in rows])
-        p = lobe_problem(name)
+    for name, rpm, b_ref, p in reference_cases():
         for label, meth in (("default", RefinedSDM()),) + PAIRS:
             r = solve(p, meth, rpm, depth_max_m=ref.DEPTH_MAX)
             b, e = r.depth_limit_m, r.depth_error_m
@@ -157,6 +153,15 @@ def benchmark_pairs() -> None:
             under = err > e[fin] / b[fin] + ref.REF_TOL
             print(f"{name} | {label} | {100 * err.max():.3f} % | {int(over.sum())} | {int(under.sum())} | "
                   f"{int(fin.sum())}", flush=True)
+
+
+def reference_cases():
+    """Each benchmark case of ``tests/data`` at its usable reference speeds: ``(name, rpm (S,),
+    reference limits (S,) m (inf: stable up to the searched depth), LobeProblem)``."""
+    for name, rows in ref.load()["cases"].items():
+        rows = [r for r, ok in zip(rows, ref.usable(rows)) if ok]
+        yield (name, np.array([r["rpm"] for r in rows]), np.array([r["depth_m"] for r in rows], dtype=float),
+               lobe_problem(name))
 
 
 def _statuses(status: np.ndarray | None) -> str:
@@ -182,11 +187,8 @@ def benchmark_order_check() -> None:
     print("3. benchmark (independent plain reference): the pair 20/40 where an order check passes (else the default)")
     print("case | accepted at 20/40 | largest pointwise error there | there above the estimate + 0.2 % | "
           "the default's largest pointwise error at the same speeds")
-    for name, rows in ref.load()["cases"].items():
-        rows = [r for r, ok in zip(rows, ref.usable(rows)) if ok]
-        rpm = np.array([r["rpm"] for r in rows])
-        b_ref = np.minimum([r["depth_m"] for r in rows], ref.DEPTH_MAX)
-        p = lobe_problem(name)
+    for name, rpm, b_ref, p in reference_cases():
+        b_ref = np.minimum(b_ref, ref.DEPTH_MAX)
         value, est, accept = order_checked(levels(p, rpm, (10, 20, 40), ref.DEPTH_MAX))
         default = np.minimum(solve(p, RefinedSDM(), rpm, depth_max_m=ref.DEPTH_MAX).depth_limit_m, ref.DEPTH_MAX)
         use = accept & (b_ref < ref.DEPTH_MAX * (1 - 1e-3))
@@ -230,11 +232,8 @@ def first_harmonic_shift(p: LobeProblem, rpm: np.ndarray, b: np.ndarray, f_hz: n
 def zoa_check(tx200: bool) -> None:
     print("4. the ZOA against the reference; a first-harmonic check of each ZOA limit (flag: > 1 %)")
     print("case | ZOA limits | over 1 % off | largest (where, ZOA above or below) | flagged among those over 1 % | flagged among those within 1 % | largest not flagged")
-    cases = []
-    for name, rows in ref.load()["cases"].items():
-        rows = [r for r, ok in zip(rows, ref.usable(rows)) if ok]
-        cases.append((name, lobe_problem(name), np.array([r["rpm"] for r in rows]),
-                      np.minimum([r["depth_m"] for r in rows], ref.DEPTH_MAX), "the independent reference"))
+    cases = [(name, p, rpm, np.minimum(b_ref, ref.DEPTH_MAX), "the independent reference")
+             for name, rpm, b_ref, p in reference_cases()]
     for name in ("tx200-steel", "tx200-aluminium") if tx200 else ():
         p = tx200_problem(name)
         rpm = np.linspace(2000, 25000, 200)
