@@ -205,8 +205,9 @@ def lowest_limit(problem, rpm, n_local: int = 3, depth_max_m: float = 1.0):
     The default ``RefinedSDM()`` diagram at ``rpm``; then, at each of its ``n_local`` lowest local
     minima ``j``, Brent's bounded search in speed between ``rpm[j-1]`` and ``rpm[j+1]`` (to 1e-4
     of the speed), each probe a one-speed diagram. The bottom of a lobe narrower than the grid's
-    step lies between samples: at 400 speeds over 300-30000 rpm on the TX200 (basic, Tab. 7 pose) the
-    sampled minimum was 6.5 % (steel) and 7.2 % (aluminium) above the bottom the search found. A lobe that the grid misses altogether stays missed.
+    step lies between samples: at 400 speeds over 300-30000 rpm on the TX200 (basic, Tab. 7 pose)
+    the sampled minimum was 6.5 % (steel) and 7.2 % (aluminium) above the bottom the search found.
+    A lobe that the grid misses altogether stays missed.
     """
     from scipy.optimize import minimize_scalar
 
